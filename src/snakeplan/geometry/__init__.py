@@ -1,0 +1,1 @@
+"""Geometry: rigid transforms, signed-distance obstacles, batched distance and ray queries."""

@@ -1,0 +1,139 @@
+"""Obstacle signed distances against hand-computed values, and the batched queries against brute force."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from snakeplan.geometry.distance import ObstacleSet, sampled_chain_clearance
+from snakeplan.geometry.primitives import Box, Cylinder, Mesh, Pipe, Plate, Sphere, obstacle_from_dict
+from snakeplan.geometry.transforms import frame_from_z, rot_z
+
+coord = st.floats(-400, 400, allow_nan=False)
+point = st.tuples(coord, coord, coord)
+
+
+def test_box_distances_hand_computed():
+    box = Box([0, 0, 0], [100, 200, 300])
+    d = box.signed_distance([[0, 0, 0], [200, 0, 0], [50, 100, 150], [80, 130, 0], [10, 0, 0]])
+    assert d == pytest.approx([-50, 150, 0, math.hypot(30, 30), -40])
+
+
+def test_rotated_box_uses_columns_as_local_axes():
+    box = Box([10, 0, 0], [100, 20, 20], rotation=rot_z(math.pi / 2))
+    # The long local x axis now lies along world y.
+    assert box.signed_distance([10, 49, 0]) == pytest.approx(-1)
+    assert box.signed_distance([49 + 10, 0, 0]) == pytest.approx(39)
+
+
+def test_sphere_cylinder_pipe_hand_computed():
+    assert Sphere([1, 2, 3], 5).signed_distance([1, 2, 13]) == pytest.approx(5)
+    cyl = Cylinder([0, 0, 0], [0, 0, 1], 50, 200)
+    assert cyl.signed_distance([[0, 0, 0], [80, 0, 0], [0, 0, 130], [80, 0, 140], [45, 0, 95]]) == pytest.approx(
+        [-50, 30, 30, 50, -5]
+    )
+    pipe = Pipe([0, 0, 0], [1, 0, 0], 100, 110, 400)
+    assert pipe.signed_distance([[0, 0, 0], [0, 105, 0], [0, 0, 150], [250, 105, 0], [250, 0, 0]]) == pytest.approx(
+        [100, -5, 40, 50, math.hypot(50, 100)]
+    )
+
+
+def test_plate_with_elliptical_hole():
+    plate = Plate([0, 0, 0], normal=[1, 0, 0], up=[0, 0, 1], size=[800, 400], thickness=40,
+                  hole={"offset": [100, 0], "semi_axes": [250, 150]})
+    # side = up x normal = +y; the hole centre is at y = 100, its rim at y = 350 and z = +-150.
+    assert np.allclose(plate.side, [0, 1, 0])
+    d = plate.signed_distance([[0, 100, 0], [0, 100, 160], [0, 360, 0], [0, 395, 0], [30, 100, 0], [0, 400, 0]])
+    assert d == pytest.approx([150, -10, -10, -5, math.hypot(10, 150), 0])
+
+
+def test_ellipse_distance_matches_brute_force():
+    plate = Plate([0, 0, 0], [1, 0, 0], [0, 0, 1], [1000, 600], 2, {"offset": [0, 0], "semi_axes": [250, 100]})
+    t = np.linspace(0, 2 * np.pi, 200001)
+    rim = np.stack([250 * np.cos(t), 100 * np.sin(t)], -1)
+    rng = np.random.default_rng(1)
+    for y, z in rng.uniform([-240, -90], [240, 90], size=(40, 2)):
+        if (y / 250) ** 2 + (z / 100) ** 2 >= 1:
+            continue
+        brute = np.min(np.hypot(rim[:, 0] - y, rim[:, 1] - z))
+        # In the plane of a hole point the distance to material is the distance to the rim.
+        assert plate.signed_distance([0, y, z]) == pytest.approx(brute, abs=1e-3)
+
+
+def cube_mesh(half: float) -> Mesh:
+    v = np.array([[x, y, z] for x in (-half, half) for y in (-half, half) for z in (-half, half)])
+    import trimesh
+
+    hull = trimesh.convex.convex_hull(v)
+    return Mesh(hull.vertices, hull.faces)
+
+
+@settings(max_examples=60, deadline=None)
+@given(point)
+def test_mesh_cube_equals_box(p):
+    mesh = cube_mesh(100)
+    box = Box([0, 0, 0], [200, 200, 200])
+    assert mesh.signed_distance(p) == pytest.approx(box.signed_distance(p), abs=1e-6)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(point, min_size=2, max_size=6), st.floats(1, 40))
+def test_chain_clearance_matches_dense_sampling(pts, radius):
+    obstacles = ObstacleSet([
+        Box([0, 0, 0], [100, 200, 150]),
+        Sphere([250, 50, 0], 60),
+        Plate([-250, 0, 0], [1, 0, 0], [0, 0, 1], [600, 500], 10, {"offset": [0, 50], "semi_axes": [120, 80]}),
+        Pipe([0, 250, 0], [0, 0, 1], 60, 80, 300),
+    ])
+    joints = np.array(pts, dtype=float)
+    radii = np.full(len(joints) - 1, radius)
+    exact = obstacles.chain_clearance(joints, radii)
+    step = 0.05
+    sampled = sampled_chain_clearance(obstacles, joints, radii, step=step)
+    # The exact value is within its tolerance of the true minimum; the sampled one over-estimates by <= step/2.
+    assert exact <= sampled + 0.05 + 1e-9
+    assert exact >= sampled - step / 2 - 1e-9
+    assert obstacles.chain_collides(joints, radii) == (exact < 0) or abs(exact) < 0.06
+
+
+def test_chain_clearance_batched_shapes_and_empty_scene():
+    obstacles = ObstacleSet([Sphere([0, 0, 0], 10)])
+    joints = np.zeros((4, 5, 3, 3))
+    joints[..., 0] = np.arange(3) * 10 + 100
+    out = obstacles.chain_clearance(joints, np.ones(2))
+    assert out.shape == (4, 5)
+    assert np.allclose(out, 100 - 10 - 1, atol=0.06)
+    assert np.isinf(ObstacleSet([]).chain_clearance(joints, np.ones(2))).all()
+
+
+def test_line_of_sight_and_raycast():
+    obstacles = ObstacleSet([Box([0, 0, 0], [100, 100, 100])])
+    assert not obstacles.line_of_sight([-200, 0, 0], [200, 0, 0])
+    assert obstacles.line_of_sight([-200, 0, 100], [200, 0, 100])
+    hit = obstacles.raycast([[-200, 0, 0], [-200, 0, 100]], [[1, 0, 0], [1, 0, 0]])
+    assert hit[0] == pytest.approx(150, abs=1e-2)
+    assert np.isinf(hit[1])
+
+
+def test_round_trip_and_validation():
+    obstacles = [
+        Box([1, 2, 3], [4, 5, 6], frame_from_z([1, 1, 0])),
+        Sphere([0, 0, 0], 3),
+        Cylinder([0, 0, 0], [0, 1, 0], 2, 5),
+        Pipe([0, 0, 0], [0, 0, 2], 1, 2, 3),
+        Plate([0, 0, 0], [0, 0, 1], [0, 1, 0], [10, 20], 1, {"offset": [1, 2], "semi_axes": [2, 3]}),
+        cube_mesh(5),
+    ]
+    for o in obstacles:
+        again = obstacle_from_dict(o.to_dict())
+        assert again.to_dict() == o.to_dict()
+    with pytest.raises(ValueError, match=r"obstacles\[2\].radius"):
+        obstacle_from_dict({"type": "sphere", "center": [0, 0, 0], "radius": -1}, "obstacles[2]")
+    with pytest.raises(ValueError, match="unknown obstacle type"):
+        obstacle_from_dict({"type": "torus"})
+    with pytest.raises(ValueError, match="center"):
+        obstacle_from_dict({"type": "sphere", "center": [0, float("nan"), 0], "radius": 1})
+    with pytest.raises(ValueError, match="hole"):
+        Plate([0, 0, 0], [0, 0, 1], [0, 1, 0], [10, 10], 1, {"offset": [0, 0], "semi_axes": [5, 1]})
