@@ -1,0 +1,102 @@
+"""Robot presets of the three source papers, by name (mm, rad, 1/mm).
+
+- ``sjtu-snake-iii`` (paper 000, Zhu et al. 2026): 12 two-DoF sections, 2130 mm, 55 mm diameter, 50.7 deg
+  between sections, k_UL = 0.0055 /mm (reproduces the paper's smoothness indices), feed 0..2130 mm.
+- ``sscc-16`` / ``sscc-24`` (paper 001, SSCC in pipes): 8 / 12 universal joints of equal total length. The
+  paper's tables were lost, so: 1200 mm total (150 / 100 mm sections), radius 15 mm, 60 deg per joint, a base
+  feed 0..1200 mm (the pipe scenes feed the arm along the pipe axis). Their k_UL is the curvature of the circle
+  through three joints at maximum bend, ``2 sin(max_bend / 2) / length`` (1/150 and 1/100 /mm).
+- ``hsr-10`` (paper 002, Qin et al. 2024): loaded from ``data/hsr-10.yaml`` (modified DH, eq. 1); the paper
+  gives no sizes, so 10 units of 800 mm, radius 60 mm, 30 deg per section, feed 0..2000 mm along the paper's
+  base y axis (turned onto snakeplan's +z); k_UL by the same three-joint rule.
+
+``register_robot`` adds a user's own factory to the registry.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from importlib.resources import files
+
+from snakeplan.robots.chain import Chain, Section
+
+SJTU_SECTIONS = 12
+SJTU_TOTAL_LENGTH_MM = 2130.0
+SJTU_RADIUS_MM = 55.0 / 2.0
+SJTU_MAX_BEND_RAD = math.radians(50.7)
+SJTU_K_UL = 0.0055  # 1/mm, paper 000 eq. 20
+SJTU_FEED_RANGE_MM = (0.0, 2130.0)
+
+SSCC_TOTAL_LENGTH_MM = 1200.0
+SSCC_RADIUS_MM = 15.0
+SSCC_MAX_BEND_RAD = math.radians(60.0)
+SSCC_FEED_RANGE_MM = (0.0, 1200.0)
+
+HSR_UNITS = 10
+HSR_LINK_LENGTH_MM = 800.0
+HSR_RADIUS_MM = 60.0
+HSR_MAX_BEND_RAD = math.radians(30.0)
+HSR_FEED_RANGE_MM = (0.0, 2000.0)
+HSR_DH_FILE = "hsr-10.yaml"
+
+
+def three_joint_k_ul(length: float, max_bend: float) -> float:
+    """Curvature (1/mm) of the circle through three joints ``length`` mm apart bent by ``max_bend`` rad."""
+    return 2.0 * math.sin(max_bend / 2.0) / length
+
+
+def sjtu_snake_iii() -> Chain:
+    """SJTU-Snake III (paper 000): 12 x 177.5 mm sections, radius 27.5 mm, 50.7 deg, with feed."""
+    length = SJTU_TOTAL_LENGTH_MM / SJTU_SECTIONS
+    return Chain(
+        [Section(length, SJTU_RADIUS_MM, SJTU_MAX_BEND_RAD)] * SJTU_SECTIONS,
+        name="sjtu-snake-iii",
+        feed_range=SJTU_FEED_RANGE_MM,
+        k_ul=SJTU_K_UL,
+    )
+
+
+def sscc(n_joints: int) -> Chain:
+    """SSCC arm (paper 001) with ``n_joints`` universal joints over 1200 mm, with a base feed."""
+    length = SSCC_TOTAL_LENGTH_MM / n_joints
+    return Chain(
+        [Section(length, SSCC_RADIUS_MM, SSCC_MAX_BEND_RAD)] * n_joints,
+        name=f"sscc-{2 * n_joints}",
+        feed_range=SSCC_FEED_RANGE_MM,
+        k_ul=three_joint_k_ul(length, SSCC_MAX_BEND_RAD),
+    )
+
+
+def hsr_10() -> Chain:
+    """HSR-10 (paper 002) from its shipped DH table."""
+    return Chain.from_dh(str(files("snakeplan.robots").joinpath("data", HSR_DH_FILE)))
+
+
+ROBOTS: dict[str, Callable[[], Chain]] = {
+    "sjtu-snake-iii": sjtu_snake_iii,
+    "sscc-16": lambda: sscc(8),
+    "sscc-24": lambda: sscc(12),
+    "hsr-10": hsr_10,
+}
+_CACHE: dict[str, Chain] = {}
+
+
+def robot_names() -> list[str]:
+    """Registered robot names, sorted."""
+    return sorted(ROBOTS)
+
+
+def get_robot(name: str) -> Chain:
+    """The preset chain called ``name``; KeyError listing the valid names otherwise."""
+    if name not in ROBOTS:
+        raise KeyError(f"unknown robot {name!r}; valid names: {', '.join(robot_names())}")
+    if name not in _CACHE:
+        _CACHE[name] = ROBOTS[name]()
+    return _CACHE[name]
+
+
+def register_robot(name: str, factory: Callable[[], Chain]) -> None:
+    """Add (or replace) a robot factory under ``name``."""
+    ROBOTS[name] = factory
+    _CACHE.pop(name, None)
