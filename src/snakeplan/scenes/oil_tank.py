@@ -1,0 +1,163 @@
+"""`oil-tank`: paper 000's multi-target scene, a 1200 x 600 x 600 mm tank of 300 mm cubic cells (mm, rad).
+
+Fixed structure: 4 x 2 x 2 = 16 cubic cells; every wall between two adjacent cells is a 300 x 300 mm plate with
+a centred round hole of 280 mm diameter (28 plates); the outer walls are plates whose inner faces lie on the
+bounds. Per seed: the entrance, centred on one cell's face in an outer side wall (the arm enters that cell through
+its own 60 mm-radius port), and 3 debris targets in distinct cells other than the entrance cell, each with
+clearance >= 40 mm and geodesically reachable (:mod:`snakeplan.scenes.reach`).
+
+Targets are listed in increasing geodesic distance from the entrance. That is only a canonical order: the
+visiting order, and whether the arm retracts between targets, belong to the planner layer, and the tour as a
+whole is not required to fit in one arm length.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from snakeplan.geometry.distance import ObstacleSet
+from snakeplan.geometry.primitives import Plate
+from snakeplan.scenes.fuel_tank import ARM_LENGTH_MM, ARM_RADIUS_MM, DECIMALS, PORT_RADIUS_MM, ROBOT, outer_walls
+from snakeplan.scenes.reach import (
+    DEFAULT_INFLATE_MM,
+    DEFAULT_REACH_FRACTION,
+    SDF_HORIZON_MM,
+    Grid,
+    check_range,
+    free_space,
+    geodesic_from_sdf,
+)
+from snakeplan.scenes.registry import register_scene
+from snakeplan.scenes.scene import Entrance, Scene
+
+#: Cells along x, y, z.
+CELLS = (4, 2, 2)
+#: Edge (mm) of a cubic cell.
+CELL_EDGE_MM = 300.0
+#: Radius (mm) of the round hole in every wall between cells (280 mm diameter).
+HOLE_RADIUS_MM = 140.0
+#: Thickness (mm) of the cell walls and the outer walls.
+WALL_THICKNESS_MM = 10.0
+#: Number of targets.
+TARGET_COUNT = 3
+#: Least clearance (mm) from a target to every obstacle.
+TARGET_CLEARANCE_MM = 40.0
+#: Grid cell (mm) of the reachability check.
+REACH_CELL_MM = 20.0
+#: Bounded resampling: whole-scene attempts and candidate points per cell.
+MAX_ATTEMPTS = 40
+CELL_CANDIDATES = 64
+
+
+def cell_index(ix: int, iy: int, iz: int) -> int:
+    """Flat index of cell (ix, iy, iz): ``(iz * CELLS[1] + iy) * CELLS[0] + ix``."""
+    return (iz * CELLS[1] + iy) * CELLS[0] + ix
+
+
+def cell_of(point) -> int:
+    """Index of the cell containing ``point`` (clipped into the tank)."""
+    idx = [min(max(int(point[a] // CELL_EDGE_MM), 0), CELLS[a] - 1) for a in range(3)]
+    return cell_index(*idx)
+
+
+def cell_walls() -> list[Plate]:
+    """The 28 plates between adjacent cells, each with its centred round hole."""
+    hole = {"offset": [0.0, 0.0], "semi_axes": [HOLE_RADIUS_MM, HOLE_RADIUS_MM]}
+    e = CELL_EDGE_MM
+    plates = []
+    for axis in range(3):
+        up = np.array([0.0, 1.0, 0.0]) if axis == 2 else np.array([0.0, 0.0, 1.0])
+        counts = list(CELLS)
+        counts[axis] -= 1
+        for i in range(counts[0]):
+            for j in range(counts[1]):
+                for k in range(counts[2]):
+                    c = (np.array([i, j, k]) + 0.5) * e
+                    c[axis] += e / 2
+                    plates.append(Plate(c, np.eye(3)[axis], up, (e, e), WALL_THICKNESS_MM, dict(hole)))
+    return plates
+
+
+def _entrance_faces() -> list[tuple[str, Entrance]]:
+    """Every cell face on an outer side wall: (wall name, entrance at the face centre, fed inwards)."""
+    e = CELL_EDGE_MM
+    size = np.array(CELLS) * e
+    faces = []
+    for axis in (0, 1):
+        for sign, name in ((1.0, "-"), (-1.0, "+")):
+            other = 1 - axis
+            for a in range(CELLS[other]):
+                for k in range(CELLS[2]):
+                    p = np.zeros(3)
+                    p[axis] = 0.0 if sign > 0 else size[axis]
+                    p[other] = (a + 0.5) * e
+                    p[2] = (k + 0.5) * e
+                    faces.append(("xy"[axis] + name, Entrance(p, sign * np.eye(3)[axis])))
+    return faces
+
+
+@register_scene("oil-tank")
+def oil_tank(seed: int, *, arm_length_mm: float = ARM_LENGTH_MM, reach_fraction: float = DEFAULT_REACH_FRACTION,
+             inflate_mm: float = DEFAULT_INFLATE_MM, cell_mm: float = REACH_CELL_MM,
+             n_targets: int = TARGET_COUNT, target_clearance_mm: float = TARGET_CLEARANCE_MM) -> Scene:
+    """The oil tank for ``seed``: fixed cells and holes, random entrance face and targets."""
+    arm_length_mm = check_range("arm_length_mm", arm_length_mm, 1.0)
+    reach_fraction = check_range("reach_fraction", reach_fraction, 0.1, 1.0)
+    inflate_mm = check_range("inflate_mm", inflate_mm, 0.0, 100.0)
+    cell_mm = check_range("cell_mm", cell_mm, 5.0, 50.0)
+    n_targets = int(check_range("n_targets", n_targets, 1, int(np.prod(CELLS)) - 1, integer=True))
+    target_clearance_mm = check_range("target_clearance_mm", target_clearance_mm, 0.0, 100.0)
+    rng = np.random.default_rng(seed)
+    bounds_min, bounds_max = np.zeros(3), np.array(CELLS, dtype=float) * CELL_EDGE_MM
+    inner = cell_walls()
+    grid = Grid.covering(bounds_min, bounds_max, cell_mm)
+    limit = reach_fraction * arm_length_mm
+    faces = _entrance_faces()
+    n_cells = int(np.prod(CELLS))
+    for attempt in range(1, MAX_ATTEMPTS + 1):
+        wall, entrance = faces[int(rng.integers(len(faces)))]
+        obstacles = outer_walls(bounds_min, bounds_max, WALL_THICKNESS_MM, wall, entrance.position) + inner
+        every = ObstacleSet(obstacles)
+        field = geodesic_from_sdf(grid, free_space(every, grid, inflate_mm + SDF_HORIZON_MM), entrance, inflate_mm)
+        home = cell_of(entrance.position + entrance.direction)
+        found: list[tuple[float, int, np.ndarray]] = []
+        for c in rng.permutation(n_cells):
+            if c == home or len(found) == n_targets:
+                continue
+            ix, iy, iz = c % CELLS[0], (c // CELLS[0]) % CELLS[1], c // (CELLS[0] * CELLS[1])
+            lo = np.array([ix, iy, iz]) * CELL_EDGE_MM + target_clearance_mm
+            hi = lo + CELL_EDGE_MM - 2 * target_clearance_mm
+            cand = np.round(rng.uniform(lo, hi, (CELL_CANDIDATES, 3)), DECIMALS)
+            geo = field.distance_at(cand)
+            ok = np.flatnonzero((every.signed_distance(cand) >= target_clearance_mm) & (geo <= limit))
+            if len(ok):
+                found.append((float(geo[ok[0]]), int(c), cand[ok[0]]))
+        if len(found) < n_targets:
+            continue
+        found.sort(key=lambda f: (f[0], f[1]))
+        meta = {
+            "generator": "oil-tank",
+            "robot": ROBOT,
+            "arm_length_mm": arm_length_mm,
+            "arm_radius_mm": ARM_RADIUS_MM,
+            "cells": [{"index": cell_index(i, j, k),
+                       "min": (np.array([i, j, k]) * CELL_EDGE_MM).tolist(),
+                       "max": ((np.array([i, j, k]) + 1) * CELL_EDGE_MM).tolist()}
+                      for k in range(CELLS[2]) for j in range(CELLS[1]) for i in range(CELLS[0])],
+            "hole_radius_mm": HOLE_RADIUS_MM,
+            "holes": len(inner),
+            "entrance_wall": wall,
+            "entrance_cell": home,
+            "target_cells": [f[1] for f in found],
+            "target_geodesic_mm": [round(f[0], 1) for f in found],
+            "target_order": "increasing geodesic distance from the entrance",
+            "port_radius_mm": PORT_RADIUS_MM,
+            "reach_limit_mm": limit,
+            "attempts": attempt,
+            "parameters": {"reach_fraction": reach_fraction, "inflate_mm": inflate_mm, "cell_mm": cell_mm,
+                           "n_targets": n_targets, "target_clearance_mm": target_clearance_mm,
+                           "wall_thickness_mm": WALL_THICKNESS_MM},
+        }
+        targets = np.array([f[2] for f in found])
+        return Scene("oil-tank", seed, bounds_min, bounds_max, entrance, targets, obstacles, meta)
+    raise RuntimeError(f"oil-tank: no valid scene for seed {seed} in {MAX_ATTEMPTS} attempts")
