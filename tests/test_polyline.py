@@ -1,0 +1,133 @@
+"""Arc-length helpers: validation, lengths, interpolation, resampling, densifying."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from snakeplan.geometry.polyline import (
+    arclength_grid,
+    cumulative_length,
+    densify,
+    drop_duplicates,
+    path_length,
+    point_at,
+    resample,
+    resample_with_arclength,
+    validate_path,
+)
+
+L_SHAPE = np.array([[0.0, 0.0, 0.0], [3.0, 0.0, 0.0], [3.0, 4.0, 0.0]])
+
+coords = st.floats(-500.0, 500.0, allow_nan=False, allow_infinity=False)
+polylines = arrays(np.float64, st.tuples(st.integers(2, 30), st.just(3)), elements=coords)
+
+
+def _distance_to_polyline(q: np.ndarray, path: np.ndarray) -> float:
+    a, b = path[:-1], path[1:]
+    d = b - a
+    dd = np.maximum(np.sum(d * d, axis=1), 1e-300)
+    t = np.clip(np.sum((q - a) * d, axis=1) / dd, 0.0, 1.0)
+    return float(np.min(np.linalg.norm(a + t[:, None] * d - q, axis=1)))
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [
+        np.zeros((4, 2)),
+        np.zeros(3),
+        np.zeros((1, 3)),
+        np.array([[0.0, 0.0, 0.0], [np.nan, 1.0, 0.0]]),
+        np.array([[0.0, 0.0, 0.0], [np.inf, 1.0, 0.0]]),
+        [[0.0, 0.0, 0.0], [1.0, 2.0]],
+        [["a", "b", "c"], ["d", "e", "f"]],
+    ],
+)
+def test_validate_path_rejects(bad):
+    with pytest.raises(ValueError) as err:
+        validate_path(bad)
+    assert "\n" not in str(err.value)
+
+
+def test_lengths_of_a_3_4_corner():
+    assert np.array_equal(cumulative_length(L_SHAPE), [0.0, 3.0, 7.0])
+    assert path_length(L_SHAPE) == 7.0
+
+
+def test_point_at_is_batched_and_clamped():
+    s = np.array([[-1.0, 0.0, 1.5], [3.0, 5.0, 99.0]])
+    pts = point_at(L_SHAPE, s)
+    assert pts.shape == (2, 3, 3)
+    expected = [[[0, 0, 0], [0, 0, 0], [1.5, 0, 0]], [[3, 0, 0], [3, 2, 0], [3, 4, 0]]]
+    assert np.allclose(pts, expected, atol=1e-12)
+    assert np.allclose(point_at(L_SHAPE, 5.0), [3.0, 2.0, 0.0])
+
+
+def test_point_at_skips_zero_length_segments():
+    path = np.array([[0.0, 0, 0], [1.0, 0, 0], [1.0, 0, 0], [1.0, 2.0, 0]])
+    assert np.allclose(point_at(path, [1.0, 2.0, 3.0]), [[1, 0, 0], [1, 1, 0], [1, 2, 0]])
+
+
+def test_arclength_grid_includes_both_ends_and_a_short_last_step():
+    assert np.allclose(arclength_grid(10.0, 4.0), [0.0, 4.0, 8.0, 10.0])
+    assert np.allclose(arclength_grid(3.0, 4.0), [0.0, 3.0])
+    assert np.array_equal(arclength_grid(0.0, 4.0), [0.0, 0.0])
+
+
+def test_arclength_grid_merges_a_round_off_remainder():
+    grid = arclength_grid(0.3, 0.1)  # 0.3 / 0.1 is 2.9999999999999996 in float64
+    assert grid.shape == (4,)
+    assert grid[-1] == 0.3
+    grid = arclength_grid(12.0 + 1e-12, 4.0)
+    assert grid.shape == (4,) and grid[-1] == 12.0 + 1e-12
+
+
+@pytest.mark.parametrize("step", [0.0, -1.0, np.nan, np.inf])
+def test_bad_steps_raise(step):
+    with pytest.raises(ValueError):
+        resample(L_SHAPE, step)
+    with pytest.raises(ValueError):
+        densify(L_SHAPE, step)
+
+
+def test_resample_straight_line_has_equal_steps():
+    line = np.array([[0.0, 0, 0], [2.5, 0, 0], [2.5, 0, 0], [10.0, 0, 0]])
+    pts = resample(line, 3.0)
+    assert np.allclose(pts[:, 0], [0.0, 3.0, 6.0, 9.0, 10.0], atol=1e-12)
+
+
+def test_drop_duplicates_keeps_both_ends():
+    path = np.array([[0.0, 0, 0], [0.0, 0, 0], [1.0, 0, 0], [1.0, 0, 0]])
+    assert np.array_equal(drop_duplicates(path), [[0.0, 0, 0], [1.0, 0, 0]])
+    assert drop_duplicates(np.zeros((3, 3))).shape == (2, 3)
+
+
+@settings(max_examples=60, deadline=None)
+@given(path=polylines, step=st.floats(0.5, 400.0))
+def test_resample_properties(path, step):
+    s, pts = resample_with_arclength(path, step)
+    total = path_length(path)
+    assert np.allclose(pts[0], path[0]) and np.allclose(pts[-1], path[-1], atol=1e-9)
+    assert s[0] == 0.0 and s[-1] == pytest.approx(total, abs=1e-8)
+    if s[-1] > 0:  # zero after dropping sub-tolerance segments
+        gaps = np.diff(s)
+        assert np.allclose(gaps[:-1], step, rtol=1e-12, atol=1e-9)
+        assert 0.0 < gaps[-1] <= step * (1 + 1e-9)
+    for q in pts:
+        assert _distance_to_polyline(q, path) < 1e-9
+
+
+@settings(max_examples=60, deadline=None)
+@given(path=polylines, max_step=st.floats(0.5, 400.0))
+def test_densify_keeps_vertices_and_shape(path, max_step):
+    dense = densify(path, max_step)
+    seg = np.linalg.norm(np.diff(dense, axis=0), axis=1)
+    assert np.all(seg <= max_step * (1 + 1e-12))
+    assert path_length(dense) == pytest.approx(path_length(path), rel=1e-12, abs=1e-9)
+    j = 0
+    for v in path:  # every original vertex appears, in order
+        while not np.array_equal(dense[j], v):
+            j += 1
+    for q in dense:
+        assert _distance_to_polyline(q, path) < 1e-9
