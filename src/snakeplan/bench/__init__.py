@@ -1,0 +1,1 @@
+"""Benchmarks: kernel speed and the papers' tables, run through `snakeplan bench`."""

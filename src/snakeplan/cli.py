@@ -1,0 +1,336 @@
+"""The ``snakeplan`` command: scenes, robots, judging tip paths, pictures, benchmarks.
+
+Exit status: 0 success, 1 when a judged plan is infeasible, 2 for bad input (one line on stderr naming the
+field and the problem; never a traceback for a user's mistake). JSON output follows DESIGN.md's schemas.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+from typing import Any, NoReturn
+
+import numpy as np
+
+EXIT_OK, EXIT_INFEASIBLE, EXIT_USAGE = 0, 1, 2
+DEFAULT_ROBOT = "sjtu-snake-iii"
+DEFAULT_SCENE = "fuel-tank"
+PLAN_SCHEMA = "snakeplan.plan/1"
+
+
+class UsageError(Exception):
+    """A user's mistake: reported as one line, exit status 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> NoReturn:  # one line instead of usage + message
+        raise UsageError(message)
+
+
+def _seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {value}")
+    return value
+
+
+def _print_json(obj: Any) -> None:
+    sys.stdout.write(json.dumps(obj, indent=2, allow_nan=False) + "\n")
+
+
+# --- loading inputs ----------------------------------------------------------------------------------------
+def _load_scene(args: argparse.Namespace):
+    from snakeplan.scenes import Scene, make_scene
+
+    if getattr(args, "scene_file", None):
+        return Scene.from_json(_read_text(args.scene_file, "--scene-file"))
+    try:
+        return make_scene(args.scene, args.seed)
+    except KeyError as exc:
+        raise UsageError(f"--scene: {exc.args[0]}") from None
+
+
+def _load_robot(name: str):
+    from snakeplan.robots import get_robot
+
+    try:
+        return get_robot(name)
+    except KeyError as exc:
+        raise UsageError(f"--robot: {exc.args[0]}") from None
+
+
+def _read_text(filename: str, field: str) -> str:
+    if filename == "-":
+        return sys.stdin.read()
+    try:
+        return Path(filename).read_text()
+    except FileNotFoundError:
+        raise UsageError(f"{field}: file not found: {filename}") from None
+    except (IsADirectoryError, PermissionError, UnicodeDecodeError) as exc:
+        raise UsageError(f"{field}: cannot read {filename}: {exc.__class__.__name__}") from None
+
+
+def _reject_constant(name: str) -> float:
+    raise ValueError(f"{name} is not a valid number")
+
+
+def load_path_file(filename: str) -> np.ndarray:
+    """Read ``{"path": [[x, y, z], ...]}`` (any plan file will do); UsageError names what is wrong."""
+    text = _read_text(filename, "PATH")
+    try:
+        data = json.loads(text, parse_constant=_reject_constant)
+    except json.JSONDecodeError as exc:
+        raise UsageError(f"PATH: malformed JSON in {filename} at line {exc.lineno} column {exc.colno}: {exc.msg}") from None
+    except ValueError as exc:
+        raise UsageError(f"PATH: {exc}") from None
+    if not isinstance(data, dict) or "path" not in data:
+        raise UsageError(f'PATH: {filename} must hold an object with a "path" list of [x, y, z]')
+    raw = data["path"]
+    if not isinstance(raw, list) or not all(isinstance(p, list) and len(p) == 3 for p in raw):
+        raise UsageError("path: expected a list of [x, y, z] points")
+    try:
+        arr = np.array(raw, dtype=float)
+    except (TypeError, ValueError):
+        raise UsageError("path: coordinates must be numbers") from None
+    bad = np.argwhere(~np.isfinite(arr))
+    if bad.size:
+        i, j = bad[0]
+        raise UsageError(f"path[{i}][{j}]: coordinate must be finite, got {raw[i][j]!r}")
+    if len(arr) < 2:
+        raise UsageError("path: needs at least 2 points")
+    return arr
+
+
+# --- commands ----------------------------------------------------------------------------------------------
+def cmd_scene(args: argparse.Namespace) -> int:
+    scene = _load_scene(args)
+    if args.json:
+        _print_json(scene.to_dict())
+        return EXIT_OK
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=f"scene {scene.name} (seed {scene.seed})", show_header=False)
+    table.add_row("bounds (mm)", f"{scene.bounds_min.tolist()} .. {scene.bounds_max.tolist()}")
+    table.add_row("entrance (mm)", f"{np.round(scene.entrance.position, 1).tolist()} "
+                                   f"dir {np.round(scene.entrance.direction, 3).tolist()}")
+    table.add_row("targets (mm)", "\n".join(str(np.round(t, 1).tolist()) for t in scene.targets) or "none")
+    kinds: dict[str, int] = {}
+    for o in scene.obstacles:
+        kinds[o.type] = kinds.get(o.type, 0) + 1
+    table.add_row("obstacles", ", ".join(f"{n} {k}" for k, n in kinds.items()))
+    Console().print(table)
+    return EXIT_OK
+
+
+def cmd_robot(args: argparse.Namespace) -> int:
+    from snakeplan.robots import robot_names
+
+    if args.name is None:
+        sys.stdout.write("\n".join(robot_names()) + "\n")
+        return EXIT_OK
+    robot = _load_robot(args.name)
+    if args.json:
+        _print_json(robot.to_dict())
+        return EXIT_OK
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=f"robot {robot.name}: {robot.n_sections} sections, {robot.total_length:g} mm, "
+                        f"k_UL {robot.k_ul:g} /mm")
+    for col in ("section", "length (mm)", "radius (mm)", "max bend (deg)"):
+        table.add_column(col, justify="right")
+    for i, sec in enumerate(robot.sections):
+        table.add_row(str(i), f"{sec.length:g}", f"{sec.radius:g}", f"{math.degrees(sec.max_bend):.1f}")
+    Console().print(table)
+    return EXIT_OK
+
+
+def _report_lines(report) -> list[str]:
+    m = report.metrics()
+    lines = [f"verdict: {'feasible' if report.success else 'infeasible'} ({report.reason})"]
+    for key, value in m.items():
+        lines.append(f"  {key:24s} {value:.6g}" if isinstance(value, float) else f"  {key:24s} {value}")
+    return lines
+
+
+def cmd_check(args: argparse.Namespace) -> int:
+    from snakeplan.evaluation import evaluate
+
+    scene = _load_scene(args)
+    robot = _load_robot(args.robot)
+    path = load_path_file(args.path_file)
+    report = evaluate(scene, robot, path)
+    if args.plot:
+        _write_plot(args.plot, scene, robot, path, report)
+    if args.json:
+        _print_json({"schema": "snakeplan.check/1", "scene": {"name": scene.name, "seed": scene.seed},
+                     "robot": robot.name, "success": report.success, "reason": report.reason,
+                     "metrics": report.metrics()})
+    else:
+        sys.stdout.write("\n".join(_report_lines(report)) + "\n")
+    return EXIT_OK if report.success else EXIT_INFEASIBLE
+
+
+def _write_plot(filename: str, scene, robot, path, report) -> None:
+    from snakeplan import ftl
+    from snakeplan.geometry.polyline import path_length
+    from snakeplan.viz.figures import plan_figure, save_figure
+
+    body = None
+    if path is not None:
+        body = ftl.fit(path, robot.lengths, path_length(path), scene.entrance.direction).joints
+    curvature = (report.curvature_s, report.curvature) if report is not None else None
+    title = f"{scene.name} seed {scene.seed}, {robot.name}"
+    if report is not None:
+        title += f": {report.reason}, S = {report.smoothness_index:.3f}"
+    fig = plan_figure(scene, path, body, curvature=curvature, k_ul=robot.k_ul, title=title)
+    save_figure(fig, filename)
+
+
+def cmd_show(args: argparse.Namespace) -> int:
+    scene = _load_scene(args)
+    robot = _load_robot(args.robot)
+    path = load_path_file(args.path) if args.path else None
+    report = None
+    if path is not None:
+        from snakeplan.evaluation import evaluate
+
+        report = evaluate(scene, robot, path)
+    _write_plot(args.out, scene, robot, path, report)
+    sys.stdout.write(f"wrote {args.out}\n")
+    return EXIT_OK
+
+
+def sample_path(scene, depth: float, step: float = 10.0) -> np.ndarray:
+    """A straight insertion of ``depth`` mm along the feed axis: the simplest tip path there is."""
+    n = max(2, int(math.ceil(depth / step)) + 1)
+    return scene.entrance.position + np.linspace(0.0, depth, n)[:, None] * scene.entrance.direction
+
+
+def cmd_demo(args: argparse.Namespace) -> int:
+    from snakeplan.evaluation import evaluate
+    from snakeplan.scenes import make_scene
+
+    scene = make_scene(DEFAULT_SCENE, args.seed)
+    robot = _load_robot(DEFAULT_ROBOT)
+    free = float(scene.obstacle_set.raycast(scene.entrance.position + scene.entrance.direction,
+                                            scene.entrance.direction))
+    depth = min(robot.total_length * 0.5, max(free - 2 * robot.radii.max(), 10.0))
+    path = sample_path(scene, depth)
+    report = evaluate(scene, robot, path)
+    sys.stdout.write(f"{robot.name} in {scene.name} (seed {scene.seed}), straight insertion of {depth:.0f} mm\n")
+    sys.stdout.write("\n".join(_report_lines(report)) + "\n")
+    _write_plot(args.out, scene, robot, path, report)
+    sys.stdout.write(f"wrote {args.out}\n")
+    return EXIT_OK
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    from snakeplan.bench.kernels import run_kernel_bench
+
+    result = run_kernel_bench(repeats=args.repeats, batch=args.batch, seed=args.seed)
+    if args.json:
+        _print_json(result)
+    return EXIT_OK
+
+
+# --- parser ------------------------------------------------------------------------------------------------
+def build_parser() -> argparse.ArgumentParser:
+    from snakeplan import __version__
+
+    parser = _Parser(prog="snakeplan", description="Motion planning for snake-arm robots (mm, rad, s).",
+                     epilog="Run 'snakeplan COMMAND --help' for a command's options.")
+    parser.add_argument("--version", action="version", version=f"snakeplan {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser, metavar="COMMAND")
+
+    def scene_args(p: argparse.ArgumentParser) -> None:
+        p.add_argument("--scene", default=DEFAULT_SCENE,
+                       help=f"scene name (default {DEFAULT_SCENE}); 'snakeplan scene --list' lists them")
+        p.add_argument("--seed", type=_seed, default=0, help="scene seed (default 0)")
+        p.add_argument("--scene-file", help="a scene JSON file (snakeplan.scene/1) instead of --scene/--seed")
+
+    p = sub.add_parser("scene", help="generate a scene and print it", description="Generate a scene from a seed.")
+    p.add_argument("name", nargs="?", help="fuel-tank, oil-tank, pipe, concentric-pipe or station")
+    p.add_argument("--seed", type=_seed, default=0, help="scene seed (default 0)")
+    p.add_argument("--json", action="store_true", help="print snakeplan.scene/1 JSON")
+    p.add_argument("--list", action="store_true", help="list the scene names")
+    p.set_defaults(func=cmd_scene_entry)
+
+    p = sub.add_parser("robot", help="print a robot preset", description="Print a robot preset (mm, rad).")
+    p.add_argument("name", nargs="?", help="preset name; omit to list them")
+    p.add_argument("--json", action="store_true", help="print snakeplan.robot/1 JSON")
+    p.set_defaults(func=cmd_robot)
+
+    p = sub.add_parser("check", help="judge a tip path made elsewhere",
+                       description="Judge a tip path ({\"path\": [[x, y, z], ...]}, any plan file will do) with "
+                                   "snakeplan's judge. Exit 0 feasible, 1 infeasible, 2 bad input.")
+    scene_args(p)
+    p.add_argument("--robot", default=DEFAULT_ROBOT, help=f"robot preset (default {DEFAULT_ROBOT})")
+    p.add_argument("--json", action="store_true", help="print the verdict as JSON")
+    p.add_argument("--plot", help="also write a PNG picture of the judged path")
+    p.add_argument("path_file", metavar="PATH.json", help="the tip path file ('-' reads standard input)")
+    p.set_defaults(func=cmd_check)
+
+    p = sub.add_parser("show", help="draw a scene (and a path) to a PNG",
+                       description="Draw a scene, optionally with a tip path and the arm's body at its end.")
+    scene_args(p)
+    p.add_argument("--robot", default=DEFAULT_ROBOT, help=f"robot preset (default {DEFAULT_ROBOT})")
+    p.add_argument("--path", help="a tip path JSON file to draw and judge")
+    p.add_argument("--out", default="scene.png", help="output PNG (default scene.png)")
+    p.set_defaults(func=cmd_show)
+
+    p = sub.add_parser("demo", help="the main job: the arm in a fuel tank, judged and drawn",
+                       description="Put sjtu-snake-iii into a fuel-tank scene along a sample path, print the "
+                                   "judge's metrics and write a picture.")
+    p.add_argument("--seed", type=_seed, default=0, help="scene seed (default 0)")
+    p.add_argument("--out", default="snakeplan-demo.png", help="output PNG (default snakeplan-demo.png)")
+    p.set_defaults(func=cmd_demo)
+
+    p = sub.add_parser("bench", help="measure the hot kernels (clearance checks, follow-the-leader fits)",
+                       description="Time the collision and follow-the-leader kernels against NumPy baselines "
+                                   "in the same process; medians over repeats.")
+    p.add_argument("--repeats", type=int, default=7, help="timed repeats (default 7)")
+    p.add_argument("--batch", type=int, default=20000, help="configurations per repeat (default 20000)")
+    p.add_argument("--seed", type=_seed, default=0, help="seed for scenes and configurations")
+    p.add_argument("--json", action="store_true", help="also print the figures as JSON")
+    p.set_defaults(func=cmd_bench)
+    return parser
+
+
+def cmd_scene_entry(args: argparse.Namespace) -> int:
+    from snakeplan.scenes import scene_names
+
+    if args.list or args.name is None:
+        sys.stdout.write("\n".join(scene_names()) + "\n")
+        return EXIT_OK
+    args.scene, args.scene_file = args.name, None
+    return cmd_scene(args)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the console script; returns the exit status."""
+    try:
+        args = build_parser().parse_args(argv)
+        return int(args.func(args))
+    except UsageError as exc:
+        return _fail(str(exc))
+    except (ValueError, KeyError) as exc:
+        return _fail(str(exc.args[0]) if exc.args else exc.__class__.__name__)
+    except BrokenPipeError:
+        return EXIT_OK
+
+
+def _fail(message: str) -> int:
+    sys.stderr.write(f"snakeplan: error: {message}\n")
+    return EXIT_USAGE
+
+
+if __name__ == "__main__":
+    sys.exit(main())

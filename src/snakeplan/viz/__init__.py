@@ -1,0 +1,1 @@
+"""Pictures: scenes with paths and bodies, curvature profiles (PNG through matplotlib)."""

@@ -1,0 +1,93 @@
+"""3-D pictures of a scene with obstacles, entrance, targets, a tip path and the arm's body (matplotlib, mm)."""
+
+from __future__ import annotations
+
+import numpy as np
+from matplotlib.axes import Axes
+from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+from snakeplan.geometry.primitives import Box, Cylinder, Mesh, Obstacle, Pipe, Plate, Sphere
+from snakeplan.scenes import Scene
+
+OBSTACLE_COLOR = (0.55, 0.6, 0.68)
+BODY_COLOR = "tab:orange"
+PATH_COLOR = "tab:blue"
+
+
+def _box_faces(center: np.ndarray, half: np.ndarray, R: np.ndarray) -> list[np.ndarray]:
+    signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
+    corners = center + (signs * half) @ R.T
+    quads = [(0, 1, 3, 2), (4, 5, 7, 6), (0, 1, 5, 4), (2, 3, 7, 6), (0, 2, 6, 4), (1, 3, 7, 5)]
+    return [corners[list(q)] for q in quads]
+
+
+def _ring(center, e1, e2, a, b, n=48) -> np.ndarray:
+    t = np.linspace(0, 2 * np.pi, n)
+    return center + np.outer(a * np.cos(t), e1) + np.outer(b * np.sin(t), e2)
+
+
+def _tube(center, axis, R, radius, length, n=32) -> list[np.ndarray]:
+    e1, e2 = R[:, 0], R[:, 1]
+    t = np.linspace(0, 2 * np.pi, n + 1)
+    ring = np.outer(np.cos(t), e1) + np.outer(np.sin(t), e2)
+    lo = center - axis * length / 2 + radius * ring
+    hi = center + axis * length / 2 + radius * ring
+    return [np.array([lo[i], lo[i + 1], hi[i + 1], hi[i]]) for i in range(n)]
+
+
+def draw_obstacle(ax: Axes, o: Obstacle, alpha: float = 0.18) -> None:
+    """Add one obstacle to a 3-D axes: translucent faces for solids, outlines for plates."""
+    if isinstance(o, Box):
+        faces = _box_faces(o.center, o.size / 2, o.rotation)
+    elif isinstance(o, Sphere):
+        u, v = np.mgrid[0 : 2 * np.pi : 16j, 0 : np.pi : 9j]
+        x = o.center[0] + o.radius * np.cos(u) * np.sin(v)
+        y = o.center[1] + o.radius * np.sin(u) * np.sin(v)
+        z = o.center[2] + o.radius * np.cos(v)
+        ax.plot_surface(x, y, z, color=OBSTACLE_COLOR, alpha=alpha * 2, linewidth=0)
+        return
+    elif isinstance(o, Cylinder):
+        faces = _tube(o.center, o.axis, o.frame(), o.radius, o.length)
+    elif isinstance(o, Pipe):
+        faces = _tube(o.center, o.axis, o.frame(), o.outer_radius, o.length)
+    elif isinstance(o, Plate):
+        side, up = o.side, o.up
+        w, h = o.size
+        rect = o.center + np.array([[-1, -1], [1, -1], [1, 1], [-1, 1], [-1, -1]]) @ np.stack([side * w / 2, up * h / 2])
+        ax.plot(*rect.T, color=OBSTACLE_COLOR, lw=0.8)
+        if o.hole is not None:
+            c = o.center + o.hole["offset"][0] * side + o.hole["offset"][1] * up
+            ax.plot(*_ring(c, side, up, *o.hole["semi_axes"]).T, color="tab:gray", lw=0.8)
+        faces = [rect[:4]]
+    elif isinstance(o, Mesh):
+        faces = list(o.triangles())
+    else:
+        raise TypeError(f"cannot draw obstacle type {type(o).__name__}")
+    ax.add_collection3d(Poly3DCollection(faces, facecolor=OBSTACLE_COLOR, edgecolor=(0.4, 0.4, 0.45, 0.25),
+                                         linewidths=0.2, alpha=alpha))
+
+
+def draw_scene(ax: Axes, scene: Scene, path=None, body=None) -> None:
+    """Draw obstacles, entrance, targets and optionally a tip path ``(m, 3)`` and a body's joints ``(n+1, 3)``."""
+    for o in scene.obstacles:
+        draw_obstacle(ax, o)
+    e, d = scene.entrance.position, scene.entrance.direction
+    span = float(np.max(scene.size))
+    ax.quiver(*e, *(d * 0.08 * span), color="tab:red", lw=2)
+    ax.scatter(*e, color="tab:red", s=30, label="entrance")
+    if len(scene.targets):
+        ax.scatter(*scene.targets.T, color="tab:green", s=50, marker="*", label="targets")
+    if path is not None:
+        ax.plot(*np.asarray(path).T, color=PATH_COLOR, lw=1.5, label="tip path")
+    if body is not None:
+        b = np.asarray(body)
+        ax.plot(*b.T, color=BODY_COLOR, lw=3, marker="o", ms=3, label="body")
+    lo, hi = scene.bounds_min, scene.bounds_max
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
+    ax.set_zlim(lo[2], hi[2])
+    ax.set_box_aspect(tuple(hi - lo))
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("y (mm)")
+    ax.set_zlabel("z (mm)")
+    ax.legend(loc="upper left", fontsize=7)

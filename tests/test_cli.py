@@ -1,0 +1,126 @@
+"""The `snakeplan` command: JSON contracts, exit codes, and one-line errors for a user's mistakes."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from snakeplan.cli import main
+from snakeplan.scenes import make_scene, scene_names
+
+
+def run(capsys, *argv):
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.mark.parametrize("name", ["fuel-tank", "oil-tank", "pipe", "concentric-pipe", "station"])
+def test_scene_json_identical_across_runs(capsys, name):
+    code, first, _ = run(capsys, "scene", name, "--seed", "3", "--json")
+    assert code == 0
+    _, second, _ = run(capsys, "scene", name, "--seed", "3", "--json")
+    assert first == second
+    data = json.loads(first)
+    assert data["schema"] == "snakeplan.scene/1" and data["name"] == name and data["seed"] == 3
+    assert data["units"] == "mm"
+
+
+def test_scene_list_names_every_scene(capsys):
+    code, out, _ = run(capsys, "scene", "--list")
+    assert code == 0 and out.split() == scene_names()
+    assert set(out.split()) >= {"fuel-tank", "oil-tank", "pipe", "concentric-pipe", "station"}
+
+
+def test_robot_json_schema(capsys):
+    code, out, _ = run(capsys, "robot", "sjtu-snake-iii", "--json")
+    data = json.loads(out)
+    assert code == 0 and data["schema"] == "snakeplan.robot/1"
+    assert len(data["sections"]) == 12
+    assert data["total_length"] == pytest.approx(2130)
+    assert data["k_ul"] == pytest.approx(0.0055)
+    assert data["sections"][0]["radius"] == pytest.approx(27.5)
+    assert data["sections"][0]["max_bend"] == pytest.approx(np.radians(50.7))
+
+
+def straight_into(scene, depth):
+    e, d = scene.entrance.position, scene.entrance.direction
+    return (e + np.linspace(0, depth, 30)[:, None] * d).tolist()
+
+
+def test_check_scores_a_straight_path_into_the_fuel_tank(capsys, tmp_path):
+    scene = make_scene("fuel-tank", 1)
+    f = tmp_path / "path.json"
+    f.write_text(json.dumps({"path": straight_into(scene, 150)}))
+    code, out, _ = run(capsys, "check", "--scene", "fuel-tank", "--seed", "1", "--json", str(f))
+    data = json.loads(out)
+    # A short straight insertion is collision-free but does not reach the debris: exit 1 (infeasible plan).
+    assert code == 1 and data["reason"] == "not_reached"
+    m = data["metrics"]
+    assert m["collision_free"] and m["bend_limits_ok"] and m["path_length_mm"] == pytest.approx(150)
+    assert m["max_curvature_per_mm"] == pytest.approx(0, abs=1e-12) and m["smoothness_index"] == 1.0
+
+
+def test_check_plot_writes_png(capsys, tmp_path):
+    scene = make_scene("fuel-tank", 2)
+    f = tmp_path / "plan.json"
+    f.write_text(json.dumps({"schema": "snakeplan.plan/1", "path": straight_into(scene, 100)}))
+    png = tmp_path / "check.png"
+    code, _, _ = run(capsys, "check", "--seed", "2", "--plot", str(png), str(f))
+    assert code == 1 and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize(
+    "content, argv, fragment",
+    [
+        ("{not json", [], "malformed JSON"),
+        ('{"path": [[0, 0, 0], [NaN, 0, 0]]}', [], "NaN"),
+        ('{"path": [[0, 0, 0], [1e999, 0, 0]]}', [], "path[1][0]"),
+        ('{"path": [[0, 0, 0]]}', [], "at least 2"),
+        ('{"points": []}', [], '"path"'),
+        ('{"path": [[0, 0, 0], [1, 2]]}', [], "[x, y, z]"),
+        ('{"path": [[0, 0, 0], [10, 0, 0]]}', ["--scene", "moon-base"], "--scene"),
+        ('{"path": [[0, 0, 0], [10, 0, 0]]}', ["--robot", "octopus"], "--robot"),
+        ('{"path": [[0, 0, 0], [10, 0, 0]]}', ["--seed", "-3"], "--seed"),
+        ('{"path": [[0, 0, 0], [10, 0, 0]]}', [], "entrance"),
+    ],
+)
+def test_bad_input_exits_2_with_one_line(capsys, tmp_path, content, argv, fragment):
+    f = tmp_path / "p.json"
+    f.write_text(content)
+    code, out, err = run(capsys, "check", *argv, str(f))
+    assert code == 2
+    assert out == ""
+    assert err.count("\n") == 1 and fragment in err and "Traceback" not in err
+
+
+def test_bad_scene_file_names_the_field(capsys, tmp_path):
+    scene = make_scene("pipe", 0).to_dict()
+    scene["obstacles"][0]["inner_radius"] = -4
+    f = tmp_path / "scene.json"
+    f.write_text(json.dumps(scene))
+    p = tmp_path / "p.json"
+    p.write_text(json.dumps({"path": [[0, 0, 0], [1, 0, 0]]}))
+    code, _, err = run(capsys, "check", "--scene-file", str(f), str(p))
+    assert code == 2 and "obstacles[0].inner_radius" in err
+
+
+def test_missing_file_and_unknown_command(capsys):
+    code, _, err = run(capsys, "check", "/no/such/path.json")
+    assert code == 2 and "not found" in err
+    code, _, err = run(capsys, "fly")
+    assert code == 2 and err.count("\n") == 1
+
+
+def test_console_script_exit_code_and_no_traceback():
+    proc = subprocess.run([sys.executable, "-m", "snakeplan.cli", "robot", "octopus"], capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert "Traceback" not in proc.stderr and "octopus" in proc.stderr
+
+
+def test_demo_writes_picture_and_metrics(capsys, tmp_path):
+    png = tmp_path / "demo.png"
+    code, out, _ = run(capsys, "demo", "--out", str(png))
+    assert code == 0 and "smoothness_index" in out and png.exists()
