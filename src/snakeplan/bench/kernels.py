@@ -14,7 +14,6 @@ import numpy as np
 
 from snakeplan import ftl
 from snakeplan.geometry.distance import sampled_chain_clearance
-from snakeplan.geometry.transforms import frame_from_z
 from snakeplan.robots import Chain, get_robot
 from snakeplan.scenes import Scene, make_scene
 
@@ -32,27 +31,20 @@ def _median_seconds(fn: Callable[[], object], repeats: int) -> float:
     return float(np.median(times))
 
 
-def random_bodies(scene: Scene, robot: Chain, count: int, seed: int) -> np.ndarray:
-    """Joint positions ``(count, n+1, 3)`` of random arm shapes fed partly through the scene's entrance.
+def random_bodies(scene: Scene, robot: Chain, count: int, seed: int, paths: int = 64) -> np.ndarray:
+    """Joint positions ``(count, n+1, 3)`` of the arm fitted follow-the-leader onto random smooth tip paths.
 
-    Bends are uniform within half the bend limit; the insertion depth is uniform over the arm's length, the
-    rest of the arm lies straight behind the entrance, as in follow-the-leader motion.
+    This is a planner's workload: bodies on a tip path from the entrance at random depths, the part not yet
+    inserted straight behind the entrance; some touch obstacles, most do not.
     """
     rng = np.random.default_rng(seed)
-    n = robot.n_sections
-    depth = rng.uniform(0.0, robot.total_length, count)
-    angles = rng.uniform(-0.5, 0.5, (count, n, 2)) * robot.max_bends[None, :, None]
-    # Sections not yet through the entrance stay straight on the feed axis.
-    ends = np.cumsum(robot.lengths)
-    angles[ends[None, :] <= (robot.total_length - depth)[:, None]] = 0.0
-    q = np.zeros((count, robot.dof))
-    q[:, robot.dof - 2 * n :] = angles.reshape(count, 2 * n)
-    zero = robot.joint_positions(np.zeros(robot.dof))
-    local = robot.joint_positions(q) - zero[0]
-    R = frame_from_z(scene.entrance.direction)
-    offset = scene.entrance.position - (robot.total_length - depth)[:, None] * scene.entrance.direction
-    base_rot = robot.base[:3, :3]
-    return np.einsum("ij,bkj->bki", R @ base_rot.T, local) + offset[:, None, :]
+    per_path = -(-count // paths)
+    bodies = []
+    for k in range(paths):
+        path = smooth_path(scene.entrance.position, scene.entrance.direction, 1500.0, 150, seed * 1000 + k)
+        depths = rng.uniform(0.0, 1500.0 * 0.999, per_path)
+        bodies.append(ftl.fit_batch(path, robot.lengths, depths, scene.entrance.direction))
+    return np.concatenate(bodies)[:count]
 
 
 def smooth_path(entrance: np.ndarray, direction: np.ndarray, length: float, points: int, seed: int) -> np.ndarray:

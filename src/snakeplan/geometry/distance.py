@@ -21,7 +21,6 @@ from snakeplan.geometry.primitives import (
     KIND_CYLINDER,
     KIND_MESH,
     KIND_PIPE,
-    KIND_PLATE,
     KIND_SPHERE,
     Mesh,
     Obstacle,
@@ -233,12 +232,28 @@ def _sdf_points(rows: np.ndarray, tris: np.ndarray, ranges: np.ndarray, pts: np.
 
 
 @njit(cache=True)
-def _candidates(rows, tris, ranges, a, b, cutoff, cand):
-    """Obstacles that may come within ``cutoff`` of segment ab; returns their count in ``cand``."""
+def _box_distance(box: np.ndarray, p: np.ndarray) -> float:
+    """Distance from p to an axis-aligned box [lo(3), hi(3)]: a cheap lower bound on an obstacle's distance."""
+    acc = 0.0
+    for i in range(3):
+        d = max(box[i] - p[i], p[i] - box[i + 3], 0.0)
+        acc += d * d
+    return math.sqrt(acc)
+
+
+@njit(cache=True)
+def _candidates(rows, boxes, tris, ranges, a, b, cutoff, cand):
+    """Obstacles that may come within ``cutoff`` of segment ab; returns their count in ``cand``.
+
+    The bounding-box distance culls far obstacles before their exact distance is evaluated.
+    """
     mid = 0.5 * (a + b)
     half = 0.5 * math.sqrt(((b - a) ** 2).sum())
     n = 0
     for k in range(rows.shape[0]):
+        outside = _box_distance(boxes[k], mid)  # a lower bound on the distance only outside the box
+        if outside > 0.0 and outside - half >= cutoff:
+            continue
         if _sdf_row(rows[k], tris, ranges, mid) - half < cutoff:
             cand[n] = k
             n += 1
@@ -256,9 +271,9 @@ def _min_over(rows, tris, ranges, cand, n, p):
 
 
 @njit(cache=True)
-def _segment_min(rows, tris, ranges, a, b, cutoff, tol, cand, stack):
+def _segment_min(rows, boxes, tris, ranges, a, b, cutoff, tol, cand, stack):
     """Minimum signed distance along segment ab, accurate to ``tol``; values >= ``cutoff`` come back as cutoff."""
-    n = _candidates(rows, tris, ranges, a, b, cutoff, cand)
+    n = _candidates(rows, boxes, tris, ranges, a, b, cutoff, cand)
     if n == 0:
         return cutoff
     length = math.sqrt(((b - a) ** 2).sum())
@@ -286,9 +301,9 @@ def _segment_min(rows, tris, ranges, a, b, cutoff, tol, cand, stack):
 
 
 @njit(cache=True)
-def _segment_hits(rows, tris, ranges, a, b, radius, cand, stack):
+def _segment_hits(rows, boxes, tris, ranges, a, b, radius, cand, stack):
     """True when some point of segment ab is closer than ``radius`` to an obstacle (capsule overlap)."""
-    n = _candidates(rows, tris, ranges, a, b, radius, cand)
+    n = _candidates(rows, boxes, tris, ranges, a, b, radius, cand)
     if n == 0:
         return False
     length = math.sqrt(((b - a) ** 2).sum())
@@ -314,16 +329,27 @@ def _segment_hits(rows, tris, ranges, a, b, radius, cand, stack):
 
 
 @njit(cache=True)
-def _chains_clearance(rows, tris, ranges, joints, radii, tol):
+def _chains_clearance(rows, boxes, tris, ranges, joints, radii, tol):
     B = joints.shape[0]
+    n = radii.shape[0]
     out = np.empty(B)
     cand = np.empty(rows.shape[0], dtype=np.int64)
     stack = np.empty((256, 2))
     for i in range(B):
+        # Link midpoints give an attained value, an upper bound on the minimum, so every link's search is
+        # pruned from the start instead of refining distances to far obstacles.
         best = np.inf
-        for k in range(radii.shape[0]):
-            cutoff = best + radii[k] if best < np.inf else 1e300
-            d = _segment_min(rows, tris, ranges, joints[i, k], joints[i, k + 1], cutoff, tol, cand, stack) - radii[k]
+        for k in range(n):
+            d = _scene_sdf(rows, tris, ranges, 0.5 * (joints[i, k] + joints[i, k + 1])) - radii[k]
+            if d < best:
+                best = d
+        if best == np.inf:
+            out[i] = best
+            continue
+        for k in range(n):
+            cutoff = best + radii[k]
+            d = _segment_min(rows, boxes, tris, ranges, joints[i, k], joints[i, k + 1], cutoff, tol, cand, stack)
+            d -= radii[k]
             if d < best:
                 best = d
         out[i] = best
@@ -331,26 +357,27 @@ def _chains_clearance(rows, tris, ranges, joints, radii, tol):
 
 
 @njit(cache=True)
-def _chains_collide(rows, tris, ranges, joints, radii):
+def _chains_collide(rows, boxes, tris, ranges, joints, radii):
     B = joints.shape[0]
     out = np.zeros(B, dtype=np.bool_)
     cand = np.empty(rows.shape[0], dtype=np.int64)
     stack = np.empty((256, 2))
     for i in range(B):
-        for k in range(radii.shape[0]):
-            if _segment_hits(rows, tris, ranges, joints[i, k], joints[i, k + 1], radii[k], cand, stack):
+        # Tip first: in follow-the-leader motion the leading links meet obstacles first, so exits come early.
+        for k in range(radii.shape[0] - 1, -1, -1):
+            if _segment_hits(rows, boxes, tris, ranges, joints[i, k], joints[i, k + 1], radii[k], cand, stack):
                 out[i] = True
                 break
     return out
 
 
 @njit(cache=True)
-def _segments_clear(rows, tris, ranges, a, b, radius):
+def _segments_clear(rows, boxes, tris, ranges, a, b, radius):
     out = np.empty(a.shape[0], dtype=np.bool_)
     cand = np.empty(rows.shape[0], dtype=np.int64)
     stack = np.empty((256, 2))
     for i in range(a.shape[0]):
-        out[i] = not _segment_hits(rows, tris, ranges, a[i], b[i], radius, cand, stack)
+        out[i] = not _segment_hits(rows, boxes, tris, ranges, a[i], b[i], radius, cand, stack)
     return out
 
 
@@ -388,6 +415,7 @@ class ObstacleSet:
         self._rows = np.array(rows, dtype=float).reshape(len(rows), width)
         self._tris = np.concatenate(tris) if tris else np.zeros((0, 3, 3))
         self._ranges = np.array(ranges, dtype=np.int64).reshape(len(ranges), 2)
+        self._boxes = np.array([np.concatenate(o.aabb()) for o in self.obstacles], dtype=float).reshape(-1, 6)
 
     def __len__(self) -> int:
         return len(self.obstacles)
@@ -407,15 +435,14 @@ class ObstacleSet:
         J = np.asarray(joints, dtype=float)
         r = np.ascontiguousarray(radii, dtype=float)
         flat = np.ascontiguousarray(J.reshape(-1, J.shape[-2], 3))
-        out = _chains_clearance(self._rows, self._tris, self._ranges, flat, r, tol).reshape(J.shape[:-2])
-        return np.where(out > 1e299, np.inf, out)
+        return _chains_clearance(self._rows, self._boxes, self._tris, self._ranges, flat, r, tol).reshape(J.shape[:-2])
 
     def chain_collides(self, joints, radii) -> np.ndarray:
         """True where any capsule of a chain ``(..., n+1, 3)`` overlaps an obstacle; exits early per chain."""
         J = np.asarray(joints, dtype=float)
         r = np.ascontiguousarray(radii, dtype=float)
         flat = np.ascontiguousarray(J.reshape(-1, J.shape[-2], 3))
-        return _chains_collide(self._rows, self._tris, self._ranges, flat, r).reshape(J.shape[:-2])
+        return _chains_collide(self._rows, self._boxes, self._tris, self._ranges, flat, r).reshape(J.shape[:-2])
 
     def segments_clear(self, a, b, radius: float = 0.0) -> np.ndarray:
         """True where the capsule of ``radius`` around segment a->b ``(..., 3)`` touches no obstacle."""
@@ -424,7 +451,7 @@ class ObstacleSet:
         A, Bp = np.broadcast_arrays(A, Bp)
         fa = np.ascontiguousarray(A.reshape(-1, 3))
         fb = np.ascontiguousarray(Bp.reshape(-1, 3))
-        return _segments_clear(self._rows, self._tris, self._ranges, fa, fb, float(radius)).reshape(A.shape[:-1])
+        return _segments_clear(self._rows, self._boxes, self._tris, self._ranges, fa, fb, float(radius)).reshape(A.shape[:-1])
 
     def line_of_sight(self, a, b) -> np.ndarray:
         """True where the straight segment a->b passes through no obstacle's interior."""

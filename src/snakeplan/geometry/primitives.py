@@ -82,6 +82,16 @@ class Obstacle:
         """Radius of a sphere about ``center`` that contains the obstacle (mm)."""
         raise NotImplementedError
 
+    def local_half_extents(self) -> np.ndarray:
+        """Half sizes (mm) of a box in the local frame that contains the obstacle."""
+        r = self.bounding_radius()
+        return np.array([r, r, r])
+
+    def aabb(self) -> tuple[np.ndarray, np.ndarray]:
+        """World axis-aligned box (min, max corners, mm) that contains the obstacle."""
+        reach = np.abs(self.frame()) @ self.local_half_extents()
+        return self.center - reach, self.center + reach
+
     def signed_distance(self, points: np.ndarray) -> np.ndarray:
         """Exact signed distance (mm) from points ``(..., 3)`` to this obstacle."""
         from snakeplan.geometry.distance import ObstacleSet
@@ -117,6 +127,9 @@ class Box(Obstacle):
 
     def _pack_params(self, row: np.ndarray) -> None:
         row[_P : _P + 3] = self.size / 2
+
+    def local_half_extents(self) -> np.ndarray:
+        return self.size / 2
 
     def bounding_radius(self) -> float:
         return float(np.linalg.norm(self.size) / 2)
@@ -176,6 +189,9 @@ class Cylinder(Obstacle):
     def bounding_radius(self) -> float:
         return math.hypot(self.radius, self.length / 2)
 
+    def local_half_extents(self) -> np.ndarray:
+        return np.array([self.radius, self.radius, self.length / 2])
+
     def to_dict(self) -> dict:
         return {"type": "cylinder", "center": _list(self.center), "axis": _list(self.axis),
                 "radius": self.radius, "length": self.length}
@@ -213,6 +229,9 @@ class Pipe(Obstacle):
 
     def bounding_radius(self) -> float:
         return math.hypot(self.outer_radius, self.length / 2)
+
+    def local_half_extents(self) -> np.ndarray:
+        return np.array([self.outer_radius, self.outer_radius, self.length / 2])
 
     def to_dict(self) -> dict:
         return {"type": "pipe", "center": _list(self.center), "axis": _list(self.axis),
@@ -283,6 +302,9 @@ class Plate(Obstacle):
     def bounding_radius(self) -> float:
         return float(np.linalg.norm([self.thickness, self.size[0], self.size[1]]) / 2)
 
+    def local_half_extents(self) -> np.ndarray:
+        return np.array([self.thickness, self.size[0], self.size[1]]) / 2
+
     def to_dict(self) -> dict:
         return {"type": "plate", "center": _list(self.center), "normal": _list(self.normal), "up": _list(self.up),
                 "size": list(self.size), "thickness": self.thickness, "hole": self.hole}
@@ -322,6 +344,9 @@ class Mesh(Obstacle):
 
     def bounding_radius(self) -> float:
         return float(np.max(np.linalg.norm(self.vertices - self.center, axis=1)))
+
+    def aabb(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.vertices.min(axis=0), self.vertices.max(axis=0)
 
     def to_dict(self) -> dict:
         return {"type": "mesh", "vertices": _list(self.vertices), "faces": self.faces.tolist()}

@@ -29,7 +29,6 @@ from snakeplan.scenes.reach import (
     check_range,
     free_space,
     geodesic_from_sdf,
-    obstacle_aabb,
 )
 from snakeplan.scenes.registry import register_scene
 from snakeplan.scenes.scene import Entrance, Scene
@@ -257,7 +256,7 @@ class _Blockers:
     """Obstacles clutter must keep clear of, each with its bounding box, so a test only evaluates nearby ones."""
 
     def __init__(self, obstacles: list[Obstacle]):
-        self.items = [(*obstacle_aabb(o), ObstacleSet([o])) for o in obstacles]
+        self.items = [(*o.aabb(), ObstacleSet([o])) for o in obstacles]
 
     def clear(self, points: np.ndarray, gap: float) -> bool:
         """True when every point is at least ``gap`` from every obstacle."""
@@ -307,7 +306,7 @@ def fuel_tank(seed: int, *, arm_length_mm: float = ARM_LENGTH_MM, reach_fraction
                 item = _draw_clutter(rng)
                 if _fits(item, blockers, entrance):
                     clutter.append(item)
-                    blockers.items.append((*obstacle_aabb(item), ObstacleSet([item])))
+                    blockers.items.append((*item.aabb(), ObstacleSet([item])))
                     break
             else:
                 break

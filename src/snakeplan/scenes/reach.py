@@ -20,7 +20,6 @@ import numpy as np
 from numba import njit
 
 from snakeplan.geometry.distance import ObstacleSet
-from snakeplan.geometry.primitives import Box, Cylinder, Mesh, Obstacle, Pipe, Plate
 from snakeplan.scenes.scene import Entrance, Scene
 
 #: Grid cell edge (mm): small enough for the 120 mm half-height of a fuel-tank hole shrunk by the inflation.
@@ -145,25 +144,6 @@ class GeodesicField:
         return np.vstack([self.source[None], centres[::-1], q[None]])
 
 
-def obstacle_aabb(obstacle: Obstacle) -> tuple[np.ndarray, np.ndarray]:
-    """Axis-aligned box (min, max corners, mm) that contains ``obstacle``."""
-    if isinstance(obstacle, Mesh):
-        return obstacle.vertices.min(axis=0), obstacle.vertices.max(axis=0)
-    if isinstance(obstacle, Box):
-        half = obstacle.size / 2
-    elif isinstance(obstacle, Plate):
-        half = np.array([obstacle.thickness, obstacle.size[0], obstacle.size[1]]) / 2
-    elif isinstance(obstacle, Cylinder):
-        half = np.array([obstacle.radius, obstacle.radius, obstacle.length / 2])
-    elif isinstance(obstacle, Pipe):
-        half = np.array([obstacle.outer_radius, obstacle.outer_radius, obstacle.length / 2])
-    else:
-        r = obstacle.bounding_radius()
-        return obstacle.center - r, obstacle.center + r
-    reach = np.abs(obstacle.frame()) @ half
-    return obstacle.center - reach, obstacle.center + reach
-
-
 def free_space(obstacles: ObstacleSet, grid: Grid, horizon_mm: float = math.inf) -> np.ndarray:
     """Signed distance (mm) at every cell centre, shape ``grid.shape``; values above ``horizon_mm`` are capped.
 
@@ -176,7 +156,7 @@ def free_space(obstacles: ObstacleSet, grid: Grid, horizon_mm: float = math.inf)
     out = np.full(grid.shape, float(horizon_mm))
     shape = np.array(grid.shape)
     for obstacle in obstacles.obstacles:
-        lo, hi = obstacle_aabb(obstacle)
+        lo, hi = obstacle.aabb()
         a = np.clip(np.floor((lo - horizon_mm - grid.origin) / grid.spacing - 0.5), 0, shape).astype(int)
         b = np.clip(np.ceil((hi + horizon_mm - grid.origin) / grid.spacing + 0.5), 0, shape).astype(int)
         if np.any(b <= a):
