@@ -210,3 +210,18 @@ def test_inflation_and_enclosure():
                                                     ([-100.0, 0.0, 0.0], [20.0, 220.0, 400.0]))]
     field = geodesic_field(_tiny(cage), inflate_mm=0.0, cell_mm=10.0)
     assert math.isinf(float(field.distance_at(GOAL))) and len(field.path_to(GOAL)) == 0
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_oil_tank_targets_lie_in_order_along_the_entrance_row(seed):
+    from snakeplan.scenes.oil_tank import ROW_OFFSET_MM
+
+    s = make_scene("oil-tank", seed)
+    e, d = s.entrance.position, s.entrance.direction
+    assert abs(d[0]) == 1.0
+    rel = s.targets - e
+    axial = rel @ d
+    lateral = np.linalg.norm(rel - np.outer(axial, d), axis=1)
+    assert np.all(lateral <= ROW_OFFSET_MM + 1e-6)
+    assert np.all(np.diff(axial) > 0)  # listed in visiting order, farther and farther down the row
+    assert np.all((axial // 300).astype(int) == [1, 2, 3])

@@ -2,13 +2,16 @@
 
 Fixed structure: 4 x 2 x 2 = 16 cubic cells; every wall between two adjacent cells is a 300 x 300 mm plate with
 a centred round hole of 280 mm diameter (28 plates); the outer walls are plates whose inner faces lie on the
-bounds. Per seed: the entrance, centred on one cell's face in an outer side wall (the arm enters that cell through
-its own 60 mm-radius port), and 3 debris targets in distinct cells other than the entrance cell, each with
-clearance >= 40 mm and geodesically reachable (:mod:`snakeplan.scenes.reach`).
+bounds. Per seed: the entrance, centred on one cell's face in an end wall (x = 0 or x = 1200; the arm enters that
+cell through its own 60 mm-radius port and looks down a row of four cells), and 3 debris targets, one in each
+of the next cells of that row, within ``ROW_OFFSET_MM`` of the row's axis, with clearance >= 40 mm and
+geodesically reachable (:mod:`snakeplan.scenes.reach`).
 
-Targets are listed in increasing geodesic distance from the entrance. That is only a canonical order: the
-visiting order, and whether the arm retracts between targets, belong to the planner layer, and the tour as a
-whole is not required to fit in one arm length.
+Why a row: the planners visit targets in order along one follow-the-leader path without retracting (see
+:mod:`snakeplan.planners.base`), so the whole tour must fit in one arm and pass the 280 mm holes; a 90 degree turn
+inside a 300 mm cell is beyond a 177.5 mm-section arm bending at most 50.7 degrees. The tour is then about
+1000 mm long, as the paper's multi-target paths (Table 2). Targets are listed in visiting order, which is also
+increasing geodesic distance from the entrance.
 """
 
 from __future__ import annotations
@@ -44,6 +47,8 @@ TARGET_COUNT = 3
 TARGET_CLEARANCE_MM = 40.0
 #: Grid cell (mm) of the reachability check.
 REACH_CELL_MM = 20.0
+#: Largest distance (mm) of a target from the axis of the entrance's row of cells.
+ROW_OFFSET_MM = 70.0
 #: Bounded resampling: whole-scene attempts and candidate points per cell.
 MAX_ATTEMPTS = 40
 CELL_CANDIDATES = 64
@@ -79,11 +84,11 @@ def cell_walls() -> list[Plate]:
 
 
 def _entrance_faces() -> list[tuple[str, Entrance]]:
-    """Every cell face on an outer side wall: (wall name, entrance at the face centre, fed inwards)."""
+    """Every cell face on an end wall (x = 0 or x = max): (wall name, entrance at the face centre, fed inwards)."""
     e = CELL_EDGE_MM
     size = np.array(CELLS) * e
     faces = []
-    for axis in (0, 1):
+    for axis in (0,):
         for sign, name in ((1.0, "-"), (-1.0, "+")):
             other = 1 - axis
             for a in range(CELLS[other]):
@@ -105,7 +110,7 @@ def oil_tank(seed: int, *, arm_length_mm: float = ARM_LENGTH_MM, reach_fraction:
     reach_fraction = check_range("reach_fraction", reach_fraction, 0.1, 1.0)
     inflate_mm = check_range("inflate_mm", inflate_mm, 0.0, 100.0)
     cell_mm = check_range("cell_mm", cell_mm, 5.0, 50.0)
-    n_targets = int(check_range("n_targets", n_targets, 1, int(np.prod(CELLS)) - 1, integer=True))
+    n_targets = int(check_range("n_targets", n_targets, 1, CELLS[0] - 1, integer=True))
     target_clearance_mm = check_range("target_clearance_mm", target_clearance_mm, 0.0, 100.0)
     rng = np.random.default_rng(seed)
     bounds_min, bounds_max = np.zeros(3), np.array(CELLS, dtype=float) * CELL_EDGE_MM
@@ -113,7 +118,6 @@ def oil_tank(seed: int, *, arm_length_mm: float = ARM_LENGTH_MM, reach_fraction:
     grid = Grid.covering(bounds_min, bounds_max, cell_mm)
     limit = reach_fraction * arm_length_mm
     faces = _entrance_faces()
-    n_cells = int(np.prod(CELLS))
     for attempt in range(1, MAX_ATTEMPTS + 1):
         wall, entrance = faces[int(rng.integers(len(faces)))]
         obstacles = outer_walls(bounds_min, bounds_max, WALL_THICKNESS_MM, wall, entrance.position) + inner
@@ -121,20 +125,22 @@ def oil_tank(seed: int, *, arm_length_mm: float = ARM_LENGTH_MM, reach_fraction:
         field = geodesic_from_sdf(grid, free_space(every, grid, inflate_mm + SDF_HORIZON_MM), entrance, inflate_mm)
         home = cell_of(entrance.position + entrance.direction)
         found: list[tuple[float, int, np.ndarray]] = []
-        for c in rng.permutation(n_cells):
-            if c == home or len(found) == n_targets:
-                continue
-            ix, iy, iz = c % CELLS[0], (c // CELLS[0]) % CELLS[1], c // (CELLS[0] * CELLS[1])
-            lo = np.array([ix, iy, iz]) * CELL_EDGE_MM + target_clearance_mm
-            hi = lo + CELL_EDGE_MM - 2 * target_clearance_mm
-            cand = np.round(rng.uniform(lo, hi, (CELL_CANDIDATES, 3)), DECIMALS)
+        step = int(np.sign(entrance.direction[0]))
+        row = [cell_of(entrance.position + (k + 0.5) * CELL_EDGE_MM * entrance.direction) for k in range(CELLS[0])]
+        for k, c in enumerate(row[1 : n_targets + 1], start=1):
+            x0 = entrance.position[0] + step * k * CELL_EDGE_MM
+            axial = x0 + step * rng.uniform(target_clearance_mm, CELL_EDGE_MM - target_clearance_mm, CELL_CANDIDATES)
+            radius = ROW_OFFSET_MM * np.sqrt(rng.uniform(0.0, 1.0, CELL_CANDIDATES))
+            angle = rng.uniform(0.0, 2 * np.pi, CELL_CANDIDATES)
+            cand = np.stack([axial, entrance.position[1] + radius * np.cos(angle),
+                             entrance.position[2] + radius * np.sin(angle)], axis=1)
+            cand = np.round(cand, DECIMALS)
             geo = field.distance_at(cand)
             ok = np.flatnonzero((every.signed_distance(cand) >= target_clearance_mm) & (geo <= limit))
             if len(ok):
                 found.append((float(geo[ok[0]]), int(c), cand[ok[0]]))
         if len(found) < n_targets:
             continue
-        found.sort(key=lambda f: (f[0], f[1]))
         meta = {
             "generator": "oil-tank",
             "robot": ROBOT,
@@ -150,7 +156,8 @@ def oil_tank(seed: int, *, arm_length_mm: float = ARM_LENGTH_MM, reach_fraction:
             "entrance_cell": home,
             "target_cells": [f[1] for f in found],
             "target_geodesic_mm": [round(f[0], 1) for f in found],
-            "target_order": "increasing geodesic distance from the entrance",
+            "target_order": "along the entrance's row of cells (visiting order)",
+            "row_offset_mm": ROW_OFFSET_MM,
             "port_radius_mm": PORT_RADIUS_MM,
             "reach_limit_mm": limit,
             "attempts": attempt,
