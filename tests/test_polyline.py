@@ -131,3 +131,29 @@ def test_densify_keeps_vertices_and_shape(path, max_step):
             j += 1
     for q in dense:
         assert _distance_to_polyline(q, path) < 1e-9
+
+
+def test_fillet_rounds_a_right_angle_with_the_requested_radius():
+    from snakeplan.evaluation.metrics import curvature_profile
+    from snakeplan.geometry.polyline import fillet
+
+    w = np.array([[0, 0, 0], [1000, 0, 0], [1000, 1000, 0], [2000, 1000, 500.0]])
+    f = fillet(w, 300.0, step=2.0)
+    assert np.allclose(f[0], w[0]) and np.allclose(f[-1], w[-1])
+    _, kappa = curvature_profile(f, 20.0)
+    assert kappa.max() == pytest.approx(1 / 300, rel=1e-3)
+    d = np.diff(f, axis=0)
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    assert np.degrees(np.arccos(np.clip((d[1:] * d[:-1]).sum(1), -1, 1))).max() < 0.5  # G1: no corner left
+    # The first arc is tangent to the first segment at 300 mm before the corner (tan 45 deg = 1).
+    assert np.min(np.linalg.norm(f - [700, 0, 0], axis=1)) < 1e-9
+
+
+def test_fillet_shrinks_the_radius_to_fit_short_segments():
+    from snakeplan.geometry.polyline import fillet
+
+    w = np.array([[0, 0, 0], [100, 0, 0], [100, 100, 0]], dtype=float)
+    f = fillet(w, 1000.0, step=1.0)
+    # Both tangent lengths are capped by the 100 mm segments: a quarter circle of radius 100.
+    centre = np.array([0.0, 100.0, 0.0])
+    assert np.allclose(np.linalg.norm(f[:, :2] - centre[:2], axis=1), 100.0, atol=1e-9)

@@ -156,3 +156,44 @@ def densify(path: ArrayLike, max_step: float) -> np.ndarray:
         pieces.append(p[i] + t * (p[i + 1] - p[i]))
     pieces.append(p[-1:])
     return np.concatenate(pieces, axis=0)
+
+
+def fillet(waypoints: ArrayLike, radius: float, step: float = 5.0) -> np.ndarray:
+    """Round every interior corner of a waypoint polyline with a tangent circular arc (mm).
+
+    Each corner gets the largest radius <= ``radius`` whose tangent points fit in half of each adjacent segment
+    (the whole of a first or last segment), so arcs never overlap and the path stays G1-continuous; the arcs are
+    sampled every ``step`` mm of arc length. Straight stretches keep zero curvature, arcs have curvature 1/r.
+    """
+    p = drop_duplicates(validate_path(waypoints, "waypoints"))
+    r_max = _check_step(radius, "radius")
+    h = _check_step(step)
+    if len(p) < 3:
+        return p
+    seg = np.linalg.norm(np.diff(p, axis=0), axis=1)
+    share = seg / 2
+    share[0], share[-1] = seg[0], seg[-1]
+    if len(seg) == 2:
+        share[:] = seg
+    out = [p[0]]
+    for i in range(1, len(p) - 1):
+        u = (p[i] - p[i - 1]) / seg[i - 1]
+        v = (p[i + 1] - p[i]) / seg[i]
+        turn = float(np.arctan2(np.linalg.norm(np.cross(u, v)), np.dot(u, v)))
+        if turn < 1e-9:
+            out.append(p[i])
+            continue
+        tangent = min(r_max * np.tan(turn / 2), share[i - 1], share[i])
+        r = tangent / np.tan(turn / 2)
+        a, b = p[i] - tangent * u, p[i] + tangent * v
+        inward = v - np.dot(v, u) * u  # towards the centre, perpendicular to the incoming direction
+        centre = a + r * inward / np.linalg.norm(inward)
+        n = max(int(np.ceil(r * turn / h)), 1)
+        angles = np.linspace(0.0, turn, n + 1)
+        start = a - centre
+        axis = np.cross(u, v)
+        axis /= np.linalg.norm(axis)
+        arc = (centre + np.outer(np.cos(angles), start) + np.outer(np.sin(angles), np.cross(axis, start)))
+        out.extend(arc)
+    out.append(p[-1])
+    return drop_duplicates(np.array(out))

@@ -1,0 +1,35 @@
+"""Planners registered by name: ``get_planner("rrt-star")``."""
+
+from __future__ import annotations
+
+from snakeplan.planners.base import Planner
+
+_PLANNERS: dict[str, type[Planner]] = {}
+
+
+def register_planner(cls: type[Planner]) -> type[Planner]:
+    """Class decorator: register a planner under its ``name``."""
+    if not cls.name:
+        raise ValueError(f"{cls.__name__} has no name")
+    if cls.name in _PLANNERS:
+        raise ValueError(f"planner {cls.name!r} is registered twice")
+    _PLANNERS[cls.name] = cls
+    return cls
+
+
+def planner_names() -> list[str]:
+    _load_builtin()
+    return sorted(_PLANNERS)
+
+
+def get_planner(name: str, **options) -> Planner:
+    """A new planner instance; KeyError lists the known names for an unknown one."""
+    _load_builtin()
+    if name not in _PLANNERS:
+        raise KeyError(f"unknown planner {name!r} (known: {', '.join(sorted(_PLANNERS))})")
+    return _PLANNERS[name](**options)
+
+
+def _load_builtin() -> None:
+    """Import the built-in planners (they register themselves on import)."""
+    from snakeplan.planners import as_rrt, rrt_star, sp_rrt  # noqa: F401
