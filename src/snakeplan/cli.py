@@ -232,13 +232,105 @@ def cmd_demo(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def cmd_bench(args: argparse.Namespace) -> int:
+def _load_planner(name: str):
+    from snakeplan.planners import get_planner
+
+    try:
+        return get_planner(name)
+    except KeyError as exc:
+        raise UsageError(f"--planner: {exc.args[0]}") from None
+
+
+def cmd_plan(args: argparse.Namespace) -> int:
+    from snakeplan.evaluation import evaluate
+    from snakeplan.planners import Problem
+    from snakeplan.planners.registry import default_planner
+
+    scene = _load_scene(args)
+    robot = _load_robot(args.robot)
+    problem = Problem(scene, robot, time_limit_s=args.time_limit, knowledge=args.knowledge)
+    name = args.planner or default_planner(scene.name)
+    planner = _load_planner(name)
+    plan = planner.plan(problem, seed=args.planner_seed)
+    report = evaluate(scene, robot, plan.path) if plan.path is not None else None
+    success = report is not None and report.success
+    out = {"schema": PLAN_SCHEMA, "scene": {"name": scene.name, "seed": scene.seed}, "robot": robot.name,
+           "planner": name, "success": success, "reason": report.reason if report else plan.status,
+           "status": plan.status, "compute_time_s": plan.compute_time_s,
+           "path": plan.path.tolist() if plan.path is not None else [],
+           "metrics": report.metrics() if report else None, "details": _jsonable(plan.details)}
+    if args.plot:
+        _write_plot(args.plot, scene, robot, plan.path, report)
+    if args.json:
+        _print_json(out)
+    else:
+        sys.stdout.write(f"{name} on {scene.name} (seed {scene.seed}): {plan.status} in {plan.compute_time_s:.3f} s\n")
+        if report is not None:
+            sys.stdout.write("\n".join(_report_lines(report)) + "\n")
+    return EXIT_OK if success else EXIT_INFEASIBLE
+
+
+def _jsonable(obj: Any) -> Any:
+    """Planner details as plain JSON (arrays to lists, non-finite floats to None)."""
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _jsonable(obj.tolist())
+    if isinstance(obj, (np.floating, float)):
+        return float(obj) if math.isfinite(obj) else None
+    if isinstance(obj, np.integer):
+        return int(obj)
+    return obj
+
+
+def cmd_bench_kernels(args: argparse.Namespace) -> int:
     from snakeplan.bench.kernels import run_kernel_bench
 
+    if args.repeats < 1 or args.batch < 10:
+        raise UsageError("--repeats must be >= 1 and --batch >= 10")
     result = run_kernel_bench(repeats=args.repeats, batch=args.batch, seed=args.seed)
     if args.json:
         _print_json(result)
     return EXIT_OK
+
+
+def _name_list(text: str, known: list[str], field: str) -> tuple[str, ...]:
+    names = tuple(n.strip() for n in text.split(",") if n.strip())
+    unknown = [n for n in names if n not in known]
+    if not names or unknown:
+        raise UsageError(f"{field}: unknown {', '.join(unknown) or 'empty list'} (known: {', '.join(known)})")
+    return names
+
+
+def cmd_bench_table2(args: argparse.Namespace) -> int:
+    from snakeplan.bench.table2 import SCENES, Table2Config, run_table2, summary_markdown
+    from snakeplan.planners import planner_names
+
+    if args.runs < 1:
+        raise UsageError(f"--runs: expected a positive integer, got {args.runs}")
+    config = Table2Config(planners=_name_list(args.planners, planner_names(), "--planners"),
+                          scenes=_name_list(args.scenes, list(SCENES), "--scenes"),
+                          seeds=tuple(range(args.seed, args.seed + args.runs)),
+                          time_limit_s=args.time_limit)
+    summary = run_table2(config, args.out, fresh=args.fresh, progress=not args.json)
+    if args.json:
+        _print_json(_jsonable(summary))
+    else:
+        sys.stdout.write(summary_markdown(summary, config) + f"\n\nwrote {args.out}/table2.md, table2.csv, runs.csv, "
+                         f"fig7_*.png\n")
+    return EXIT_OK
+
+
+def _finite(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return value
 
 
 # --- parser ------------------------------------------------------------------------------------------------
@@ -293,14 +385,45 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="snakeplan-demo.png", help="output PNG (default snakeplan-demo.png)")
     p.set_defaults(func=cmd_demo)
 
-    p = sub.add_parser("bench", help="measure the hot kernels (clearance checks, follow-the-leader fits)",
-                       description="Time the collision and follow-the-leader kernels against NumPy baselines "
-                                   "in the same process; medians over repeats.")
+    p = sub.add_parser("plan", help="plan a tip path with a planner and judge it",
+                       description="Plan a path for a robot in a scene; the judge's verdict comes with it. "
+                                   "Exit 0 feasible, 1 no feasible plan, 2 bad input.")
+    scene_args(p)
+    p.add_argument("--robot", default=DEFAULT_ROBOT, help=f"robot preset (default {DEFAULT_ROBOT})")
+    p.add_argument("--planner", help="planner name (default: the best shipped planner for the scene)")
+    p.add_argument("--planner-seed", type=_seed, default=0, help="the planner's random seed (default 0)")
+    p.add_argument("--time-limit", type=_finite, default=30.0, help="planning budget in seconds (default 30)")
+    p.add_argument("--knowledge", choices=("full", "sensed"), default="full",
+                   help="what the planner may know: the whole scene, or what its sensor revealed")
+    p.add_argument("--json", action="store_true", help="print snakeplan.plan/1 JSON")
+    p.add_argument("--plot", help="also write a PNG picture of the plan")
+    p.set_defaults(func=cmd_plan)
+
+    bench = sub.add_parser("bench", help="benchmarks: kernels, table2",
+                           description="Benchmarks that reproduce the papers' figures and measure speed.")
+    bsub = bench.add_subparsers(dest="bench", required=True, parser_class=_Parser, metavar="BENCH")
+    p = bsub.add_parser("kernels", help="speed of the collision and follow-the-leader kernels",
+                        description="Time the collision and follow-the-leader kernels against baselines in the "
+                                    "same process; medians over repeats.")
     p.add_argument("--repeats", type=int, default=7, help="timed repeats (default 7)")
     p.add_argument("--batch", type=int, default=20000, help="configurations per repeat (default 20000)")
     p.add_argument("--seed", type=_seed, default=0, help="seed for scenes and configurations")
     p.add_argument("--json", action="store_true", help="also print the figures as JSON")
-    p.set_defaults(func=cmd_bench)
+    p.set_defaults(func=cmd_bench_kernels)
+
+    p = bsub.add_parser("table2", help="paper 000's Table 2: planners on the same seeded episodes",
+                        description="Run planners on identical fuel-tank and oil-tank episodes, judge every plan, "
+                                    "and write runs.csv (resumable), table2.md/csv with the paper's figures, "
+                                    "Appendix A statistics and fig7_*.png.")
+    p.add_argument("--planners", default="rrt-star,sp-rrt,as-rrt", help="comma-separated planner names")
+    p.add_argument("--scenes", default="fuel-tank,oil-tank", help="comma-separated scene names")
+    p.add_argument("--runs", type=int, default=10, help="seeds per scene (default 10, as the paper)")
+    p.add_argument("--seed", type=_seed, default=0, help="first seed (default 0)")
+    p.add_argument("--time-limit", type=_finite, default=10.0, help="budget per plan in seconds (default 10)")
+    p.add_argument("--out", default="bench-table2", help="output folder (default bench-table2)")
+    p.add_argument("--fresh", action="store_true", help="discard earlier runs instead of resuming")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.set_defaults(func=cmd_bench_table2)
     return parser
 
 

@@ -33,3 +33,12 @@ def get_planner(name: str, **options) -> Planner:
 def _load_builtin() -> None:
     """Import the built-in planners (they register themselves on import)."""
     from snakeplan.planners import as_rrt, rrt_star, sp_rrt  # noqa: F401
+
+
+#: The best shipped planner per scene (by the Table 2 benchmark; see README), used when none is named.
+DEFAULT_PLANNER_BY_SCENE = {"fuel-tank": "sp-rrt", "oil-tank": "sp-rrt"}
+
+
+def default_planner(scene_name: str) -> str:
+    """The planner `snakeplan plan` uses for ``scene_name`` when none is named."""
+    return DEFAULT_PLANNER_BY_SCENE.get(scene_name, "as-rrt")

@@ -1,0 +1,253 @@
+"""Paper 000's Table 2 harness: planners side by side on identical seeded episodes, judged by one judge.
+
+Every (scene, seed, planner) run is planned with the same time budget and judged by
+:func:`snakeplan.evaluation.evaluate`. Rows are appended to ``runs.csv`` as they arrive, so an interrupted
+benchmark resumes where it stopped. The summary gives mean +- std of path length and smoothness index over
+successful runs, compute time over all runs, and the success rate, with the paper's figures beside ours, plus
+Appendix A's statistics and a Fig. 7-like picture of the planners' paths and curvature profiles.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from snakeplan.bench.statistics import games_howell, levene_p, shapiro_p, welch_anova
+from snakeplan.evaluation import evaluate
+from snakeplan.planners import Problem, get_planner
+from snakeplan.robots import get_robot
+from snakeplan.scenes import make_scene
+
+ROBOT = "sjtu-snake-iii"
+SCENES = ("fuel-tank", "oil-tank")
+DEFAULT_PLANNERS = ("rrt-star", "sp-rrt", "as-rrt")
+#: Runs per scene and planner in the paper.
+DEFAULT_RUNS = 10
+#: The same planning budget (s) for every planner.
+DEFAULT_TIME_LIMIT_S = 10.0
+METRICS = ("path_length_mm", "compute_time_s", "smoothness_index")
+
+#: Paper 000, Table 2: (mean, std) of path length (mm), computation time (s), smoothness index.
+PAPER_TABLE2: dict[tuple[str, str], dict[str, tuple[float, float]]] = {
+    ("fuel-tank", "rrt-star"): {"path_length_mm": (1525.47, 1.89), "compute_time_s": (35.48, 0.32),
+                                "smoothness_index": (0.0647, 0.0011)},
+    ("fuel-tank", "sp-rrt"): {"path_length_mm": (1821.65, 2.15), "compute_time_s": (0.300, 0.01),
+                              "smoothness_index": (0.4393, 0.0024)},
+    ("fuel-tank", "as-rrt"): {"path_length_mm": (1764.89, 6.45), "compute_time_s": (59.45, 1.28),
+                              "smoothness_index": (0.4721, 0.0091)},
+    ("fuel-tank", "sac-her"): {"path_length_mm": (1693.23, 5.87), "compute_time_s": (1.220, 0.05),
+                               "smoothness_index": (0.5259, 0.0088)},
+    ("oil-tank", "rrt-star"): {"path_length_mm": (947.935, 1.24), "compute_time_s": (18.79, 0.24),
+                               "smoothness_index": (0.0222, 0.0007)},
+    ("oil-tank", "sp-rrt"): {"path_length_mm": (1111.36, 1.83), "compute_time_s": (0.174, 0.01),
+                             "smoothness_index": (0.0351, 0.0011)},
+    ("oil-tank", "as-rrt"): {"path_length_mm": (1003.56, 4.62), "compute_time_s": (46.37, 0.97),
+                             "smoothness_index": (0.1228, 0.0049)},
+    ("oil-tank", "sac-per"): {"path_length_mm": (997.208, 4.08), "compute_time_s": (0.723, 0.04),
+                              "smoothness_index": (0.1231, 0.0045)},
+}
+
+RUN_FIELDS = ("scene", "seed", "planner", "time_limit_s", "status", "success", "reason", "path_length_mm",
+              "compute_time_s", "smoothness_index", "max_curvature_per_mm", "mean_curvature_per_mm",
+              "min_clearance_mm", "max_deviation_mm", "targets_reached")
+
+
+@dataclass(frozen=True)
+class Table2Config:
+    planners: tuple[str, ...] = DEFAULT_PLANNERS
+    scenes: tuple[str, ...] = SCENES
+    seeds: tuple[int, ...] = tuple(range(DEFAULT_RUNS))
+    time_limit_s: float = DEFAULT_TIME_LIMIT_S
+    robot: str = ROBOT
+
+
+def run_one(scene_name: str, seed: int, planner_name: str, time_limit_s: float, robot_name: str = ROBOT):
+    """Plan and judge one episode; returns (run row, plan, report or None)."""
+    scene = make_scene(scene_name, seed)
+    robot = get_robot(robot_name)
+    plan = get_planner(planner_name).plan(Problem(scene, robot, time_limit_s), seed=seed)
+    row = {"scene": scene_name, "seed": seed, "planner": planner_name, "time_limit_s": time_limit_s,
+           "status": plan.status, "compute_time_s": plan.compute_time_s}
+    report = None
+    if plan.path is not None:
+        report = evaluate(scene, robot, plan.path)
+        m = report.metrics()
+        row.update(success=report.success, reason=report.reason,
+                   **{k: m[k] for k in RUN_FIELDS if k in m and k not in row})
+    else:
+        row.update(success=False, reason=plan.status)
+    return row, plan, report
+
+
+def _read_runs(path: Path) -> list[dict]:
+    if not path.exists():
+        return []
+    with path.open(newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def run_table2(config: Table2Config, out_dir: str | Path, fresh: bool = False, progress: bool = True) -> dict:
+    """Run every missing (scene, seed, planner) episode, then write the summary, statistics and figures."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    runs_file = out / "runs.csv"
+    if fresh and runs_file.exists():
+        runs_file.unlink()
+    done = {(r["scene"], int(r["seed"]), r["planner"]) for r in _read_runs(runs_file)
+            if float(r["time_limit_s"]) == config.time_limit_s}
+    todo = [(s, seed, p) for s in config.scenes for seed in config.seeds for p in config.planners
+            if (s, seed, p) not in done]
+    new_file = not runs_file.exists()
+    with runs_file.open("a", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=RUN_FIELDS, extrasaction="ignore")
+        if new_file:
+            writer.writeheader()
+        for s, seed, p in _progress(todo, progress):
+            row, _, _ = run_one(s, seed, p, config.time_limit_s, config.robot)
+            writer.writerow(row)
+            fh.flush()
+    rows = [r for r in _read_runs(runs_file) if float(r["time_limit_s"]) == config.time_limit_s
+            and r["scene"] in config.scenes and r["planner"] in config.planners and int(r["seed"]) in config.seeds]
+    summary = summarise(rows, config)
+    (out / "table2.md").write_text(summary_markdown(summary, config) + "\n\n" + statistics_markdown(rows, config))
+    _write_summary_csv(out / "table2.csv", summary)
+    figure_7(config, out)
+    return summary
+
+
+def _progress(items: Sequence, enabled: bool):
+    if not enabled:
+        yield from items
+        return
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    with Progress(TextColumn("table 2"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                  TextColumn("{task.description}")) as bar:
+        task = bar.add_task("", total=len(items))
+        for item in items:
+            bar.update(task, description=f"{item[0]} seed {item[1]} {item[2]}")
+            yield item
+            bar.advance(task)
+
+
+def _values(rows: list[dict], metric: str, successful_only: bool) -> np.ndarray:
+    vals = [float(r[metric]) for r in rows if r.get(metric) not in (None, "")
+            and (not successful_only or r["success"] == "True")]
+    return np.array(vals, dtype=float)
+
+
+def summarise(rows: list[dict], config: Table2Config) -> dict:
+    """Per (scene, planner): mean, std and count of each metric, success rate, and the paper's figures."""
+    out = {}
+    for s in config.scenes:
+        for p in config.planners:
+            group = [r for r in rows if r["scene"] == s and r["planner"] == p]
+            entry = {"runs": len(group),
+                     "success_rate": float(np.mean([r["success"] == "True" for r in group])) if group else math.nan}
+            for metric in METRICS:
+                v = _values(group, metric, successful_only=metric != "compute_time_s")
+                entry[metric] = (float(v.mean()) if v.size else math.nan,
+                                 float(v.std(ddof=1)) if v.size > 1 else math.nan)
+            entry["median_compute_time_s"] = float(np.median(_values(group, "compute_time_s", False))) if group \
+                else math.nan
+            entry["paper"] = PAPER_TABLE2.get((s, p))
+            out[f"{s}/{p}"] = entry
+    return out
+
+
+def _pm(pair: tuple[float, float] | None, digits: int) -> str:
+    if pair is None or math.isnan(pair[0]):
+        return "-"
+    mean, std = pair
+    return f"{mean:.{digits}f} ± {std:.{digits}f}" if not math.isnan(std) else f"{mean:.{digits}f}"
+
+
+def summary_markdown(summary: dict, config: Table2Config) -> str:
+    head = ("| scene | planner | runs | success | path length (mm) | paper | time (s) | paper | "
+            "smoothness index | paper |\n|---|---|---|---|---|---|---|---|---|---|")
+    lines = [f"Table 2 on seeds {list(config.seeds)} with a {config.time_limit_s:g} s budget per plan "
+             f"({config.robot}); length and smoothness over successful runs, time over all runs.", "", head]
+    for key, e in summary.items():
+        s, p = key.split("/")
+        paper = e["paper"] or {}
+        lines.append(
+            f"| {s} | {p} | {e['runs']} | {100 * e['success_rate']:.0f} % | {_pm(e['path_length_mm'], 1)} | "
+            f"{_pm(paper.get('path_length_mm'), 1)} | {_pm(e['compute_time_s'], 3)} | "
+            f"{_pm(paper.get('compute_time_s'), 3)} | {_pm(e['smoothness_index'], 4)} | "
+            f"{_pm(paper.get('smoothness_index'), 4)} |")
+    return "\n".join(lines)
+
+
+def statistics_markdown(rows: list[dict], config: Table2Config) -> str:
+    """Appendix A: Shapiro-Wilk per group, Levene and Welch's ANOVA per metric, Games-Howell vs the first planner."""
+    lines = ["## Statistics (Appendix A)", ""]
+    ref = config.planners[0]
+    for s in config.scenes:
+        for metric in METRICS:
+            groups = {p: _values([r for r in rows if r["scene"] == s and r["planner"] == p], metric,
+                                 metric != "compute_time_s") for p in config.planners}
+            anova = welch_anova(list(groups.values()))
+            normal = ", ".join(f"{p} {shapiro_p(v):.3g}" for p, v in groups.items())
+            lines.append(f"**{s}, {metric}**: Shapiro-Wilk p: {normal}; Levene p = {levene_p(list(groups.values())):.3g}; "
+                         f"Welch ANOVA F({anova.df1:.3g}, {anova.df2:.3g}) = {anova.f:.4g}, p = {anova.p:.3g}")
+            for c in games_howell(groups, reference=ref):
+                lines.append(f"- Games-Howell {c.a} vs {c.b}: difference {c.mean_difference:.4g}, "
+                             f"adjusted p = {c.p_adjusted:.3g}")
+            lines.append("")
+    return "\n".join(lines)
+
+
+def _write_summary_csv(path: Path, summary: dict) -> None:
+    with path.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["scene", "planner", "runs", "success_rate", "path_length_mean", "path_length_std",
+                    "time_mean", "time_std", "time_median", "smoothness_mean", "smoothness_std",
+                    "paper_path_length", "paper_time", "paper_smoothness"])
+        for key, e in summary.items():
+            s, p = key.split("/")
+            paper = e["paper"] or {}
+            w.writerow([s, p, e["runs"], e["success_rate"], *e["path_length_mm"], *e["compute_time_s"],
+                        e["median_compute_time_s"], *e["smoothness_index"],
+                        paper.get("path_length_mm", ("",))[0], paper.get("compute_time_s", ("",))[0],
+                        paper.get("smoothness_index", ("",))[0]])
+
+
+def figure_7(config: Table2Config, out: Path) -> list[Path]:
+    """For each scene, the planners' paths on the first seed and their curvature profiles (like Fig. 7)."""
+    import matplotlib.pyplot as plt
+
+    from snakeplan.viz.figures import save_figure
+    from snakeplan.viz.scene_plot import draw_scene
+
+    written = []
+    seed = config.seeds[0]
+    for s in config.scenes:
+        scene = make_scene(s, seed)
+        fig = plt.figure(figsize=(14, 6))
+        ax = fig.add_subplot(1, 2, 1, projection="3d")
+        ax2 = fig.add_subplot(1, 2, 2)
+        draw_scene(ax, scene)
+        for i, p in enumerate(config.planners):
+            _, plan, report = run_one(s, seed, p, config.time_limit_s, config.robot)
+            if plan.path is None:
+                continue
+            color = f"C{i}"
+            ax.plot(*plan.path.T, color=color, lw=1.5, label=p)
+            ax2.plot(report.curvature_s, report.curvature, color=color, marker=".",
+                     label=f"{p}: S = {report.smoothness_index:.3f} ({report.reason})")
+        ax.legend(fontsize=7)
+        ax.set_title(f"{s} seed {seed}: paths")
+        ax2.axhline(get_robot(config.robot).k_ul, color="k", ls="--", label="k_UL")
+        ax2.set_xlabel("arc length (mm)")
+        ax2.set_ylabel("curvature (1/mm)")
+        ax2.legend(fontsize=8)
+        ax2.grid(alpha=0.3)
+        ax2.set_title("curvature profiles")
+        fig.tight_layout()
+        written.append(save_figure(fig, out / f"fig7_{s}.png"))
+    return written
