@@ -76,8 +76,8 @@ def test_fuel_tank_facts():
     ovals = [o for o in s.obstacles if isinstance(o, Plate) and o.hole and o.hole["semi_axes"] == [250.0, 150.0]]
     assert len(ovals) == 7
     assert len(s.metadata["chambers"]) == 6 and len(s.metadata["holes"]) == 7
-    pair = sorted([s.metadata["entrance_chamber"], s.metadata["target_chamber"]])
-    assert pair in [sorted(h["chambers"]) for h in s.metadata["holes"]]
+    assert s.metadata["target_holes"] in (1, 2)
+    assert s.metadata["target_geodesic_mm"] >= 1000.0
     ports = [o for o in s.obstacles if isinstance(o, Plate) and o.hole and o.hole["semi_axes"] == [60.0, 60.0]]
     assert len(ports) == 1
     port = ports[0]
@@ -225,3 +225,19 @@ def test_oil_tank_targets_lie_in_order_along_the_entrance_row(seed):
     assert np.all(lateral <= ROW_OFFSET_MM + 1e-6)
     assert np.all(np.diff(axial) > 0)  # listed in visiting order, farther and farther down the row
     assert np.all((axial // 300).astype(int) == [1, 2, 3])
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_fuel_tank_target_is_outside_the_turning_region(seed):
+    from snakeplan.scenes.fuel_tank import TURN_RADIUS_MM, chamber_steps, outside_turning_region
+
+    s = make_scene("fuel-tank", seed)
+    assert outside_turning_region(s.entrance, s.targets).all()
+    # Hand check of the region: a point beside the entrance at 100 mm off-axis is inside the turning circle,
+    # a point straight ahead is not.
+    e, d = s.entrance.position, s.entrance.direction
+    side = np.cross(d, [0.0, 0.0, 1.0])
+    assert not outside_turning_region(s.entrance, (e + 50 * d + 100 * side)[None])[0]
+    assert outside_turning_region(s.entrance, (e + 3 * TURN_RADIUS_MM * d)[None])[0]
+    steps = chamber_steps(s.metadata["holes"], s.metadata["entrance_chamber"])
+    assert steps[s.metadata["target_chamber"]] == s.metadata["target_holes"]

@@ -6,8 +6,11 @@ whose inner faces lie on the bounds; a support frame of boxes (pillars at the pa
 where partitions meet the outer walls, corner posts, stiffener beams along the top and bottom edges of every
 partition and outer side wall) that never covers a hole. Per seed (unknown to the operator): the entrance (a
 point on an outer side wall, fed along the inward normal, through a round port cut in that wall), 3-6 clutter
-obstacles resting on the floor, and one debris target in a chamber next to the entrance chamber, i.e. reached
-through one oval hole, with clearance and geodesic reach checked by :mod:`snakeplan.scenes.reach`.
+obstacles resting on the floor, and one debris target one or two oval holes away from the entrance chamber, with
+clearance and geodesic reach checked by :mod:`snakeplan.scenes.reach`: its geodesic distance from the entrance
+lies between ``MIN_TARGET_GEODESIC_MM`` and the reach limit, so paths are as long as the paper's (Table 2:
+1.5-1.8 m), and it lies outside the region a tip that starts along the feed axis cannot reach when it turns no
+tighter than the arm's bend limits allow (``TURN_RADIUS_MM``; see :func:`outside_turning_region`).
 
 Obstacles are listed as: the six outer walls (x-, x+, y-, y+, floor, ceiling), the seven partitions, the frame
 boxes, then the clutter (the last ``metadata["clutter"]`` obstacles).
@@ -67,6 +70,12 @@ HOLE_KEEPOUT_MARGIN_MM = 20.0
 CLUTTER_SAMPLE_MM = 20.0
 #: Least clearance (mm) from the target to every obstacle.
 TARGET_CLEARANCE_MM = 60.0
+#: Least geodesic distance (mm) from the entrance to the target.
+MIN_TARGET_GEODESIC_MM = 1000.0
+#: Holes (chamber steps) between the entrance chamber and the target chamber.
+TARGET_HOLES = (1, 2)
+#: Smallest turning radius (mm) of sjtu-snake-iii: chords of 177.5 mm bending 50.7 deg, 177.5 / (2 sin 25.35 deg).
+TURN_RADIUS_MM = 207.3
 #: The robot the scene is sized for (paper 000): name, arm length (mm), body radius (mm).
 ROBOT = "sjtu-snake-iii"
 ARM_LENGTH_MM = 2130.0
@@ -137,6 +146,32 @@ def chamber_of(point) -> int:
     ix = min(max(int(point[0] // (sx / CHAMBERS_X)), 0), CHAMBERS_X - 1)
     iy = min(max(int(point[1] // (sy / CHAMBERS_Y)), 0), CHAMBERS_Y - 1)
     return iy * CHAMBERS_X + ix
+
+
+def outside_turning_region(entrance: Entrance, points: np.ndarray, radius: float = TURN_RADIUS_MM) -> np.ndarray:
+    """True where a point can be reached by a tip that leaves the entrance along the feed axis and turns with
+    radius >= ``radius``: in the plane through the feed axis, the unreachable points fill the turning circles
+    tangent to the axis at the entrance, x^2 + (rho - R)^2 < R^2 (x along the axis, rho off it)."""
+    rel = np.asarray(points, dtype=float) - entrance.position
+    x = rel @ entrance.direction
+    rho = np.linalg.norm(rel - np.outer(x, entrance.direction), axis=1)
+    return x * x + (rho - radius) ** 2 >= radius * radius
+
+
+def chamber_steps(holes: list[dict], home: int) -> dict[int, int]:
+    """Number of holes (chamber-graph distance) from chamber ``home`` to every chamber."""
+    steps, frontier = {home: 0}, [home]
+    while frontier:
+        nxt = []
+        for c in frontier:
+            for h in holes:
+                if c in h["chambers"]:
+                    for o in h["chambers"]:
+                        if o not in steps:
+                            steps[o] = steps[c] + 1
+                            nxt.append(o)
+        frontier = nxt
+    return steps
 
 
 def partitions() -> tuple[list[Plate], list[dict]]:
@@ -315,13 +350,15 @@ def fuel_tank(seed: int, *, arm_length_mm: float = ARM_LENGTH_MM, reach_fraction
             every = ObstacleSet(obstacles)
             field = geodesic_from_sdf(grid, free_space(every, grid, inflate_mm + SDF_HORIZON_MM), entrance, inflate_mm)
             home = chamber_of(entrance.position + entrance.direction)
-            options = sorted(c for h in holes for c in h["chambers"] if home in h["chambers"] and c != home)
+            steps = chamber_steps(holes, home)
+            options = sorted(c for c, k in steps.items() if TARGET_HOLES[0] <= k <= TARGET_HOLES[1])
             goal = options[int(rng.integers(len(options)))]
             lo, hi = chambers[goal]
             cand = np.round(rng.uniform(lo + target_clearance_mm, hi - target_clearance_mm,
                                         (TARGET_CANDIDATES, 3)), DECIMALS)
             geo = field.distance_at(cand)
-            ok = np.flatnonzero((every.signed_distance(cand) >= target_clearance_mm) & (geo <= limit))
+            ok = np.flatnonzero((every.signed_distance(cand) >= target_clearance_mm) & (geo <= limit)
+                                & (geo >= MIN_TARGET_GEODESIC_MM) & outside_turning_region(entrance, cand))
             if len(ok):
                 target = cand[ok[0]]
                 meta = {
@@ -335,6 +372,7 @@ def fuel_tank(seed: int, *, arm_length_mm: float = ARM_LENGTH_MM, reach_fraction
                     "entrance_wall": wall,
                     "entrance_chamber": home,
                     "target_chamber": goal,
+                    "target_holes": steps[goal],
                     "port_radius_mm": PORT_RADIUS_MM,
                     "clutter": len(clutter),
                     "target_geodesic_mm": round(float(geo[ok[0]]), 1),
