@@ -124,3 +124,29 @@ def test_demo_writes_picture_and_metrics(capsys, tmp_path):
     png = tmp_path / "demo.png"
     code, out, _ = run(capsys, "demo", "--out", str(png))
     assert code == 0 and "smoothness_index" in out and png.exists()
+
+
+@pytest.mark.parametrize("planner", ["rrt-star", "sp-rrt", "as-rrt"])
+@pytest.mark.parametrize("scene", ["fuel-tank", "oil-tank"])
+def test_plan_json_carries_the_judges_verdict(capsys, planner, scene):
+    code, out, _ = run(capsys, "plan", "--scene", scene, "--seed", "1", "--planner", planner, "--time-limit", "20",
+                       "--json")
+    data = json.loads(out)
+    assert data["schema"] == "snakeplan.plan/1" and data["planner"] == planner
+    assert data["scene"] == {"name": scene, "seed": 1}
+    assert code == (0 if data["success"] else 1)
+    assert data["success"] and data["reason"] == "reached"
+    path = np.array(data["path"])
+    assert np.allclose(path[0], make_scene(scene, 1).entrance.position)
+    assert data["metrics"]["targets_reached"] == len(make_scene(scene, 1).targets)
+
+
+def test_plan_plot_and_bad_planner_or_budget(capsys, tmp_path):
+    png = tmp_path / "plan.png"
+    code, _, _ = run(capsys, "plan", "--seed", "2", "--planner", "sp-rrt", "--plot", str(png))
+    assert code == 0 and png.read_bytes()[:4] == b"\x89PNG"
+    code, _, err = run(capsys, "plan", "--planner", "teleport")
+    assert code == 2 and "--planner" in err and err.count("\n") == 1
+    for budget in ("0", "-5", "inf"):
+        code, _, err = run(capsys, "plan", "--planner", "sp-rrt", "--time-limit", budget)
+        assert code == 2 and "time" in err and err.count("\n") == 1

@@ -208,28 +208,25 @@ def cmd_show(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def sample_path(scene, depth: float, step: float = 10.0) -> np.ndarray:
-    """A straight insertion of ``depth`` mm along the feed axis: the simplest tip path there is."""
-    n = max(2, int(math.ceil(depth / step)) + 1)
-    return scene.entrance.position + np.linspace(0.0, depth, n)[:, None] * scene.entrance.direction
-
-
 def cmd_demo(args: argparse.Namespace) -> int:
     from snakeplan.evaluation import evaluate
+    from snakeplan.planners import Problem
+    from snakeplan.planners.registry import default_planner
     from snakeplan.scenes import make_scene
 
     scene = make_scene(DEFAULT_SCENE, args.seed)
     robot = _load_robot(DEFAULT_ROBOT)
-    free = float(scene.obstacle_set.raycast(scene.entrance.position + scene.entrance.direction,
-                                            scene.entrance.direction))
-    depth = min(robot.total_length * 0.5, max(free - 2 * robot.radii.max(), 10.0))
-    path = sample_path(scene, depth)
-    report = evaluate(scene, robot, path)
-    sys.stdout.write(f"{robot.name} in {scene.name} (seed {scene.seed}), straight insertion of {depth:.0f} mm\n")
+    name = default_planner(scene.name)
+    plan = _load_planner(name).plan(Problem(scene, robot, time_limit_s=30.0), seed=0)
+    sys.stdout.write(f"{robot.name} in {scene.name} (seed {scene.seed}), planned by {name}: {plan.status} "
+                     f"in {plan.compute_time_s:.3f} s\n")
+    if plan.path is None:
+        return EXIT_INFEASIBLE
+    report = evaluate(scene, robot, plan.path)
     sys.stdout.write("\n".join(_report_lines(report)) + "\n")
-    _write_plot(args.out, scene, robot, path, report)
+    _write_plot(args.out, scene, robot, plan.path, report)
     sys.stdout.write(f"wrote {args.out}\n")
-    return EXIT_OK
+    return EXIT_OK if report.success else EXIT_INFEASIBLE
 
 
 def _load_planner(name: str):
@@ -378,9 +375,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="scene.png", help="output PNG (default scene.png)")
     p.set_defaults(func=cmd_show)
 
-    p = sub.add_parser("demo", help="the main job: the arm in a fuel tank, judged and drawn",
-                       description="Put sjtu-snake-iii into a fuel-tank scene along a sample path, print the "
-                                   "judge's metrics and write a picture.")
+    p = sub.add_parser("demo", help="the main job: plan the arm into a fuel tank, judge it, draw it",
+                       description="Plan sjtu-snake-iii into a fuel-tank scene with the default planner, print "
+                                   "the judge's metrics and write a picture.")
     p.add_argument("--seed", type=_seed, default=0, help="scene seed (default 0)")
     p.add_argument("--out", default="snakeplan-demo.png", help="output PNG (default snakeplan-demo.png)")
     p.set_defaults(func=cmd_demo)

@@ -102,6 +102,6 @@ def shapiro_p(values: Sequence[float]) -> float:
 def levene_p(groups: Sequence[Sequence[float]]) -> float:
     """Levene's test p-value for equal variances across groups (median-centred, Brown-Forsythe)."""
     data = [_clean(g) for g in groups]
-    if len(data) < 2 or any(len(g) < 2 for g in data) or all(np.ptp(g) == 0 for g in data):
+    if len(data) < 2 or any(len(g) < 2 for g in data) or any(np.ptp(g) == 0 for g in data):
         return math.nan
     return float(stats.levene(*data).pvalue)
