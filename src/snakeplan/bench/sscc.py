@@ -14,7 +14,6 @@ curves of the inner modules and the deviation distance along the crawl, for the 
 from __future__ import annotations
 
 import csv
-import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -110,8 +109,8 @@ def summarise(rows: list[dict], settings: Iterable[Setting], variants: Sequence[
                 "success_rate": float(np.mean([r["success"] is True for r in group])),
                 "median_time_s": float(np.median(times)), "mean_time_s": float(times.mean()),
                 "max_time_s": float(times.max()),
-                "mean_D_mm": float(ds.mean()) if ds.size else math.nan,
-                "max_D_mm": float(ds.max()) if ds.size else math.nan,
+                "mean_D_mm": float(ds.mean()) if ds.size else None,
+                "max_D_mm": float(ds.max()) if ds.size else None,
                 "mean_swing_steps": float(np.mean([float(r["swing_steps"] or 0) for r in group])),
             }
         out[s.key] = entry
@@ -128,8 +127,12 @@ def summary_markdown(summary: dict) -> str:
             lines.append(f"| {key} ({e['table']}) | {e['time_limit_s']:g} | {v} | {m['runs']} | "
                          f"{100 * m['success_rate']:.1f} % | {100 * e['paper_success_rate']:.1f} % | "
                          f"{m['median_time_s']:.3f} | {m['mean_time_s']:.3f} | {m['max_time_s']:.3f} | "
-                         f"{m['mean_D_mm']:.1f} | {m['max_D_mm']:.1f} | {m['mean_swing_steps']:.1f} |")
+                         f"{_mm(m['mean_D_mm'])} | {_mm(m['max_D_mm'])} | {m['mean_swing_steps']:.1f} |")
     return "\n".join(lines)
+
+
+def _mm(value: float | None) -> str:
+    return "-" if value is None else f"{value:.1f}"
 
 
 def _write_rows(path: Path, rows: list[dict]) -> None:

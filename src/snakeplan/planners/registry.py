@@ -36,7 +36,7 @@ def _load_builtin() -> None:
 
 
 #: The best shipped planner per scene (by the Table 2 benchmark; see README), used when none is named.
-DEFAULT_PLANNER_BY_SCENE = {"fuel-tank": "sp-rrt", "oil-tank": "sp-rrt"}
+DEFAULT_PLANNER_BY_SCENE = {"fuel-tank": "as-rrt", "oil-tank": "sp-rrt"}
 
 
 def default_planner(scene_name: str) -> str:
