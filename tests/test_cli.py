@@ -150,3 +150,14 @@ def test_plan_plot_and_bad_planner_or_budget(capsys, tmp_path):
     for budget in ("0", "-5", "inf"):
         code, _, err = run(capsys, "plan", "--planner", "sp-rrt", "--time-limit", budget)
         assert code == 2 and "time" in err and err.count("\n") == 1
+
+
+def test_plan_on_the_station_flies_an_inspection_mission(capsys):
+    code, out, _ = run(capsys, "plan", "--scene", "station", "--seed", "0", "--planner", "coverage", "--json")
+    data = json.loads(out)
+    assert code == 0 and data["schema"] == "snakeplan.inspection/1" and data["robot"] == "hsr-10"
+    # Fusing measurements can only shrink the map's uncertainty.
+    assert np.all(np.diff(data["trace_k2"]) <= 1e-6)
+    assert data["final_rmse_k"] == pytest.approx(data["rmse_k"][-1])
+    code, _, err = run(capsys, "plan", "--scene", "station", "--planner", "sp-rrt")
+    assert code == 2 and "--planner" in err

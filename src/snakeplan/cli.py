@@ -18,6 +18,9 @@ import numpy as np
 EXIT_OK, EXIT_INFEASIBLE, EXIT_USAGE = 0, 1, 2
 DEFAULT_ROBOT = "sjtu-snake-iii"
 DEFAULT_SCENE = "fuel-tank"
+#: The robot each scene was sized for, used when --robot is not given.
+ROBOT_BY_SCENE = {"pipe": "sscc-24", "concentric-pipe": "sscc-24", "station": "hsr-10"}
+INSPECTION_SCHEMA = "snakeplan.inspection/1"
 PLAN_SCHEMA = "snakeplan.plan/1"
 
 
@@ -54,6 +57,11 @@ def _load_scene(args: argparse.Namespace):
         return make_scene(args.scene, args.seed)
     except KeyError as exc:
         raise UsageError(f"--scene: {exc.args[0]}") from None
+
+
+def _robot_for(args: argparse.Namespace, scene):
+    """The robot named by --robot, else the one the scene was sized for."""
+    return _load_robot(args.robot or ROBOT_BY_SCENE.get(scene.name, DEFAULT_ROBOT))
 
 
 def _load_robot(name: str):
@@ -164,7 +172,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     from snakeplan.evaluation import evaluate
 
     scene = _load_scene(args)
-    robot = _load_robot(args.robot)
+    robot = _robot_for(args, scene)
     path = load_path_file(args.path_file)
     report = evaluate(scene, robot, path)
     if args.plot:
@@ -196,7 +204,7 @@ def _write_plot(filename: str, scene, robot, path, report) -> None:
 
 def cmd_show(args: argparse.Namespace) -> int:
     scene = _load_scene(args)
-    robot = _load_robot(args.robot)
+    robot = _robot_for(args, scene)
     path = load_path_file(args.path) if args.path else None
     report = None
     if path is not None:
@@ -244,7 +252,9 @@ def cmd_plan(args: argparse.Namespace) -> int:
     from snakeplan.planners.registry import default_planner
 
     scene = _load_scene(args)
-    robot = _load_robot(args.robot)
+    robot = _robot_for(args, scene)
+    if len(scene.targets) == 0 and "field" in scene.metadata:
+        return _plan_inspection(args, scene, robot)
     problem = Problem(scene, robot, time_limit_s=args.time_limit, knowledge=args.knowledge)
     name = args.planner or default_planner(scene.name)
     planner = _load_planner(name)
@@ -265,6 +275,26 @@ def cmd_plan(args: argparse.Namespace) -> int:
         if report is not None:
             sys.stdout.write("\n".join(_report_lines(report)) + "\n")
     return EXIT_OK if success else EXIT_INFEASIBLE
+
+
+def _plan_inspection(args: argparse.Namespace, scene, robot) -> int:
+    """Fly an inspection mission (a scene with a surface field and no targets, e.g. station)."""
+    from snakeplan.planners.inspection import InspectionProblem, get_inspection_planner
+
+    name = args.planner or "informative"
+    try:
+        planner = get_inspection_planner(name)
+    except KeyError as exc:
+        raise UsageError(f"--planner: {exc.args[0]}") from None
+    result = planner.plan(InspectionProblem(scene, robot), seed=args.planner_seed)
+    if args.json:
+        _print_json(_jsonable({"schema": INSPECTION_SCHEMA, "scene": {"name": scene.name, "seed": scene.seed},
+                               "robot": robot.name, **result.to_dict()}))
+    else:
+        sys.stdout.write(f"{name} on {scene.name} (seed {scene.seed}) with {robot.name}: final RMSE "
+                         f"{result.rmse[-1]:.3f} K, covariance trace {result.trace[-1]:.1f} K^2, "
+                         f"{len(result.times)} measurements, planning {result.compute_time_s:.2f} s\n")
+    return EXIT_OK
 
 
 def _jsonable(obj: Any) -> Any:
@@ -299,6 +329,17 @@ def _name_list(text: str, known: list[str], field: str) -> tuple[str, ...]:
     if not names or unknown:
         raise UsageError(f"{field}: unknown {', '.join(unknown) or 'empty list'} (known: {', '.join(known)})")
     return names
+
+
+def cmd_bench_station(args: argparse.Namespace) -> int:
+    from snakeplan.bench.station import run_station_bench
+
+    if args.seeds < 1:
+        raise UsageError(f"--seeds: expected a positive integer, got {args.seeds}")
+    result = run_station_bench(seeds=args.seeds, seed0=args.seed, out_dir=args.out, as_json=args.json)
+    if args.json:
+        _print_json(_jsonable(result))
+    return EXIT_OK
 
 
 def cmd_bench_table2(args: argparse.Namespace) -> int:
@@ -361,7 +402,7 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Judge a tip path ({\"path\": [[x, y, z], ...]}, any plan file will do) with "
                                    "snakeplan's judge. Exit 0 feasible, 1 infeasible, 2 bad input.")
     scene_args(p)
-    p.add_argument("--robot", default=DEFAULT_ROBOT, help=f"robot preset (default {DEFAULT_ROBOT})")
+    p.add_argument("--robot", help="robot preset (default: the one the scene is sized for, e.g. sjtu-snake-iii)")
     p.add_argument("--json", action="store_true", help="print the verdict as JSON")
     p.add_argument("--plot", help="also write a PNG picture of the judged path")
     p.add_argument("path_file", metavar="PATH.json", help="the tip path file ('-' reads standard input)")
@@ -370,7 +411,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("show", help="draw a scene (and a path) to a PNG",
                        description="Draw a scene, optionally with a tip path and the arm's body at its end.")
     scene_args(p)
-    p.add_argument("--robot", default=DEFAULT_ROBOT, help=f"robot preset (default {DEFAULT_ROBOT})")
+    p.add_argument("--robot", help="robot preset (default: the one the scene is sized for, e.g. sjtu-snake-iii)")
     p.add_argument("--path", help="a tip path JSON file to draw and judge")
     p.add_argument("--out", default="scene.png", help="output PNG (default scene.png)")
     p.set_defaults(func=cmd_show)
@@ -386,7 +427,7 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Plan a path for a robot in a scene; the judge's verdict comes with it. "
                                    "Exit 0 feasible, 1 no feasible plan, 2 bad input.")
     scene_args(p)
-    p.add_argument("--robot", default=DEFAULT_ROBOT, help=f"robot preset (default {DEFAULT_ROBOT})")
+    p.add_argument("--robot", help="robot preset (default: the one the scene is sized for, e.g. sjtu-snake-iii)")
     p.add_argument("--planner", help="planner name (default: the best shipped planner for the scene)")
     p.add_argument("--planner-seed", type=_seed, default=0, help="the planner's random seed (default 0)")
     p.add_argument("--time-limit", type=_finite, default=30.0, help="planning budget in seconds (default 30)")
@@ -396,7 +437,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--plot", help="also write a PNG picture of the plan")
     p.set_defaults(func=cmd_plan)
 
-    bench = sub.add_parser("bench", help="benchmarks: kernels, table2",
+    bench = sub.add_parser("bench", help="benchmarks: kernels, table2, station",
                            description="Benchmarks that reproduce the papers' figures and measure speed.")
     bsub = bench.add_subparsers(dest="bench", required=True, parser_class=_Parser, metavar="BENCH")
     p = bsub.add_parser("kernels", help="speed of the collision and follow-the-leader kernels",
@@ -421,6 +462,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fresh", action="store_true", help="discard earlier runs instead of resuming")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.set_defaults(func=cmd_bench_table2)
+
+    p = bsub.add_parser("station", help="paper 002: informative vs coverage vs random inspection of the station",
+                        description="Fly IP, CP and RP missions on station seeds; RMSE and covariance-trace curves "
+                                    "(Fig. 9) and maps (Figs. 6-8) as pictures in --out.")
+    p.add_argument("--seeds", type=int, default=5, help="station seeds to average over (default 5)")
+    p.add_argument("--seed", type=_seed, default=0, help="first seed (default 0)")
+    p.add_argument("--out", default="bench-station", help="output folder (default bench-station)")
+    p.add_argument("--json", action="store_true",
+                   help="print per method the final RMSE, final covariance trace and planning time as JSON")
+    p.set_defaults(func=cmd_bench_station)
     return parser
 
 
