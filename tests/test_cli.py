@@ -161,3 +161,20 @@ def test_plan_on_the_station_flies_an_inspection_mission(capsys):
     assert data["final_rmse_k"] == pytest.approx(data["rmse_k"][-1])
     code, _, err = run(capsys, "plan", "--scene", "station", "--planner", "sp-rrt")
     assert code == 2 and "--planner" in err
+
+
+def test_plan_in_a_pipe_uses_sscc_and_the_sized_robot(capsys):
+    code, out, _ = run(capsys, "plan", "--scene", "concentric-pipe", "--seed", "3", "--json")
+    data = json.loads(out)
+    assert code == 0 and data["planner"] == "sscc" and data["robot"] == "sscc-24" and data["success"]
+
+
+def test_bench_sscc_smoke_and_train_input_errors(capsys, tmp_path):
+    code, out, _ = run(capsys, "bench", "sscc", "--targets", "1", "--variants", "agent", "--out", str(tmp_path),
+                       "--json")
+    data = json.loads(out)
+    assert code == 0 and len(data["settings"]) == 3
+    code, _, err = run(capsys, "bench", "sscc", "--variants", "telepathy")
+    assert code == 2 and "--variants" in err
+    code, _, err = run(capsys, "train", "sscc", "--robot", "sjtu-snake-iii", "--out", str(tmp_path / "a.npz"))
+    assert code == 2 and "--robot" in err and not (tmp_path / "a.npz").exists()

@@ -342,6 +342,32 @@ def cmd_bench_station(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def cmd_bench_sscc(args: argparse.Namespace) -> int:
+    from snakeplan.bench.sscc import run_sscc_bench, summary_markdown
+
+    if args.targets is not None and args.targets < 1:
+        raise UsageError(f"--targets: expected a positive integer, got {args.targets}")
+    variants = _name_list(args.variants, ["agent", "agent-learning", "gradient", "random"], "--variants")
+    summary = run_sscc_bench(out_dir=args.out, variants=variants, targets=args.targets, progress=not args.json)
+    if args.json:
+        _print_json(_jsonable(summary))
+    else:
+        sys.stdout.write(summary_markdown(summary["settings"]) + f"\n\nwrote {args.out}\n")
+    return EXIT_OK
+
+
+def cmd_train(args: argparse.Namespace) -> int:
+    from snakeplan.planners.sscc import train_agent
+
+    if args.steps < 1:
+        raise UsageError(f"--steps: expected a positive integer, got {args.steps}")
+    if args.robot not in ("sscc-16", "sscc-24"):
+        raise UsageError(f"--robot: the sscc agent is trained for sscc-16 or sscc-24, got {args.robot!r}")
+    result = train_agent(args.robot, args.out, steps=args.steps, seed=args.seed)
+    sys.stdout.write(f"{result}\nwrote {args.out}\n")
+    return EXIT_OK
+
+
 def cmd_bench_table2(args: argparse.Namespace) -> int:
     from snakeplan.bench.table2 import SCENES, Table2Config, run_table2, summary_markdown
     from snakeplan.planners import planner_names
@@ -437,7 +463,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--plot", help="also write a PNG picture of the plan")
     p.set_defaults(func=cmd_plan)
 
-    bench = sub.add_parser("bench", help="benchmarks: kernels, table2, station",
+    bench = sub.add_parser("bench", help="benchmarks: kernels, table2, station, sscc",
                            description="Benchmarks that reproduce the papers' figures and measure speed.")
     bsub = bench.add_subparsers(dest="bench", required=True, parser_class=_Parser, metavar="BENCH")
     p = bsub.add_parser("kernels", help="speed of the collision and follow-the-leader kernels",
@@ -472,6 +498,27 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true",
                    help="print per method the final RMSE, final covariance trace and planning time as JSON")
     p.set_defaults(func=cmd_bench_station)
+
+    p = bsub.add_parser("sscc", help="paper 001's Tables 4 and 6: SSCC in the pipe and the concentric pipe",
+                        description="SSCC with the shipped DDPG agent and the non-learning searches on seeded "
+                                    "targets (30 in pipe for sscc-16 and sscc-24, 52 in concentric-pipe); success, "
+                                    "time per target, D, the paper's figures beside ours, pictures.")
+    p.add_argument("--out", default="bench-sscc", help="output folder (default bench-sscc)")
+    p.add_argument("--variants", default="agent,agent-learning,gradient,random",
+                   help="comma-separated searches to compare")
+    p.add_argument("--targets", type=int, help="targets per setting (default: the paper's 30 / 52)")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.set_defaults(func=cmd_bench_sscc)
+
+    p = sub.add_parser("train", help="train a learned agent (sscc)",
+                       description="Train the SSCC swinging-search DDPG agent; writes plain .npz weights.")
+    tsub = p.add_subparsers(dest="train", required=True, parser_class=_Parser, metavar="AGENT")
+    t = tsub.add_parser("sscc", help="the SSCC swinging-search agent (DDPG)")
+    t.add_argument("--robot", default="sscc-24", help="sscc-16 or sscc-24 (default sscc-24)")
+    t.add_argument("--out", required=True, help="output .npz weight file")
+    t.add_argument("--steps", type=int, default=12000, help="environment steps (default 12000)")
+    t.add_argument("--seed", type=_seed, default=0, help="training seed (default 0)")
+    t.set_defaults(func=cmd_train)
     return parser
 
 

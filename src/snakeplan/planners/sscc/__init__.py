@@ -1,0 +1,117 @@
+"""`sscc`: Swinging Search and Crawling Control (paper 001) for a snake arm entering a pipe.
+
+The Swinging Search (:mod:`.swinging`) finds a directive configuration, tip on the target and body clear, by
+self-motion of the inner modules from an inverse-kinematics start, steered by the DDPG agent (:mod:`.agent`) or a
+non-learning baseline; the Crawling Control (:mod:`.crawling`) checks the crawl along it and measures its maximum
+deviation distance D. The plan is the directive configuration's tip path, entrance first: the judge crawls the
+arm along it exactly as the Crawling Control does. One target per problem (paper 001 plans into a pipe once).
+
+Options: ``search`` = ``"agent"`` (the shipped DDPG agent of the problem's robot; robots without one fall back to
+``"gradient"``, said in the plan's details), ``"random"`` or ``"gradient"``; ``learning`` (the agent keeps learning
+from every task, as in the paper: each search's transitions train it right after the plan is returned, while the
+arm crawls, so the update is not in ``compute_time_s``; its cost is in the details as ``learning_time_s``);
+``agent_path`` (an ``.npz`` from :func:`.agent.train_agent` instead of the shipped agent).
+
+Learning is off by default so that a plan depends only on its problem and seed (DESIGN.md), not on the tasks a
+planner saw before; ``snakeplan bench sscc`` runs the paper's learning mode beside it.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from snakeplan.planners.base import Plan, Planner, Problem
+from snakeplan.planners.registry import register_planner
+from snakeplan.planners.sscc.agent import SwingAgent, shipped_agent_path, train_agent
+from snakeplan.planners.sscc.crawling import Crawl, Directive, arm_base, crawl, joint_angles
+from snakeplan.planners.sscc.swinging import (
+    GradientSwing,
+    RandomSwing,
+    SwingPolicy,
+    SwingSettings,
+    swinging_search,
+)
+
+SEARCHES = ("agent", "random", "gradient")
+#: Whether the agent keeps learning from every task by default (paper 001 does; see the module docstring).
+ONLINE_LEARNING = False
+
+__all__ = [
+    "Crawl",
+    "Directive",
+    "SSCCPlanner",
+    "SwingAgent",
+    "SwingSettings",
+    "crawl",
+    "joint_angles",
+    "swinging_search",
+    "train_agent",
+]
+
+
+@register_planner
+class SSCCPlanner(Planner):
+    """Swinging Search and Crawling Control (paper 001); see the module docstring for the options."""
+
+    name = "sscc"
+
+    def __init__(self, search: str = "agent", learning: bool = ONLINE_LEARNING, agent_path: str | None = None,
+                 settings: SwingSettings = SwingSettings()):
+        if search not in SEARCHES:
+            raise ValueError(f"search: must be one of {', '.join(SEARCHES)}, got {search!r}")
+        self.search, self.learning, self.agent_path, self.settings = search, bool(learning), agent_path, settings
+        self._agents: dict[str, SwingAgent] = {}
+        self._pending: tuple[SwingAgent, list] | None = None
+        if self.learning and search == "agent":
+            import stable_baselines3  # noqa: F401  (loaded here, before any timed planning)
+
+    def agent(self, robot: str) -> SwingAgent | None:
+        """The agent this planner swings ``robot`` with (loaded once, then kept: it learns), or None."""
+        if robot not in self._agents:
+            if self.agent_path is None and not shipped_agent_path(robot).exists():
+                return None
+            self._agents[robot] = SwingAgent.load(robot, self.agent_path, learning=self.learning)
+        return self._agents[robot]
+
+    def _policy(self, robot: str) -> tuple[str, SwingPolicy]:
+        agent = self.agent(robot) if self.search == "agent" else None
+        if agent is not None:
+            return "agent", agent
+        if self.search == "random":
+            return "random", RandomSwing()
+        return "gradient", GradientSwing()
+
+    def plan(self, problem: Problem, seed: int = 0) -> Plan:
+        """Plan (timed like every planner); then, when learning, train the agent on the search's transitions and
+        say how many updates that took (``learning_steps``) and how long (``learning_time_s``)."""
+        plan = super().plan(problem, seed)
+        if self._pending is not None:
+            learner, transitions = self._pending
+            self._pending = None
+            t0 = time.perf_counter()
+            plan.details["learning_steps"] = learner.learn(transitions)
+            plan.details["learning_time_s"] = time.perf_counter() - t0
+        return plan
+
+    def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float
+               ) -> tuple[str, np.ndarray | None, dict]:
+        if len(problem.goals) != 1:
+            return "failed", None, {"reason": f"sscc plans to one target, the scene has {len(problem.goals)}"}
+        used, policy = self._policy(problem.robot.name)
+        learner = policy if isinstance(policy, SwingAgent) and self.learning else None
+        out = swinging_search(problem, policy, rng, deadline, self.settings, record=learner is not None)
+        if learner is not None:
+            self._pending = (learner, out.transitions)
+        details: dict = {"search": used, "episodes": out.episodes, "swing_steps": out.steps}
+        if out.motion is None:
+            return ("timeout" if out.timed_out else "failed"), None, details
+        d = out.motion.directive
+        robot = problem.robot
+        q = robot.joint_angles_from_directions(
+            np.diff(d.joints, axis=0), base_rotation=arm_base(robot, d.entrance, d.direction)[:3, :3],
+            feed=float((d.joints[0] - d.entrance) @ d.direction) + robot.total_length)
+        details.update(n_inner=d.n_inner, critical_module=d.critical, overhang_mm=d.overhang_mm,
+                       max_deviation_D_mm=out.motion.D, directive_joints=d.joints, directive_q=q)
+        return "found", d.tip_path(), details
