@@ -22,12 +22,16 @@ KIND_BOX, KIND_SPHERE, KIND_CYLINDER, KIND_PLATE, KIND_PIPE, KIND_MESH = range(6
 _P = 13  # first type-specific parameter
 
 
-def _vec3(value: Any, name: str) -> np.ndarray:
-    arr = np.asarray(value, dtype=float)
+def vec3(value: Any, name: str) -> np.ndarray:
+    """``value`` as a finite 3-vector; ValueError naming ``name`` otherwise (for input validation)."""
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected [x, y, z] numbers, got {value!r}") from None
     if arr.shape != (3,):
-        raise ValueError(f"{name}: expected 3 numbers, got {value!r}")
+        raise ValueError(f"{name}: expected [x, y, z], got {value!r}")
     if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}: must be finite, got {value!r}")
+        raise ValueError(f"{name}: coordinates must be finite, got {value!r}")
     return arr
 
 
@@ -42,7 +46,7 @@ def _positive(value: Any, name: str) -> float:
 
 
 def _unit(value: Any, name: str) -> np.ndarray:
-    v = _vec3(value, name)
+    v = vec3(value, name)
     n = np.linalg.norm(v)
     if n < 1e-12:
         raise ValueError(f"{name}: must be a non-zero vector")
@@ -110,8 +114,8 @@ class Box(Obstacle):
     kind: ClassVar[int] = KIND_BOX
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "center", _vec3(self.center, "box.center"))
-        size = _vec3(self.size, "box.size")
+        object.__setattr__(self, "center", vec3(self.center, "box.center"))
+        size = vec3(self.size, "box.size")
         if np.any(size <= 0):
             raise ValueError(f"box.size: every edge must be > 0, got {size.tolist()}")
         object.__setattr__(self, "size", size)
@@ -148,7 +152,7 @@ class Sphere(Obstacle):
     kind: ClassVar[int] = KIND_SPHERE
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "center", _vec3(self.center, "sphere.center"))
+        object.__setattr__(self, "center", vec3(self.center, "sphere.center"))
         object.__setattr__(self, "radius", _positive(self.radius, "sphere.radius"))
 
     def _pack_params(self, row: np.ndarray) -> None:
@@ -173,7 +177,7 @@ class Cylinder(Obstacle):
     kind: ClassVar[int] = KIND_CYLINDER
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "center", _vec3(self.center, "cylinder.center"))
+        object.__setattr__(self, "center", vec3(self.center, "cylinder.center"))
         object.__setattr__(self, "axis", _unit(self.axis, "cylinder.axis"))
         object.__setattr__(self, "radius", _positive(self.radius, "cylinder.radius"))
         object.__setattr__(self, "length", _positive(self.length, "cylinder.length"))
@@ -210,7 +214,7 @@ class Pipe(Obstacle):
     kind: ClassVar[int] = KIND_PIPE
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "center", _vec3(self.center, "pipe.center"))
+        object.__setattr__(self, "center", vec3(self.center, "pipe.center"))
         object.__setattr__(self, "axis", _unit(self.axis, "pipe.axis"))
         object.__setattr__(self, "inner_radius", _positive(self.inner_radius, "pipe.inner_radius"))
         object.__setattr__(self, "outer_radius", _positive(self.outer_radius, "pipe.outer_radius"))
@@ -256,9 +260,9 @@ class Plate(Obstacle):
     kind: ClassVar[int] = KIND_PLATE
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "center", _vec3(self.center, "plate.center"))
+        object.__setattr__(self, "center", vec3(self.center, "plate.center"))
         n = _unit(self.normal, "plate.normal")
-        up = _vec3(self.up, "plate.up")
+        up = vec3(self.up, "plate.up")
         up = up - np.dot(up, n) * n
         if np.linalg.norm(up) < 1e-9:
             raise ValueError("plate.up: must not be parallel to plate.normal")

@@ -15,21 +15,9 @@ from typing import Any
 import numpy as np
 
 from snakeplan.geometry.distance import ObstacleSet
-from snakeplan.geometry.primitives import Obstacle, obstacle_from_dict
+from snakeplan.geometry.primitives import Obstacle, obstacle_from_dict, vec3
 
 SCHEMA = "snakeplan.scene/1"
-
-
-def _vec3(value: Any, name: str) -> np.ndarray:
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected [x, y, z] numbers, got {value!r}") from None
-    if arr.shape != (3,):
-        raise ValueError(f"{name}: expected [x, y, z], got {value!r}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}: coordinates must be finite, got {value!r}")
-    return arr
 
 
 @dataclass(frozen=True, eq=False)
@@ -40,8 +28,8 @@ class Entrance:
     direction: np.ndarray
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "position", _vec3(self.position, "entrance.position"))
-        d = _vec3(self.direction, "entrance.direction")
+        object.__setattr__(self, "position", vec3(self.position, "entrance.position"))
+        d = vec3(self.direction, "entrance.direction")
         n = np.linalg.norm(d)
         if n < 1e-12:
             raise ValueError("entrance.direction: must be a non-zero vector")
@@ -65,8 +53,8 @@ class Scene:
     metadata: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        self.bounds_min = _vec3(self.bounds_min, "bounds.min")
-        self.bounds_max = _vec3(self.bounds_max, "bounds.max")
+        self.bounds_min = vec3(self.bounds_min, "bounds.min")
+        self.bounds_max = vec3(self.bounds_max, "bounds.max")
         if np.any(self.bounds_max <= self.bounds_min):
             raise ValueError("bounds: max must exceed min on every axis")
         t = np.asarray(self.targets, dtype=float).reshape(-1, 3) if len(self.targets) else np.zeros((0, 3))
@@ -143,7 +131,7 @@ class Scene:
         targets = d.get("targets", [])
         if not isinstance(targets, list):
             raise ValueError("targets: expected a list of [x, y, z]")
-        parsed_targets = [_vec3(t, f"targets[{i}]") for i, t in enumerate(targets)]
+        parsed_targets = [vec3(t, f"targets[{i}]") for i, t in enumerate(targets)]
         obstacles = d.get("obstacles", [])
         if not isinstance(obstacles, list):
             raise ValueError("obstacles: expected a list")
