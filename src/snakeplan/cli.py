@@ -368,6 +368,16 @@ def cmd_train(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def cmd_train_rl(args: argparse.Namespace) -> int:
+    from snakeplan.rl.train import train
+
+    if args.steps < 1:
+        raise UsageError(f"--steps: expected a positive integer, got {args.steps}")
+    result = train(args.scene, args.algorithm, args.steps, args.seed, args.out)
+    sys.stdout.write(f"wrote {result.policy}\n")
+    return EXIT_OK
+
+
 def cmd_bench_table2(args: argparse.Namespace) -> int:
     from snakeplan.bench.table2 import SCENES, Table2Config, run_table2, summary_markdown
     from snakeplan.planners import planner_names
@@ -510,8 +520,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.set_defaults(func=cmd_bench_sscc)
 
-    p = sub.add_parser("train", help="train a learned agent (sscc)",
-                       description="Train the SSCC swinging-search DDPG agent; writes plain .npz weights.")
+    p = sub.add_parser("train", help="train a learned agent (sscc, rl)",
+                       description="Train a learned agent; writes plain .npz weights.")
     tsub = p.add_subparsers(dest="train", required=True, parser_class=_Parser, metavar="AGENT")
     t = tsub.add_parser("sscc", help="the SSCC swinging-search agent (DDPG)")
     t.add_argument("--robot", default="sscc-24", help="sscc-16 or sscc-24 (default sscc-24)")
@@ -519,6 +529,16 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--steps", type=int, default=12000, help="environment steps (default 12000)")
     t.add_argument("--seed", type=_seed, default=0, help="training seed (default 0)")
     t.set_defaults(func=cmd_train)
+    t = tsub.add_parser("rl", help="a learned tip planner (sac-her, sac-per, sac)",
+                        description="Train sac-her / sac-per / sac on fuel-tank or oil-tank with the default "
+                                    "configuration; resumes from a checkpoint in --out. Every option of the "
+                                    "trainer: 'python -m snakeplan.rl.train --help'.")
+    t.add_argument("scene", choices=("fuel-tank", "oil-tank"))
+    t.add_argument("algorithm", choices=("sac-her", "sac-per", "sac"))
+    t.add_argument("--steps", type=int, required=True, help="environment steps")
+    t.add_argument("--seed", type=_seed, default=0, help="training seed (default 0)")
+    t.add_argument("--out", required=True, help="output folder (policy.npz, curve.png, checkpoints)")
+    t.set_defaults(func=cmd_train_rl)
     return parser
 
 

@@ -32,7 +32,7 @@ def get_planner(name: str, **options) -> Planner:
 
 def _load_builtin() -> None:
     """Import the built-in planners (they register themselves on import)."""
-    from snakeplan.planners import as_rrt, rrt_star, sp_rrt, sscc  # noqa: F401
+    from snakeplan.planners import as_rrt, rrt_star, sac, sp_rrt, sscc  # noqa: F401
 
 
 #: The best shipped planner per scene (by the Table 2 benchmark; see README), used when none is named.

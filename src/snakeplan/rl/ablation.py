@@ -1,0 +1,93 @@
+"""Paper 000 Fig. 4: learning curves with and without the scenario's replay (HER in fuel-tank, PER in oil-tank)
+over several seeds, the speed-up to convergence, and the same comparison for the two observation designs.
+
+A run converges at the first validation whose success reaches ``CONVERGENCE_SUCCESS``; the speed-up is the
+baseline's median steps to convergence over the variant's (a run that never converges counts as the run's
+length, so the speed-up is then a lower bound, flagged in the result). Every run is an ordinary
+:func:`snakeplan.rl.train.train` run in its own folder, so an interrupted ablation resumes.
+Run as ``python -m snakeplan.rl.ablation SCENE --seeds 0 1 2 --steps N --out DIR [--compare observation]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from snakeplan.rl.train import DEFAULT_CONFIG, PAPER_ALGORITHM, TrainConfig, plot_curves, train
+
+#: Validation success that counts as converged.
+CONVERGENCE_SUCCESS = 0.9
+COMPARISONS = ("replay", "observation")
+
+
+def variants(scene: str, compare: str) -> dict[str, tuple[str, str]]:
+    """Label -> (algorithm, observation design); the first entry is the one the speed-up is reported for."""
+    algo = PAPER_ALGORITHM[scene]
+    if compare == "replay":
+        return {algo.upper(): (algo, "local"), "SAC": ("sac", "local")}
+    return {f"{algo.upper()} local": (algo, "local"), f"{algo.upper()} paper": (algo, "paper")}
+
+
+def steps_to_converge(history: list[dict], threshold: float = CONVERGENCE_SUCCESS) -> tuple[float, bool]:
+    """(environment steps at the first validation reaching ``threshold``, whether it did; else the last step)."""
+    for h in history:
+        if h["success"] >= threshold:
+            return float(h["env_steps"]), True
+    return (float(history[-1]["env_steps"]) if history else float("nan")), False
+
+
+def run_ablation(scene: str, seeds: list[int], steps: int, out_dir: str | Path, compare: str = "replay",
+                 config: TrainConfig = DEFAULT_CONFIG, threshold: float = CONVERGENCE_SUCCESS) -> dict:
+    """Train every variant with every seed, plot ``ablation-{compare}.png`` and return (and write as JSON) the
+    steps to convergence per run and the speed-up of the first variant over the second."""
+    if compare not in COMPARISONS:
+        raise ValueError(f"compare: must be one of {COMPARISONS}, got {compare!r}")
+    out = Path(out_dir)
+    curves: dict[str, list[list[dict]]] = {}
+    result: dict = {"scene": scene, "compare": compare, "steps": steps, "seeds": list(seeds), "threshold": threshold,
+                    "runs": {}}
+    for label, (algo, observation) in variants(scene, compare).items():
+        curves[label] = []
+        result["runs"][label] = []
+        for seed in seeds:
+            run_dir = out / f"{scene}-{algo}-{observation}-seed{seed}"
+            res = train(scene, algo, steps, seed, run_dir, replace(config, observation=observation), progress=False)
+            curves[label].append(res.history)
+            at, ok = steps_to_converge(res.history, threshold)
+            result["runs"][label].append({"seed": seed, "steps_to_converge": at, "converged": ok,
+                                          "final_success": res.history[-1]["success"] if res.history else None})
+    first, second = list(result["runs"])
+    med = {k: float(np.median([r["steps_to_converge"] for r in v])) for k, v in result["runs"].items()}
+    result["median_steps_to_converge"] = med
+    result["speedup"] = med[second] / med[first] if med[first] > 0 else None
+    result["speedup_is_lower_bound"] = not all(r["converged"] for r in result["runs"][second])
+    out.mkdir(parents=True, exist_ok=True)
+    plot_curves(curves, out / f"ablation-{scene}-{compare}.png")
+    (out / f"ablation-{scene}-{compare}.json").write_text(json.dumps(result, indent=1))
+    return result
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog="python -m snakeplan.rl.ablation", description=__doc__.splitlines()[0])
+    p.add_argument("scene", choices=sorted(PAPER_ALGORITHM))
+    p.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    p.add_argument("--steps", type=int, required=True)
+    p.add_argument("--out", required=True)
+    p.add_argument("--compare", choices=COMPARISONS, default="replay")
+    p.add_argument("--eval-every", type=int, default=DEFAULT_CONFIG.eval_every)
+    p.add_argument("--eval-episodes", type=int, default=DEFAULT_CONFIG.eval_episodes)
+    p.add_argument("--threshold", type=float, default=CONVERGENCE_SUCCESS, help="validation success = converged")
+    args = p.parse_args(argv)
+    config = replace(DEFAULT_CONFIG, eval_every=args.eval_every, eval_episodes=args.eval_episodes)
+    result = run_ablation(args.scene, args.seeds, args.steps, args.out, args.compare, config, args.threshold)
+    print(json.dumps({k: result[k] for k in ("median_steps_to_converge", "speedup", "speedup_is_lower_bound")}))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,155 @@
+"""Gymnasium environments for learning follow-the-leader paths: ``snakeplan/FuelTank-v0``, ``snakeplan/OilTank-v0``.
+
+A Gymnasium face on :class:`snakeplan.planners.sac.Crawler` (the same crawl the planners roll out): the tip
+moves one step per action and the body follows the leader. Each episode is a seeded scene (entrance, clutter and
+targets drawn by the scene generator, paper 000 §4.1); targets are visited in order. An episode terminates when
+every target is reached, on a collision of the body, a bend beyond a limit, the tip leaving the bounds, or an
+insertion beyond the arm; it is truncated after ``max_steps`` (H = 1000).
+
+Observations are goal-conditioned dicts (``observation``, ``achieved_goal`` = tip position, ``desired_goal`` =
+current target, both in mm / ``GOAL_SCALE_MM``) so SB3's HER can relabel them. ``observation="paper"``: tip
+position, action = direction of the next step (a careless one breaks a bend limit). ``observation="local"``
+(default): tip position, tip frame, ray ranges, previous action, inserted fraction; action = a bounded heading
+change. The reward is eqs. 4-8 (:mod:`snakeplan.rl.rewards`).
+
+Scene seeds: training draws from ``TRAIN_SCENES`` seeds from ``TRAIN_SEED``; periodic evaluation uses seeds
+from ``VALIDATION_SEED``; seeds below that (the test episodes are seeds 0-99) are never trained on.
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from snakeplan.planners.sac import (
+    CAPTURE_STEPS,
+    GOAL_SCALE_MM,
+    STEP_MM,
+    TURN_RADIUS_MM,
+    Crawler,
+    action_dim,
+    observation_dim,
+)
+from snakeplan.rl.rewards import collide_reward, compute_reward, global_reward, in_view, local_reward
+from snakeplan.robots import Chain, get_robot
+from snakeplan.scenes import Scene, make_scene
+
+#: Truncation horizon H (steps), paper 000 §4.1.
+MAX_STEPS = 1000
+TRAIN_SEED = 1_000_000
+VALIDATION_SEED = 500_000
+#: Distinct training scenes an environment draws from (each generated once, then kept).
+TRAIN_SCENES = 1000
+#: Largest number of scenes kept in an environment's cache.
+SCENE_CACHE = 4096
+#: Bound of the observation boxes (every component is scaled well inside it).
+OBS_BOUND = 10.0
+
+
+class SnakeEnv(gym.Env):
+    """A snake arm crawling from a scene's entrance through its targets (mm, rad).
+
+    ``scene``: a scene family name (episodes draw seeded scenes from ``seeds``, a half-open range) or one fixed
+    :class:`Scene`. ``reset(options={"scene_seed": s})`` or ``{"scene": Scene}`` picks an episode's scene.
+    """
+
+    metadata: ClassVar[dict] = {"render_modes": []}
+
+    def __init__(self, scene: str | Scene = "fuel-tank", observation: str = "local",
+                 robot: str | Chain = "sjtu-snake-iii", step_mm: float = STEP_MM,
+                 turn_radius_mm: float = TURN_RADIUS_MM, max_steps: int = MAX_STEPS,
+                 seeds: tuple[int, int] = (TRAIN_SEED, TRAIN_SEED + TRAIN_SCENES), capture_steps: int = CAPTURE_STEPS):
+        self.family = scene if isinstance(scene, str) else scene.name
+        self.fixed_scene = None if isinstance(scene, str) else scene
+        self.robot = get_robot(robot) if isinstance(robot, str) else robot
+        self.crawler = Crawler(self.robot, observation, step_mm, turn_radius_mm, capture_steps=capture_steps)
+        self.mode = observation
+        self.max_steps = int(max_steps)
+        self.seed_range = (int(seeds[0]), int(seeds[1]))
+        self._cache: dict[int, Scene] = {}
+        self.action_space = spaces.Box(-1.0, 1.0, (action_dim(observation),), np.float32)
+        goal_box = spaces.Box(-OBS_BOUND, OBS_BOUND, (3,), np.float32)
+        self.observation_space = spaces.Dict({
+            "observation": spaces.Box(-OBS_BOUND, OBS_BOUND, (observation_dim(observation),), np.float32),
+            "achieved_goal": goal_box,
+            "desired_goal": goal_box,
+        })
+        self.scene = self.fixed_scene or self.scene_for(self.seed_range[0])
+        self.crawler.reset(self.scene)
+        self.outcome = "running"
+
+    def scene_for(self, seed: int) -> Scene:
+        """The family's scene for ``seed`` (generated once, then cached)."""
+        if seed not in self._cache:
+            if len(self._cache) >= SCENE_CACHE:
+                self._cache.pop(next(iter(self._cache)))
+            self._cache[seed] = make_scene(self.family, int(seed))
+        return self._cache[seed]
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        options = options or {}
+        if "scene" in options:
+            self.scene = options["scene"]
+        elif "scene_seed" in options:
+            self.scene = self.scene_for(int(options["scene_seed"]))
+        elif self.fixed_scene is not None:
+            self.scene = self.fixed_scene
+        else:
+            self.scene = self.scene_for(int(self.np_random.integers(*self.seed_range)))
+        self.crawler.reset(self.scene)
+        self.outcome = "running"
+        return self.crawler.observation(), {"scene_seed": self.scene.seed}
+
+    def step(self, action):
+        c = self.crawler
+        a = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
+        old_heading, prev_action, goal = c.heading, c.prev_action, c.goal.copy()
+        failure, _ = c.advance(a)
+        tip, heading = c.tip, c.heading
+        visible = bool(in_view(tip, heading, goal)) and bool(self.scene.line_of_sight(tip, goal))
+        shaping = (local_reward(a, prev_action) + global_reward(old_heading, heading)
+                   + collide_reward(failure is not None and failure != "insertion"))
+        info = {"heading": heading.copy(), "goal": goal / GOAL_SCALE_MM, "visible": visible, "shaping": shaping}
+        reward = float(compute_reward(tip / GOAL_SCALE_MM, goal / GOAL_SCALE_MM, info))
+        terminated = failure is not None or c.done
+        truncated = not terminated and c.steps >= self.max_steps
+        self.outcome = failure or ("reached" if c.done else ("truncated" if truncated else "running"))
+        info.update({"is_success": c.done and failure is None, "targets_reached": c.target_index,
+                     "outcome": self.outcome})
+        return c.observation(), reward, terminated, truncated, info
+
+    def compute_reward(self, achieved_goal, desired_goal, info) -> np.ndarray:
+        """Eq. 4 for a batch (HER): see :func:`snakeplan.rl.rewards.compute_reward`."""
+        return compute_reward(achieved_goal, desired_goal, info)
+
+    def tip_path(self) -> np.ndarray:
+        """The tip path so far ``(m, 3)`` mm, starting at the entrance."""
+        return self.crawler.tip_path()
+
+
+class FuelTankEnv(SnakeEnv):
+    """``snakeplan/FuelTank-v0``: the multi-obstacle fuel tank (one target)."""
+
+    def __init__(self, **kwargs):
+        super().__init__(scene=kwargs.pop("scene", "fuel-tank"), **kwargs)
+
+
+class OilTankEnv(SnakeEnv):
+    """``snakeplan/OilTank-v0``: the multi-target oil tank (three targets in order)."""
+
+    def __init__(self, **kwargs):
+        super().__init__(scene=kwargs.pop("scene", "oil-tank"), **kwargs)
+
+
+ENV_IDS = {"fuel-tank": "snakeplan/FuelTank-v0", "oil-tank": "snakeplan/OilTank-v0"}
+
+
+def register_envs() -> None:
+    """Register both environments with Gymnasium (idempotent)."""
+    for cls, env_id in ((FuelTankEnv, ENV_IDS["fuel-tank"]), (OilTankEnv, ENV_IDS["oil-tank"])):
+        if env_id not in gym.registry:
+            gym.register(id=env_id, entry_point=f"{__name__}:{cls.__name__}")

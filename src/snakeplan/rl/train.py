@@ -1,0 +1,374 @@
+"""Training entry point for the learned planners: SAC-HER, SAC-PER and plain SAC (paper 000 Algorithms 1-3).
+
+``train(scene, algorithm, steps, seed, out_dir)`` trains with a progress bar, evaluates the deterministic policy
+every ``eval_every`` steps on fixed validation episodes (judged by :func:`snakeplan.evaluation.evaluate`),
+checkpoints the model, replay buffer and curve every ``checkpoint_every`` steps (an interrupted run resumes from
+the last checkpoint), and writes into ``out_dir``:
+
+- ``policy.npz``: the best validation policy as plain weights (:class:`snakeplan.planners.sac.NumpyPolicy`),
+  ``last.npz`` the final one; ``curve.json`` and ``curve.png``: the learning curve.
+- ``checkpoint.zip``, ``replay.pkl``, ``state.json``: the resumable state (SB3's own formats; for resuming only).
+
+Defaults (:data:`DEFAULT_CONFIG`) are the measured choice on a 2-core CPU; :data:`PAPER_CONFIG` holds §4.1's.
+Run as ``python -m snakeplan.rl.train SCENE ALGORITHM --steps N --seed S --out DIR``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import shlex
+import sys
+import time
+from collections import deque
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+import torch as th
+from stable_baselines3.common.buffers import DictReplayBuffer
+from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.vec_env import DummyVecEnv
+
+from snakeplan.evaluation import evaluate
+from snakeplan.planners.sac import CAPTURE_STEPS, NumpyPolicy, RoomGraph, rollout
+from snakeplan.rl.agents import EPSILON_DECAY, EPSILON_MIN, EPSILON_START, EpsilonGreedySAC
+from snakeplan.rl.envs import TRAIN_SCENES, TRAIN_SEED, VALIDATION_SEED, SnakeEnv
+from snakeplan.rl.extractor import GoalRouteExtractor
+from snakeplan.rl.her import FastHerReplayBuffer
+from snakeplan.rl.per import ALPHA, BETA_START, PerSAC, PrioritizedDictReplayBuffer
+from snakeplan.rl.policy import from_sb3
+from snakeplan.robots import get_robot
+from snakeplan.scenes import make_scene
+
+ALGORITHMS = ("sac-her", "sac-per", "sac")
+#: The paper's pairing (Algorithm 1).
+PAPER_ALGORITHM = {"fuel-tank": "sac-her", "oil-tank": "sac-per"}
+ROBOT = "sjtu-snake-iii"
+#: Episodes in the rolling training success rate shown on the progress bar and the curve.
+ROLLING_EPISODES = 100
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Hyper-parameters and bookkeeping of one training run (steps are environment steps summed over envs)."""
+
+    observation: str = "local"
+    net_arch: tuple[int, ...] = (128, 128)
+    learning_rate: float = 3e-4
+    tau: float = 5e-3
+    gamma: float = 0.99
+    batch_size: int = 128
+    buffer_size: int = 1_000_000
+    #: Gradient updates per ``train_freq`` environment steps (per env): the update-to-data ratio.
+    gradient_steps: int = 1
+    train_freq: int = 1
+    n_envs: int = 1
+    learning_starts: int = 1000
+    her_goals: int = 4
+    per_alpha: float = ALPHA
+    per_beta: float = BETA_START
+    epsilon_start: float = EPSILON_START
+    epsilon_min: float = EPSILON_MIN
+    epsilon_decay: float = EPSILON_DECAY
+    train_scenes: int = TRAIN_SCENES
+    #: Goal capture range of the crawl, in steps (see :data:`snakeplan.planners.sac.CAPTURE_STEPS`; 0 = off).
+    capture_steps: int = CAPTURE_STEPS
+    eval_every: int = 5000
+    eval_episodes: int = 20
+    checkpoint_every: int = 10000
+    torch_threads: int = 1
+
+
+#: The measured default (see the module doc and the closing note of the issue).
+DEFAULT_CONFIG = TrainConfig()
+#: Paper 000 §4.1: 512 x 512 networks, tau 1e-3, lr 2e-4, batch 128, buffer 1e6.
+PAPER_CONFIG = TrainConfig(net_arch=(512, 512), learning_rate=2e-4, tau=1e-3)
+
+
+@dataclass
+class TrainResult:
+    """Where a run left its files, and its evaluation history ``(env steps, wall s, validation success)``."""
+
+    out_dir: Path
+    policy: Path
+    history: list[dict] = field(default_factory=list)
+
+
+def judge_policy(policy: NumpyPolicy, scene_name: str, seeds, robot_name: str = ROBOT) -> dict:
+    """Roll ``policy`` out on the scenes ``seeds`` and judge each path: success rate, median plan time (s),
+    mean smoothness index of the successes, and the per-seed verdicts."""
+    robot = get_robot(robot_name)
+    runs = []
+    for seed in seeds:
+        scene = make_scene(scene_name, int(seed))
+        t0 = time.perf_counter()
+        path, outcome = rollout(policy, scene, robot)
+        dt = time.perf_counter() - t0
+        report = evaluate(scene, robot, path)
+        runs.append({"seed": int(seed), "success": report.success, "reason": report.reason, "outcome": outcome,
+                     "time_s": dt, "smoothness_index": report.smoothness_index,
+                     "path_length_mm": report.path_length_mm})
+    ok = [r for r in runs if r["success"]]
+    return {"success_rate": len(ok) / max(len(runs), 1),
+            "median_time_s": float(np.median([r["time_s"] for r in runs])) if runs else math.nan,
+            "smoothness_index": float(np.mean([r["smoothness_index"] for r in ok])) if ok else math.nan,
+            "runs": runs}
+
+
+def _make_env(scene: str, config: TrainConfig):
+    seeds = (TRAIN_SEED, TRAIN_SEED + config.train_scenes)
+    return lambda: SnakeEnv(scene, observation=config.observation, seeds=seeds, capture_steps=config.capture_steps)
+
+
+def _build(scene: str, algorithm: str, config: TrainConfig, seed: int, env, steps: int):
+    graph = RoomGraph.from_scene(make_scene(scene, TRAIN_SEED)) if config.observation == "local" else None
+    policy_kwargs = {"net_arch": list(config.net_arch), "features_extractor_class": GoalRouteExtractor,
+                     "features_extractor_kwargs": {"mode": config.observation,
+                                                   "graph": graph.arrays() if graph else None}}
+    common = {"policy": "MultiInputPolicy", "env": env, "learning_rate": config.learning_rate, "tau": config.tau,
+              "gamma": config.gamma, "batch_size": config.batch_size,
+              "buffer_size": min(config.buffer_size, steps), "gradient_steps": config.gradient_steps,
+              "train_freq": config.train_freq, "learning_starts": config.learning_starts,
+              "policy_kwargs": policy_kwargs, "seed": seed, "verbose": 0, "epsilon_start": config.epsilon_start,
+              "epsilon_min": config.epsilon_min, "epsilon_decay": config.epsilon_decay, "device": "cpu"}
+    if algorithm == "sac-her":
+        return EpsilonGreedySAC(replay_buffer_class=FastHerReplayBuffer,
+                                replay_buffer_kwargs={"n_sampled_goal": config.her_goals,
+                                                      "goal_selection_strategy": "future"}, **common), graph
+    if algorithm == "sac-per":
+        return PerSAC(replay_buffer_class=PrioritizedDictReplayBuffer,
+                      replay_buffer_kwargs={"alpha": config.per_alpha, "seed": seed},
+                      beta_start=config.per_beta, **common), graph
+    return EpsilonGreedySAC(replay_buffer_class=DictReplayBuffer, **common), graph
+
+
+class _Monitor(BaseCallback):
+    """Progress bar, rolling training success, periodic validation, best-policy export and checkpoints."""
+
+    def __init__(self, run: _Run):
+        super().__init__()
+        self.run = run
+
+    def _on_training_start(self) -> None:
+        self.run.start_bar()
+
+    def _on_step(self) -> bool:
+        run = self.run
+        for info, done in zip(self.locals["infos"], self.locals["dones"]):
+            if done:
+                run.episodes.append(bool(info.get("is_success", False)))
+        n = self.model.num_timesteps
+        if n - run.last_eval >= run.config.eval_every:
+            run.validate(n)
+        if n - run.last_checkpoint >= run.config.checkpoint_every:
+            run.checkpoint(n)
+        run.advance(n)
+        return True
+
+    def _on_training_end(self) -> None:
+        self.run.stop_bar()
+
+
+class _Run:
+    """One training run's files and bookkeeping."""
+
+    def __init__(self, scene: str, algorithm: str, steps: int, seed: int, out: Path, config: TrainConfig,
+                 progress: bool, command: str):
+        self.scene, self.algorithm, self.steps, self.seed, self.out = scene, algorithm, steps, seed, out
+        self.config, self.progress, self.command = config, progress, command
+        self.history: list[dict] = []
+        self.episodes: deque[bool] = deque(maxlen=ROLLING_EPISODES)
+        self.last_eval = self.last_checkpoint = 0
+        self.wall_before = 0.0
+        self.t0 = time.perf_counter()
+        self.best = -1.0
+        self.model = None
+        self.graph: RoomGraph | None = None
+        self._bar = None
+        self.seeds = range(VALIDATION_SEED, VALIDATION_SEED + config.eval_episodes)
+
+    @property
+    def wall(self) -> float:
+        return self.wall_before + time.perf_counter() - self.t0
+
+    def meta(self, n: int) -> dict:
+        crawler = self.model.env.envs[0].crawler
+        return {"name": f"{self.scene}-{self.algorithm}", "scene": self.scene, "algorithm": self.algorithm,
+                "observation": self.config.observation, "step_mm": crawler.step_mm,
+                "turn_radius_mm": crawler.step_mm / crawler.max_turn,
+                "capture_steps": round(crawler.capture_mm / crawler.step_mm), "env_steps": n, "seed": self.seed, "command": self.command,
+                "config": {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self.config).items()}}
+
+    def export(self, n: int) -> NumpyPolicy:
+        return from_sb3(self.model, self.meta(n), self.graph)
+
+    def validate(self, n: int) -> None:
+        policy = self.export(n)
+        result = judge_policy(policy, self.scene, self.seeds)
+        rolling = float(np.mean(self.episodes)) if self.episodes else 0.0
+        self.history.append({"env_steps": n, "updates": int(self.model._n_updates), "wall_s": self.wall,
+                             "success": result["success_rate"], "train_success": rolling,
+                             "median_time_s": result["median_time_s"], "smoothness": result["smoothness_index"]})
+        self.last_eval = n
+        if result["success_rate"] > self.best:
+            self.best = result["success_rate"]
+            policy.meta["validation_success"] = self.best
+            policy.save(self.out / "policy.npz")
+        self.write_curve()
+
+    def checkpoint(self, n: int) -> None:
+        self.model.save(self.out / "checkpoint.zip")
+        self.model.save_replay_buffer(self.out / "replay.pkl")
+        state = {"last_eval": self.last_eval, "last_checkpoint": n, "wall_s": self.wall, "best": self.best,
+                 "history": self.history, "episodes": list(self.episodes)}
+        (self.out / "state.json").write_text(json.dumps(state))
+        self.last_checkpoint = n
+
+    def restore(self) -> bool:
+        """Load the last checkpoint into a model; False when there is none."""
+        state_file = self.out / "state.json"
+        if not (state_file.is_file() and (self.out / "checkpoint.zip").is_file()):
+            return False
+        state = json.loads(state_file.read_text())
+        cls = {"sac-per": PerSAC}.get(self.algorithm, EpsilonGreedySAC)
+        env = DummyVecEnv([_make_env(self.scene, self.config)] * self.config.n_envs)
+        self.model = cls.load(self.out / "checkpoint.zip", env=env, device="cpu")
+        self.model.load_replay_buffer(self.out / "replay.pkl")
+        self.last_eval, self.last_checkpoint = state["last_eval"], state["last_checkpoint"]
+        self.wall_before, self.best, self.history = state["wall_s"], state["best"], state["history"]
+        self.episodes.extend(state["episodes"])
+        return True
+
+    def write_curve(self) -> None:
+        (self.out / "curve.json").write_text(json.dumps(self.history, indent=1))
+        plot_curves({f"{self.scene} {self.algorithm}": [self.history]}, self.out / "curve.png")
+
+    def start_bar(self) -> None:
+        if not self.progress:
+            return
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+        self._bar = Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+                             TimeRemainingColumn(), TextColumn("{task.fields[status]}"))
+        self._task = self._bar.add_task(f"{self.scene} {self.algorithm}", total=self.steps, status="")
+        self._bar.start()
+
+    def advance(self, n: int) -> None:
+        if self._bar is not None and n % 100 == 0:
+            last = self.history[-1]["success"] if self.history else float("nan")
+            rolling = float(np.mean(self.episodes)) if self.episodes else 0.0
+            self._bar.update(self._task, completed=n,
+                             status=f"train {rolling:.0%}  val {last:.0%}  {n / max(self.wall, 1e-9):.0f} steps/s")
+
+    def stop_bar(self) -> None:
+        if self._bar is not None:
+            self._bar.stop()
+            self._bar = None
+
+
+def train(scene: str, algorithm: str, steps: int, seed: int, out_dir: str | Path,
+          config: TrainConfig = DEFAULT_CONFIG, progress: bool = True, resume: bool = True) -> TrainResult:
+    """Train ``algorithm`` ("sac-her", "sac-per", "sac") on scene family ``scene`` for ``steps`` environment
+    steps with ``seed``; files go to ``out_dir`` (see the module doc). With ``resume``, a checkpoint there is
+    continued up to ``steps``."""
+    if algorithm not in ALGORITHMS:
+        raise ValueError(f"algorithm: must be one of {ALGORITHMS}, got {algorithm!r}")
+    if steps <= 0:
+        raise ValueError(f"steps: must be positive, got {steps}")
+    th.set_num_threads(config.torch_threads)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    command = _command(scene, algorithm, steps, seed, out, config)
+    run = _Run(scene, algorithm, steps, seed, out, config, progress, command)
+    resumed = resume and run.restore()
+    if not resumed:
+        env = DummyVecEnv([_make_env(scene, config)] * config.n_envs)
+        env.seed(seed)
+        run.model, run.graph = _build(scene, algorithm, config, seed, env, steps)
+    else:
+        run.graph = RoomGraph.from_scene(make_scene(scene, TRAIN_SEED)) if config.observation == "local" else None
+    remaining = steps - run.model.num_timesteps
+    if remaining > 0:
+        run.model.learn(remaining, callback=_Monitor(run), reset_num_timesteps=not resumed)
+    n = run.model.num_timesteps
+    if run.last_eval < n:
+        run.validate(n)
+    run.export(n).save(out / "last.npz")
+    run.checkpoint(n)
+    return TrainResult(out, out / "policy.npz", run.history)
+
+
+def _command(scene: str, algorithm: str, steps: int, seed: int, out: Path, config: TrainConfig) -> str:
+    """The command line that reproduces this run."""
+    args = ["python", "-m", "snakeplan.rl.train", scene, algorithm, "--steps", str(steps), "--seed", str(seed),
+            "--out", str(out)]
+    base = asdict(DEFAULT_CONFIG)
+    for key, value in asdict(config).items():
+        if value != base[key]:
+            flag = "--" + key.replace("_", "-")
+            args += [flag, *map(str, value)] if isinstance(value, tuple) else [flag, str(value)]
+    return shlex.join(args)
+
+
+def plot_curves(curves: dict[str, list[list[dict]]], path: str | Path, key: str = "success") -> None:
+    """Validation success against environment steps: one line per label (mean over its runs, band = min-max)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.0))
+    for label, runs in curves.items():
+        runs = [r for r in runs if r]
+        if not runs:
+            continue
+        grid = np.unique(np.concatenate([[h["env_steps"] for h in r] for r in runs]))
+        ys = np.array([np.interp(grid, [h["env_steps"] for h in r], [h[key] for h in r]) for r in runs])
+        ax.plot(grid, ys.mean(axis=0), label=label)
+        if len(runs) > 1:
+            ax.fill_between(grid, ys.min(axis=0), ys.max(axis=0), alpha=0.2)
+    ax.set_xlabel("environment steps")
+    ax.set_ylabel("validation success rate" if key == "success" else key)
+    ax.set_ylim(-0.02, 1.02)
+    ax.grid(alpha=0.3)
+    ax.legend(loc="lower right")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m snakeplan.rl.train", description=__doc__.splitlines()[0])
+    p.add_argument("scene", choices=("fuel-tank", "oil-tank"))
+    p.add_argument("algorithm", choices=ALGORITHMS)
+    p.add_argument("--steps", type=int, required=True)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--out", required=True)
+    p.add_argument("--paper", action="store_true", help="start from the paper's hyper-parameters (§4.1)")
+    p.add_argument("--fresh", action="store_true", help="ignore a checkpoint in --out")
+    p.add_argument("--no-progress", action="store_true")
+    for f in DEFAULT_CONFIG.__dataclass_fields__.values():
+        flag = "--" + f.name.replace("_", "-")
+        if isinstance(f.default, tuple):
+            p.add_argument(flag, type=int, nargs="+", default=None)
+        else:
+            p.add_argument(flag, type=type(f.default), default=None)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    config = PAPER_CONFIG if args.paper else DEFAULT_CONFIG
+    changes = {k: (tuple(v) if isinstance(v, list) else v) for k in DEFAULT_CONFIG.__dataclass_fields__
+               if (v := getattr(args, k)) is not None}
+    result = train(args.scene, args.algorithm, args.steps, args.seed, args.out, replace(config, **changes),
+                   progress=not args.no_progress, resume=not args.fresh)
+    last = result.history[-1] if result.history else {}
+    print(json.dumps({"policy": str(result.policy), "last": last}))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
