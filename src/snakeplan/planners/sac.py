@@ -7,13 +7,16 @@ This module holds everything a roll-out needs, so planning never imports the tra
   paper's (tip position; action = direction of the next step) or ours, ``local`` (tip position, tip frame, ray
   ranges, previous action, inserted fraction; action = a heading change bounded so the path never turns tighter
   than ``turn_radius_mm``, so every step keeps the bend limits). A goal within ``SNAP_FACTOR`` steps and inside the
-  turning bound ends the step on the goal.
+  turning bound ends the step on the goal; with goal capture (``capture_steps``) a goal a few steps ahead that an
+  arc within the turning bound reaches is steered to by pure pursuit.
 - :class:`RoomGraph` and :func:`policy_input`: the goal, the next hole on the fewest-holes route and the waypoint
   after it, in the tip frame; the coarse structure (rooms, holes) is what an operator knows of a tank (§4.1).
 - :class:`NumpyPolicy`: the actor from a plain ``.npz`` weights file (no pickle, no torch), ~20 us a call.
 
-The planners roll the policy out from the entrance until every target is reached, the crawl fails, or the budget
-ends, and hand the tip path to the judge. Policy files ship in ``snakeplan/rl/data`` as ``{scene}-{algorithm}.npz``.
+The planners roll the policy out from the entrance (a roll-out takes milliseconds) until every target is reached;
+a path that fails the planning-time crawl check (:class:`ArmModel`) is rolled out again with seeded action noise,
+up to ``PLAN_ATTEMPTS`` times within the budget; the path goes to the judge. Policy files ship in
+``snakeplan/rl/data`` as ``{scene}-{algorithm}.npz`` (with ``.curve.json``, the learning curve that made them).
 """
 
 from __future__ import annotations

@@ -32,7 +32,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import DummyVecEnv
 
 from snakeplan.evaluation import evaluate
-from snakeplan.planners.sac import CAPTURE_STEPS, NumpyPolicy, RoomGraph, rollout
+from snakeplan.planners.sac import CAPTURE_STEPS, TURN_RADIUS_MM, NumpyPolicy, RoomGraph, rollout
 from snakeplan.rl.agents import EPSILON_DECAY, EPSILON_MIN, EPSILON_START, EpsilonGreedySAC
 from snakeplan.rl.envs import TRAIN_SCENES, TRAIN_SEED, VALIDATION_SEED, SnakeEnv
 from snakeplan.rl.extractor import GoalRouteExtractor
@@ -73,6 +73,8 @@ class TrainConfig:
     epsilon_min: float = EPSILON_MIN
     epsilon_decay: float = EPSILON_DECAY
     train_scenes: int = TRAIN_SCENES
+    #: Smallest turning radius (mm) of the crawl's heading-change action.
+    turn_radius_mm: float = TURN_RADIUS_MM
     #: Goal capture range of the crawl, in steps (see :data:`snakeplan.planners.sac.CAPTURE_STEPS`; 0 = off).
     capture_steps: int = CAPTURE_STEPS
     eval_every: int = 5000
@@ -119,7 +121,8 @@ def judge_policy(policy: NumpyPolicy, scene_name: str, seeds, robot_name: str = 
 
 def _make_env(scene: str, config: TrainConfig):
     seeds = (TRAIN_SEED, TRAIN_SEED + config.train_scenes)
-    return lambda: SnakeEnv(scene, observation=config.observation, seeds=seeds, capture_steps=config.capture_steps)
+    return lambda: SnakeEnv(scene, observation=config.observation, seeds=seeds, turn_radius_mm=config.turn_radius_mm,
+                            capture_steps=config.capture_steps)
 
 
 def _build(scene: str, algorithm: str, config: TrainConfig, seed: int, env, steps: int):
