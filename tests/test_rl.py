@@ -49,6 +49,18 @@ def test_env_checkers_pass(scene, observation):
     sb3_check_env(env, warn=False)
 
 
+def test_lookahead_observation_sees_the_next_target():
+    from gymnasium.utils.env_checker import check_env
+
+    env = gym.make(ENV_IDS["oil-tank"], seeds=FEW_SEEDS, lookahead=True).unwrapped
+    check_env(env, skip_render_check=True)
+    obs, _ = env.reset(seed=0)
+    c = env.crawler
+    nxt = obs["observation"][-4:]
+    to = c.frame @ (env.scene.targets[1] - c.tip)
+    np.testing.assert_allclose(nxt[:3], to / np.linalg.norm(to), atol=1e-5)
+
+
 def test_reset_is_seeded_and_scene_options_work():
     env = _env()
     a, info_a = env.reset(seed=3)
@@ -234,7 +246,7 @@ def test_torch_extractor_matches_numpy_features():
     stacked = {k: np.stack([b[k] for b in batch]) for k in obs}
     ours = policy_input(stacked["observation"], stacked["achieved_goal"], stacked["desired_goal"], "local", graph)
     theirs = ext({k: th.as_tensor(v) for k, v in stacked.items()}).numpy()
-    assert ours.shape == (10, input_dim("local"))
+    assert ours.shape == (10, input_dim("local", stacked["observation"].shape[1]))
     np.testing.assert_allclose(ours, theirs, atol=1e-4)
 
 
@@ -326,3 +338,16 @@ def test_convergence_and_variants():
     assert steps_to_converge(history[:1]) == (1000.0, False)
     assert list(variants("fuel-tank", "replay").values()) == [("sac-her", "local"), ("sac", "local")]
     assert list(variants("oil-tank", "observation").values()) == [("sac-per", "local"), ("sac-per", "paper")]
+
+
+def test_per_buffer_for_box_observations_trains():
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from snakeplan.rl.per import PerSAC, PrioritizedReplayBuffer
+
+    venv = DummyVecEnv([lambda: gym.make("Pendulum-v1")])
+    model = PerSAC("MlpPolicy", venv, replay_buffer_class=PrioritizedReplayBuffer, replay_buffer_kwargs={"seed": 0},
+                   learning_starts=40, batch_size=16, seed=0, policy_kwargs={"net_arch": [16, 16]}, device="cpu")
+    model.learn(80)
+    batch = model.replay_buffer.sample(8)
+    assert batch.weights.shape == (8, 1) and float(batch.weights.max()) == pytest.approx(1.0)

@@ -54,7 +54,7 @@ RAY_EPS_MM = 0.5
 SNAP_FACTOR = 2.0
 #: Goal capture (local design): a goal within this many steps that an arc no tighter than the turning radius
 #: reaches is steered to by pure pursuit, overriding the action (0 disables it).
-CAPTURE_STEPS = 8
+CAPTURE_STEPS = 4
 #: Clearance (mm) the crawl keeps beyond the body radius: wider than the planners' margin, so that a policy
 #: trained to keep it clears obstacles between the crawl's checks and under the judge's finer crawl.
 BODY_MARGIN_MM = 8.0
@@ -166,9 +166,16 @@ def ray_directions() -> np.ndarray:
     return np.array(dirs)
 
 
-def observation_dim(mode: str) -> int:
-    """Length of the ``observation`` vector for a design."""
-    return 3 + 9 + len(ray_directions()) + 2 + 1 if mode == "local" else 3
+#: Values the look-ahead adds to a ``local`` observation: the target after the current one (unit direction in the
+#: tip frame and scaled length; zeros when there is none).
+LOOKAHEAD_DIM = 4
+
+
+def observation_dim(mode: str, lookahead: bool = False) -> int:
+    """Length of the ``observation`` vector for a design (with the next target's look-ahead, ``local`` only)."""
+    if mode != "local":
+        return 3
+    return 3 + 9 + len(ray_directions()) + 2 + 1 + (LOOKAHEAD_DIM if lookahead else 0)
 
 
 def action_dim(mode: str) -> int:
@@ -367,9 +374,9 @@ def policy_input(observation, achieved_goal, desired_goal, mode: str, graph: Roo
     return out.reshape(*lead, out.shape[1])
 
 
-def input_dim(mode: str) -> int:
-    """Length of :func:`policy_input`'s output."""
-    return observation_dim(mode) + (6 if mode == "paper" else 15)
+def input_dim(mode: str, obs_dim: int) -> int:
+    """Length of :func:`policy_input`'s output for observations of ``obs_dim`` values."""
+    return obs_dim + (6 if mode == "paper" else 15)
 
 
 # --- the crawl ----------------------------------------------------------------------------------------------
@@ -377,7 +384,8 @@ class Crawler:
     """The arm crawling follow-the-leader from a scene's entrance, one tip step per action (mm, rad)."""
 
     def __init__(self, robot: Chain, mode: str = "local", step_mm: float = STEP_MM,
-                 turn_radius_mm: float = TURN_RADIUS_MM, check_body: bool = True, capture_steps: int = CAPTURE_STEPS):
+                 turn_radius_mm: float = TURN_RADIUS_MM, check_body: bool = True, capture_steps: int = CAPTURE_STEPS,
+                 lookahead: bool = False):
         if mode not in OBSERVATIONS:
             raise ValueError(f"observation: must be one of {OBSERVATIONS}, got {mode!r}")
         self.robot = robot
@@ -386,6 +394,7 @@ class Crawler:
         self.max_turn = self.step_mm / float(turn_radius_mm)
         self.check_body = check_body
         self.capture_mm = capture_steps * self.step_mm if mode == "local" else 0.0
+        self.lookahead = lookahead and mode == "local"
         self.rays = ray_directions()
         self.radii = robot.radii + BODY_MARGIN_MM
         self.max_bends = robot.max_bends * BEND_SAFETY
@@ -425,13 +434,25 @@ class Crawler:
         """The goal-conditioned observation dict (float32)."""
         tip = self.tip
         if self.mode == "local":
-            vec = np.concatenate([tip / self.tank_scale, self.frame.ravel(), self.ranges() / RAY_RANGE_MM,
-                                  self.prev_action, [self.depth / self.robot.total_length]])
+            parts = [tip / self.tank_scale, self.frame.ravel(), self.ranges() / RAY_RANGE_MM, self.prev_action,
+                     [self.depth / self.robot.total_length]]
+            if self.lookahead:
+                parts.append(self._next_target())
+            vec = np.concatenate(parts)
         else:
             vec = tip / self.tank_scale
         return {"observation": vec.astype(np.float32),
                 "achieved_goal": (tip / GOAL_SCALE_MM).astype(np.float32),
                 "desired_goal": (self.goal / GOAL_SCALE_MM).astype(np.float32)}
+
+    def _next_target(self) -> np.ndarray:
+        """The target after the current one in the tip frame (unit direction, scaled length), or zeros."""
+        k = self.target_index + 1
+        if k >= len(self.scene.targets):
+            return np.zeros(LOOKAHEAD_DIM)
+        local = self.frame @ (self.scene.targets[k] - self.tip)
+        dist = float(np.linalg.norm(local))
+        return np.concatenate([local / max(dist, 1e-9), [min(dist / FEATURE_SCALE_MM, FEATURE_CLIP)]])
 
     def _new_heading(self, action: np.ndarray) -> np.ndarray:
         if self.mode == "paper":
@@ -566,9 +587,11 @@ class NumpyPolicy:
         return np.tanh(h @ self.mu[0].T + self.mu[1])
 
     def crawler(self, robot: Chain, check_body: bool = True) -> Crawler:
-        """A crawler with the settings this policy was trained with (no goal capture when the file predates it)."""
+        """A crawler with the settings this policy was trained with (no goal capture or look-ahead when the file
+        predates them)."""
         return Crawler(robot, self.mode, self.meta.get("step_mm", STEP_MM),
-                       self.meta.get("turn_radius_mm", TURN_RADIUS_MM), check_body, self.meta.get("capture_steps", 0))
+                       self.meta.get("turn_radius_mm", TURN_RADIUS_MM), check_body, self.meta.get("capture_steps", 0),
+                       self.meta.get("lookahead", False))
 
 
 def rollout(policy: NumpyPolicy, scene: Scene, robot: Chain, deadline: float = math.inf,

@@ -9,8 +9,8 @@ insertion beyond the arm; it is truncated after ``max_steps`` (H = 1000).
 Observations are goal-conditioned dicts (``observation``, ``achieved_goal`` = tip position, ``desired_goal`` =
 current target, both in mm / ``GOAL_SCALE_MM``) so SB3's HER can relabel them. ``observation="paper"``: tip
 position, action = direction of the next step (a careless one breaks a bend limit). ``observation="local"``
-(default): tip position, tip frame, ray ranges, previous action, inserted fraction; action = a bounded heading
-change. The reward is eqs. 4-8 (:mod:`snakeplan.rl.rewards`).
+(default): tip position, tip frame, ray ranges, previous action, inserted fraction (``lookahead``: and the target
+after the current one); action = a bounded heading change. The reward is eqs. 4-8 (:mod:`snakeplan.rl.rewards`).
 
 Scene seeds: training draws from ``TRAIN_SCENES`` seeds from ``TRAIN_SEED``; periodic evaluation uses seeds
 from ``VALIDATION_SEED``; seeds below that (the test episodes are seeds 0-99) are never trained on.
@@ -61,11 +61,13 @@ class SnakeEnv(gym.Env):
     def __init__(self, scene: str | Scene = "fuel-tank", observation: str = "local",
                  robot: str | Chain = "sjtu-snake-iii", step_mm: float = STEP_MM,
                  turn_radius_mm: float = TURN_RADIUS_MM, max_steps: int = MAX_STEPS,
-                 seeds: tuple[int, int] = (TRAIN_SEED, TRAIN_SEED + TRAIN_SCENES), capture_steps: int = CAPTURE_STEPS):
+                 seeds: tuple[int, int] = (TRAIN_SEED, TRAIN_SEED + TRAIN_SCENES), capture_steps: int = CAPTURE_STEPS,
+                 lookahead: bool = False):
         self.family = scene if isinstance(scene, str) else scene.name
         self.fixed_scene = None if isinstance(scene, str) else scene
         self.robot = get_robot(robot) if isinstance(robot, str) else robot
-        self.crawler = Crawler(self.robot, observation, step_mm, turn_radius_mm, capture_steps=capture_steps)
+        self.crawler = Crawler(self.robot, observation, step_mm, turn_radius_mm, capture_steps=capture_steps,
+                               lookahead=lookahead)
         self.mode = observation
         self.max_steps = int(max_steps)
         self.seed_range = (int(seeds[0]), int(seeds[1]))
@@ -73,7 +75,7 @@ class SnakeEnv(gym.Env):
         self.action_space = spaces.Box(-1.0, 1.0, (action_dim(observation),), np.float32)
         goal_box = spaces.Box(-OBS_BOUND, OBS_BOUND, (3,), np.float32)
         self.observation_space = spaces.Dict({
-            "observation": spaces.Box(-OBS_BOUND, OBS_BOUND, (observation_dim(observation),), np.float32),
+            "observation": spaces.Box(-OBS_BOUND, OBS_BOUND, (observation_dim(observation, lookahead),), np.float32),
             "achieved_goal": goal_box,
             "desired_goal": goal_box,
         })

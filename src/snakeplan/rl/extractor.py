@@ -23,7 +23,7 @@ class GoalRouteExtractor(BaseFeaturesExtractor):
     """Observation dict -> actor/critic input; ``graph`` is :meth:`RoomGraph.arrays` (or None)."""
 
     def __init__(self, observation_space: spaces.Dict, mode: str = "local", graph: dict | None = None):
-        super().__init__(observation_space, input_dim(mode))
+        super().__init__(observation_space, input_dim(mode, observation_space["observation"].shape[0]))
         self.mode = mode
         self.has_graph = graph is not None
         if graph is not None:

@@ -2,9 +2,10 @@
 ('future' goals) that keeps the goal-free reward inputs of every transition in arrays.
 
 SB3's buffer deep-copies each relabelled transition's info dict and calls the environment's ``compute_reward``
-through the vectorised env, about 20 ms a mini-batch here; this one stores ``heading``, ``goal``, ``visible``
-and ``shaping`` (:func:`snakeplan.rl.rewards.compute_reward`'s inputs) at ``add`` and recomputes the relabelled
-rewards (eq. 14) from them in one vectorised call.
+through the vectorised env; this one stores ``heading``, ``goal``, ``visible`` and ``shaping``
+(:func:`snakeplan.rl.rewards.compute_reward`'s inputs) at ``add`` and recomputes the relabelled rewards (eq. 14)
+in one vectorised call: a mini-batch of 128 takes 0.34 ms instead of 1.2 ms (measured on the 2-core CPU, about
+a tenth of a SAC update with 128 x 128 networks).
 """
 
 from __future__ import annotations
