@@ -103,18 +103,6 @@ class _Prioritized:
         self.max_priority = max(self.max_priority, float(p.max()))
         self.tree.update(indices, p ** self.alpha)
 
-    def _draw(self, batch_size: int) -> tuple[np.ndarray, np.ndarray]:
-        """Flat indices by eq. 15 and their normalised importance weights by eq. 16."""
-        idx = self.tree.sample(batch_size, self.rng)
-        count = self.size() * self.n_envs
-        prob = self.tree[idx] / self.tree.total
-        w = (count * prob) ** (-self.beta)
-        return idx, w / w.max()
-
-
-class PrioritizedReplayBuffer(_Prioritized, ReplayBuffer):
-    """SB3 ``ReplayBuffer`` (Box observations) with prioritised sampling; see the module doc."""
-
     def __init__(self, buffer_size: int, observation_space: spaces.Space, action_space: spaces.Space,
                  device: th.device | str = "auto", n_envs: int = 1, optimize_memory_usage: bool = False,
                  handle_timeout_termination: bool = True, alpha: float = ALPHA, beta: float = BETA_START,
@@ -127,6 +115,18 @@ class PrioritizedReplayBuffer(_Prioritized, ReplayBuffer):
         pos = self.pos
         super().add(obs, next_obs, action, reward, done, infos)
         self._mark_new(pos)
+
+    def _draw(self, batch_size: int) -> tuple[np.ndarray, np.ndarray]:
+        """Flat indices by eq. 15 and their normalised importance weights by eq. 16."""
+        idx = self.tree.sample(batch_size, self.rng)
+        count = self.size() * self.n_envs
+        prob = self.tree[idx] / self.tree.total
+        w = (count * prob) ** (-self.beta)
+        return idx, w / w.max()
+
+
+class PrioritizedReplayBuffer(_Prioritized, ReplayBuffer):
+    """SB3 ``ReplayBuffer`` (Box observations) with prioritised sampling; see the module doc."""
 
     def sample(self, batch_size: int, env: VecNormalize | None = None) -> PrioritizedSamples:
         idx, w = self._draw(batch_size)
@@ -142,19 +142,6 @@ class PrioritizedReplayBuffer(_Prioritized, ReplayBuffer):
 
 class PrioritizedDictReplayBuffer(_Prioritized, DictReplayBuffer):
     """SB3 ``DictReplayBuffer`` (goal-conditioned dict observations) with prioritised sampling."""
-
-    def __init__(self, buffer_size: int, observation_space: spaces.Dict, action_space: spaces.Space,
-                 device: th.device | str = "auto", n_envs: int = 1, optimize_memory_usage: bool = False,
-                 handle_timeout_termination: bool = True, alpha: float = ALPHA, beta: float = BETA_START,
-                 eps: float = PRIORITY_EPS, seed: int | None = None):
-        super().__init__(buffer_size, observation_space, action_space, device, n_envs, False,
-                         handle_timeout_termination)
-        self._init_priorities(alpha, beta, eps, seed)
-
-    def add(self, obs, next_obs, action, reward, done, infos) -> None:
-        pos = self.pos
-        super().add(obs, next_obs, action, reward, done, infos)
-        self._mark_new(pos)
 
     def sample(self, batch_size: int, env: VecNormalize | None = None) -> PrioritizedSamples:
         idx, w = self._draw(batch_size)
