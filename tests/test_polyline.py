@@ -15,6 +15,7 @@ from snakeplan.geometry.polyline import (
     point_at,
     resample,
     resample_with_arclength,
+    smooth,
     validate_path,
 )
 
@@ -157,3 +158,40 @@ def test_fillet_shrinks_the_radius_to_fit_short_segments():
     # Both tangent lengths are capped by the 100 mm segments: a quarter circle of radius 100.
     centre = np.array([0.0, 100.0, 0.0])
     assert np.allclose(np.linalg.norm(f[:, :2] - centre[:2], axis=1), 100.0, atol=1e-9)
+
+
+def test_smooth_keeps_a_straight_path_straight():
+    line = np.array([[0.0, 0.0, 0.0], [300.0, 400.0, 0.0], [600.0, 800.0, 0.0]])
+    out = smooth(line, 100.0)
+    assert np.allclose(out[0], line[0]) and np.allclose(out[-1], line[-1])
+    assert max(_distance_to_polyline(q, line) for q in out) < 1e-9
+
+
+def test_smooth_spreads_a_corner_and_lowers_its_peak_curvature():
+    from snakeplan.evaluation.metrics import curvature_profile
+
+    corner = np.array([[0.0, 0.0, 0.0], [1000.0, 0.0, 0.0], [1000.0, 1000.0, 0.0]])
+    out = smooth(corner, 100.0)
+    _, k_raw = curvature_profile(corner, 50.0)
+    _, k_out = curvature_profile(out, 50.0)
+    # The raw corner turns pi/2 within one 50 mm step; smoothing spreads it over about 2 sigma = 200 mm.
+    assert k_raw.max() == pytest.approx((np.pi / 2) / 50.0, rel=1e-9)
+    assert k_out.max() < 0.4 * k_raw.max()
+    assert np.sum(k_out) * 50.0 == pytest.approx(np.pi / 2, rel=0.05)  # the total turn is kept
+    # The corner is cut, by less than the smoothing scale.
+    assert 0.0 < np.min(np.linalg.norm(out - [1000.0, 0.0, 0.0], axis=1)) < 100.0
+
+
+@settings(max_examples=40, deadline=None)
+@given(path=polylines, sigma=st.floats(5.0, 300.0), picks=st.lists(st.floats(0.0, 1.0), max_size=3))
+def test_smooth_keeps_ends_and_pins_in_order(path, sigma, picks):
+    if path_length(path) < 1.0:
+        return
+    pins = point_at(path, np.sort(picks) * path_length(path)).reshape(-1, 3)
+    out = smooth(path, sigma, pins=pins)
+    assert np.allclose(out[0], path[0]) and np.allclose(out[-1], path[-1])
+    at = 0
+    for pin in pins:  # every pin is a point of the result, after the previous one
+        hits = np.flatnonzero(np.all(out[at:] == pin, axis=1))
+        assert hits.size
+        at += int(hits[0])

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike
+from scipy.ndimage import gaussian_filter1d
 
 #: Two consecutive points closer than this (mm) count as one point in :func:`drop_duplicates`.
 DUPLICATE_TOL = 1e-9
@@ -197,3 +198,43 @@ def fillet(waypoints: ArrayLike, radius: float, step: float = 5.0) -> np.ndarray
         out.extend(arc)
     out.append(p[-1])
     return drop_duplicates(np.array(out))
+
+
+def smooth(path: ArrayLike, sigma: float, pins: ArrayLike = (), step: float = 5.0) -> np.ndarray:
+    """Gaussian-smooth a path along its arc length, keeping its ends and ``pins`` fixed (mm).
+
+    The path is resampled every ``step`` mm; each pin (visited in order, like a tip path's targets) replaces the
+    resampled point nearest to it after the previous pin (or is inserted next to it when that point is already
+    fixed: the previous pin or an end). Between consecutive fixed points the coordinates
+    are filtered with a Gaussian of std ``sigma`` mm of arc length, and the filtered stretch is shifted by the
+    linear blend of its end errors so both fixed points are kept exactly. Smoothing spreads each turn over about
+    ``2 sigma`` mm, lowering the peak curvature; a straight path stays straight, and the result may cut corners,
+    so a caller checks it against the obstacles.
+    """
+    sig = _check_step(sigma, "sigma")
+    pts = resample(path, step)
+    fixed = [0]
+    for pin in np.asarray(pins, dtype=float).reshape(-1, 3):
+        prev, last = fixed[-1], len(pts) - 1
+        k = prev + int(np.argmin(np.linalg.norm(pts[prev:] - pin, axis=1)))
+        if k in (prev, last) and np.array_equal(pts[k], pin):
+            if k > prev:
+                fixed.append(k)
+        elif prev < k < last:
+            pts[k] = pin
+            fixed.append(k)
+        else:
+            k = max(k, prev + 1)
+            pts = np.insert(pts, k, pin, axis=0)
+            fixed.append(k)
+    fixed.append(len(pts) - 1)
+    out = pts.copy()
+    for a, b in zip(fixed[:-1], fixed[1:]):
+        if b - a < 2:
+            continue
+        seg = pts[a:b + 1]
+        g = gaussian_filter1d(seg, sig / step, axis=0, mode="nearest")
+        t = np.linspace(0.0, 1.0, len(seg))[:, None]
+        out[a:b + 1] = g - (1.0 - t) * (g[0] - seg[0]) - t * (g[-1] - seg[-1])
+    out[fixed] = pts[fixed]
+    return out

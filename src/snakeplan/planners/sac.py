@@ -14,8 +14,9 @@ This module holds everything a roll-out needs, so planning never imports the tra
 - :class:`NumpyPolicy`: the actor from a plain ``.npz`` weights file (no pickle, no torch), ~20 us a call.
 
 The planners roll the policy out from the entrance (a roll-out takes milliseconds) until every target is reached;
-a path that fails the planning-time crawl check (:class:`ArmModel`) is rolled out again with seeded action noise,
-up to ``PLAN_ATTEMPTS`` times within the budget; the path goes to the judge. Policy files ship in
+the widest Gaussian smoothing of the roll-out (``SMOOTHING_SIGMAS_MM``) that passes the planning-time crawl check
+(:class:`ArmModel`) is planned, else the roll-out itself; a roll-out that fails the check is rolled out again with
+seeded action noise, up to ``PLAN_ATTEMPTS`` times within the budget; the path goes to the judge. Policy files ship in
 ``snakeplan/rl/data`` as ``{scene}-{algorithm}.npz`` (with ``.curve.json``, the learning curve that made them).
 """
 
@@ -33,6 +34,7 @@ import numpy as np
 from numba import njit
 
 from snakeplan import ftl
+from snakeplan.geometry import polyline
 from snakeplan.geometry.distance import _sdf_row
 from snakeplan.planners.base import Planner, Problem
 from snakeplan.planners.common import ArmModel
@@ -639,12 +641,18 @@ def load_policy(path: str | Path) -> NumpyPolicy:
 PLAN_ATTEMPTS = 16
 RETRY_NOISE = (0.2, 0.8)
 RETRY_LEVELS = 4
+#: Gaussian smoothing scales (mm of arc length) tried on a roll-out that reaches every target, widest first; the
+#: first smoothed path that passes the crawl check is planned, else the roll-out itself. The policy steers in
+#: ``STEP_MM`` steps with turns of up to ``TURN_RADIUS_MM``; spreading each turn over a few sections lowers the
+#: peak curvature towards the mean (the smoothness index of eq. 20) and often clears a tight crawl.
+SMOOTHING_SIGMAS_MM = (480.0, 320.0, 240.0, 160.0, 120.0, 80.0)
 
 
 @register_planner
 class SacPlanner(Planner):
     """`sac`: a plain-SAC policy rolled out deterministically; ``policy=`` a file, else the shipped one for the
-    scene. A roll-out whose crawl fails the planning-time check (:class:`ArmModel`) is retried with action noise
+    scene. A roll-out that reaches every target is smoothed (``smoothing``, widest first; the roll-out itself when
+    no smoothing passes); one whose crawl fails the planning-time check (:class:`ArmModel`) is retried with action noise
     (seeded), up to ``attempts`` roll-outs within the budget. It senses only what its rays and camera see, so it
     also plans with ``knowledge="sensed"``."""
 
@@ -652,9 +660,11 @@ class SacPlanner(Planner):
     needs_full_scene = False
 
     def __init__(self, policy: str | Path | None = None, attempts: int = PLAN_ATTEMPTS,
-                 retry_noise: tuple[float, float] = RETRY_NOISE):
+                 retry_noise: tuple[float, float] = RETRY_NOISE,
+                 smoothing: tuple[float, ...] = SMOOTHING_SIGMAS_MM):
         self.policy_file = policy
         self.attempts = int(attempts)
+        self.smoothing = tuple(float(s) for s in smoothing)
         self.noise_levels = np.linspace(retry_noise[0], retry_noise[1], RETRY_LEVELS)
 
     def _policy(self, scene: Scene) -> NumpyPolicy:
@@ -662,6 +672,14 @@ class SacPlanner(Planner):
         if not path.is_file():
             raise ValueError(f"policy: no policy file {path} for planner {self.name} in scene {scene.name}")
         return load_policy(path)
+
+    def _smoothed(self, path: np.ndarray, goals: np.ndarray, model: ArmModel) -> tuple[np.ndarray, float] | None:
+        """The widest smoothing of ``path`` (targets kept) that passes the crawl check, with its scale (mm)."""
+        for sigma in self.smoothing:
+            candidate = polyline.smooth(path, sigma, pins=goals)
+            if model.first_failure(candidate) is None:
+                return candidate, sigma
+        return None
 
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float
                ) -> tuple[str, np.ndarray | None, dict]:
@@ -676,6 +694,10 @@ class SacPlanner(Planner):
             if outcome == "timeout":
                 break
             if outcome == "reached":
+                smoothed = self._smoothed(path, problem.goals, model)
+                if smoothed is not None:
+                    details["smoothing_sigma_mm"] = smoothed[1]
+                    return "found", smoothed[0], details
                 failure = model.first_failure(path)
                 if failure is None:
                     return "found", path, details
