@@ -178,3 +178,22 @@ def test_bench_sscc_smoke_and_train_input_errors(capsys, tmp_path):
     assert code == 2 and "--variants" in err
     code, _, err = run(capsys, "train", "sscc", "--robot", "sjtu-snake-iii", "--out", str(tmp_path / "a.npz"))
     assert code == 2 and "--robot" in err and not (tmp_path / "a.npz").exists()
+
+
+def test_train_rl_forwards_trainer_options(capsys, tmp_path):
+    from snakeplan.planners.sac import NumpyPolicy
+
+    out = tmp_path / "run"
+    code, _, err = run(capsys, "train", "rl", "oil-tank", "sac-per", "--steps", "120", "--out", str(out),
+                       "--turn-radius-mm", "abc")
+    assert code == 2 and "--turn-radius-mm" in err and not out.exists()
+    code, _, err = run(capsys, "plan", "--scene", "oil-tank", "--turn-radius-mm", "215")
+    assert code == 2 and "unrecognized arguments" in err
+    code, stdout, _ = run(capsys, "train", "rl", "oil-tank", "sac-per", "--steps", "120", "--out", str(out),
+                          "--net-arch", "16", "16", "--learning-starts", "60", "--eval-every", "100",
+                          "--eval-episodes", "2", "--checkpoint-every", "100", "--train-scenes", "2",
+                          "--batch-size", "16", "--turn-radius-mm", "215")
+    assert code == 0 and "policy.npz" in stdout
+    meta = NumpyPolicy.load(out / "last.npz").meta
+    assert meta["config"]["net_arch"] == [16, 16] and meta["turn_radius_mm"] == pytest.approx(215.0)
+    assert "--turn-radius-mm 215" in meta["command"] and "--net-arch 16 16" in meta["command"]

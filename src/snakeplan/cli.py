@@ -369,11 +369,12 @@ def cmd_train(args: argparse.Namespace) -> int:
 
 
 def cmd_train_rl(args: argparse.Namespace) -> int:
-    from snakeplan.rl.train import train
+    from snakeplan.rl.train import parse_config, train
 
     if args.steps < 1:
         raise UsageError(f"--steps: expected a positive integer, got {args.steps}")
-    result = train(args.scene, args.algorithm, args.steps, args.seed, args.out)
+    config = parse_config(args.extra)
+    result = train(args.scene, args.algorithm, args.steps, args.seed, args.out, config, resume=not args.fresh)
     sys.stdout.write(f"wrote {result.policy}\n")
     return EXIT_OK
 
@@ -530,15 +531,17 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--seed", type=_seed, default=0, help="training seed (default 0)")
     t.set_defaults(func=cmd_train)
     t = tsub.add_parser("rl", help="a learned tip planner (sac-her, sac-per, sac)",
-                        description="Train sac-her / sac-per / sac on fuel-tank or oil-tank with the default "
-                                    "configuration; resumes from a checkpoint in --out. Every option of the "
-                                    "trainer: 'python -m snakeplan.rl.train --help'.")
+                        description="Train sac-her / sac-per / sac on fuel-tank or oil-tank; resumes from a "
+                                    "checkpoint in --out. Any further option sets the training configuration "
+                                    "(--paper, --turn-radius-mm 215, --capture-steps 4, --eval-episodes 50, ...; "
+                                    "the list: 'python -m snakeplan.rl.train --help').")
     t.add_argument("scene", choices=("fuel-tank", "oil-tank"))
     t.add_argument("algorithm", choices=("sac-her", "sac-per", "sac"))
     t.add_argument("--steps", type=int, required=True, help="environment steps")
     t.add_argument("--seed", type=_seed, default=0, help="training seed (default 0)")
     t.add_argument("--out", required=True, help="output folder (policy.npz, curve.png, checkpoints)")
-    t.set_defaults(func=cmd_train_rl)
+    t.add_argument("--fresh", action="store_true", help="ignore a checkpoint in --out")
+    t.set_defaults(func=cmd_train_rl, takes_options=True)
     return parser
 
 
@@ -555,7 +558,10 @@ def cmd_scene_entry(args: argparse.Namespace) -> int:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the console script; returns the exit status."""
     try:
-        args = build_parser().parse_args(argv)
+        args, extra = build_parser().parse_known_args(argv)
+        if extra and not getattr(args, "takes_options", False):
+            raise UsageError(f"unrecognized arguments: {' '.join(extra)}")
+        args.extra = extra
         return int(args.func(args))
     except UsageError as exc:
         return _fail(str(exc))

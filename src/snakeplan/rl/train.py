@@ -358,16 +358,14 @@ def _boolean(text: str) -> bool:
     raise argparse.ArgumentTypeError(f"expected true or false, got {text!r}")
 
 
-def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m snakeplan.rl.train", description=__doc__.splitlines()[0])
-    p.add_argument("scene", choices=("fuel-tank", "oil-tank"))
-    p.add_argument("algorithm", choices=ALGORITHMS)
-    p.add_argument("--steps", type=int, required=True)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--out", required=True)
+class _OptionParser(argparse.ArgumentParser):
+    def error(self, message: str):  # a ValueError the command line reports as one line
+        raise ValueError(f"trainer option: {message}")
+
+
+def _add_config_arguments(p: argparse.ArgumentParser) -> None:
+    """``--paper`` and one ``--field-name`` flag per :class:`TrainConfig` field."""
     p.add_argument("--paper", action="store_true", help="start from the paper's hyper-parameters (§4.1)")
-    p.add_argument("--fresh", action="store_true", help="ignore a checkpoint in --out")
-    p.add_argument("--no-progress", action="store_true")
     for f in DEFAULT_CONFIG.__dataclass_fields__.values():
         flag = "--" + f.name.replace("_", "-")
         if isinstance(f.default, tuple):
@@ -376,15 +374,39 @@ def _parser() -> argparse.ArgumentParser:
             p.add_argument(flag, type=_boolean, default=None, metavar="true|false")
         else:
             p.add_argument(flag, type=type(f.default), default=None)
+
+
+def _config(args: argparse.Namespace) -> TrainConfig:
+    config = PAPER_CONFIG if args.paper else DEFAULT_CONFIG
+    changes = {k: (tuple(v) if isinstance(v, list) else v) for k in DEFAULT_CONFIG.__dataclass_fields__
+               if (v := getattr(args, k)) is not None}
+    return replace(config, **changes)
+
+
+def parse_config(options: list[str]) -> TrainConfig:
+    """The configuration that trainer options (``--paper``, ``--turn-radius-mm 215``, ...) describe; ValueError
+    naming the option on a bad one."""
+    p = _OptionParser(prog="trainer options", add_help=False)
+    _add_config_arguments(p)
+    return _config(p.parse_args(options))
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m snakeplan.rl.train", description=__doc__.splitlines()[0])
+    p.add_argument("scene", choices=("fuel-tank", "oil-tank"))
+    p.add_argument("algorithm", choices=ALGORITHMS)
+    p.add_argument("--steps", type=int, required=True)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--out", required=True)
+    p.add_argument("--fresh", action="store_true", help="ignore a checkpoint in --out")
+    p.add_argument("--no-progress", action="store_true")
+    _add_config_arguments(p)
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    config = PAPER_CONFIG if args.paper else DEFAULT_CONFIG
-    changes = {k: (tuple(v) if isinstance(v, list) else v) for k in DEFAULT_CONFIG.__dataclass_fields__
-               if (v := getattr(args, k)) is not None}
-    result = train(args.scene, args.algorithm, args.steps, args.seed, args.out, replace(config, **changes),
+    result = train(args.scene, args.algorithm, args.steps, args.seed, args.out, _config(args),
                    progress=not args.no_progress, resume=not args.fresh)
     last = result.history[-1] if result.history else {}
     print(json.dumps({"policy": str(result.policy), "last": last}))
