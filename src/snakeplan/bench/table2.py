@@ -25,7 +25,9 @@ from snakeplan.scenes import make_scene
 
 ROBOT = "sjtu-snake-iii"
 SCENES = ("fuel-tank", "oil-tank")
-DEFAULT_PLANNERS = ("rrt-star", "sp-rrt", "as-rrt")
+DEFAULT_PLANNERS = ("rrt-star", "sp-rrt", "as-rrt", "sac-her", "sac-per")
+#: Paper 000 pairs each learned planner with one scene (its policy is trained there); elsewhere it has no row.
+LEARNED_SCENE = {"sac-her": "fuel-tank", "sac-per": "oil-tank"}
 #: Runs per scene and planner in the paper.
 DEFAULT_RUNS = 10
 #: The same planning budget (s) for every planner.
@@ -67,6 +69,10 @@ class Table2Config:
     time_limit_s: float = DEFAULT_TIME_LIMIT_S
     robot: str = ROBOT
 
+    def planners_in(self, scene: str) -> tuple[str, ...]:
+        """The planners compared in ``scene``: all but the learned ones paired with another scene."""
+        return tuple(p for p in self.planners if LEARNED_SCENE.get(p, scene) == scene)
+
 
 def run_one(scene_name: str, seed: int, planner_name: str, time_limit_s: float, robot_name: str = ROBOT):
     """Plan and judge one episode; returns (run row, plan, report or None)."""
@@ -102,10 +108,13 @@ def run_table2(config: Table2Config, out_dir: str | Path, fresh: bool = False, p
         runs_file.unlink()
     done = {(r["scene"], int(r["seed"]), r["planner"]) for r in _read_runs(runs_file)
             if float(r["time_limit_s"]) == config.time_limit_s}
-    todo = [(s, seed, p) for s in config.scenes for seed in config.seeds for p in config.planners
+    todo = [(s, seed, p) for s in config.scenes for seed in config.seeds for p in config.planners_in(s)
             if (s, seed, p) not in done]
-    for p in sorted({p for _, _, p in todo}):
-        run_one(config.scenes[0], WARMUP_SEED, p, min(config.time_limit_s, 2.0), config.robot)
+    warm = {}
+    for s, _, p in todo:
+        warm.setdefault(p, s)
+    for p, s in sorted(warm.items()):
+        run_one(s, WARMUP_SEED, p, min(config.time_limit_s, 2.0), config.robot)
     new_file = not runs_file.exists()
     with runs_file.open("a", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=RUN_FIELDS, extrasaction="ignore")
@@ -116,7 +125,7 @@ def run_table2(config: Table2Config, out_dir: str | Path, fresh: bool = False, p
             writer.writerow(row)
             fh.flush()
     rows = [r for r in _read_runs(runs_file) if float(r["time_limit_s"]) == config.time_limit_s
-            and r["scene"] in config.scenes and r["planner"] in config.planners and int(r["seed"]) in config.seeds]
+            and r["scene"] in config.scenes and r["planner"] in config.planners_in(r["scene"]) and int(r["seed"]) in config.seeds]
     summary = summarise(rows, config)
     (out / "table2.md").write_text(summary_markdown(summary, config) + "\n\n" + statistics_markdown(rows, config))
     _write_summary_csv(out / "table2.csv", summary)
@@ -149,7 +158,7 @@ def summarise(rows: list[dict], config: Table2Config) -> dict:
     """Per (scene, planner): mean, std and count of each metric, success rate, and the paper's figures."""
     out = {}
     for s in config.scenes:
-        for p in config.planners:
+        for p in config.planners_in(s):
             group = [r for r in rows if r["scene"] == s and r["planner"] == p]
             entry = {"runs": len(group),
                      "success_rate": float(np.mean([r["success"] == "True" for r in group])) if group else math.nan}
@@ -188,13 +197,15 @@ def summary_markdown(summary: dict, config: Table2Config) -> str:
 
 
 def statistics_markdown(rows: list[dict], config: Table2Config) -> str:
-    """Appendix A: Shapiro-Wilk per group, Levene and Welch's ANOVA per metric, Games-Howell vs the first planner."""
+    """Appendix A: Shapiro-Wilk per group, Levene and Welch's ANOVA per metric, Games-Howell against the scene's
+    learned planner (as the paper) when it is compared, else against the first planner."""
     lines = ["## Statistics (Appendix A)", ""]
-    ref = config.planners[0]
     for s in config.scenes:
+        compared = config.planners_in(s)
+        ref = next((p for p in compared if p in LEARNED_SCENE), compared[0])
         for metric in METRICS:
             groups = {p: _values([r for r in rows if r["scene"] == s and r["planner"] == p], metric,
-                                 metric != "compute_time_s") for p in config.planners}
+                                 metric != "compute_time_s") for p in config.planners_in(s)}
             anova = welch_anova(list(groups.values()))
             normal = ", ".join(f"{p} {shapiro_p(v):.3g}" for p, v in groups.items())
             lines.append(f"**{s}, {metric}**: Shapiro-Wilk p: {normal}; Levene p = {levene_p(list(groups.values())):.3g}; "
@@ -236,7 +247,7 @@ def figure_7(config: Table2Config, out: Path) -> list[Path]:
         ax = fig.add_subplot(1, 2, 1, projection="3d")
         ax2 = fig.add_subplot(1, 2, 2)
         draw_scene(ax, scene)
-        for i, p in enumerate(config.planners):
+        for i, p in enumerate(config.planners_in(s)):
             _, plan, report = run_one(s, seed, p, config.time_limit_s, config.robot)
             if plan.path is None:
                 continue
