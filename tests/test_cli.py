@@ -197,3 +197,17 @@ def test_train_rl_forwards_trainer_options(capsys, tmp_path):
     meta = NumpyPolicy.load(out / "last.npz").meta
     assert meta["config"]["net_arch"] == [16, 16] and meta["turn_radius_mm"] == pytest.approx(215.0)
     assert "--turn-radius-mm 215" in meta["command"] and "--net-arch 16 16" in meta["command"]
+
+
+def test_bench_ablation_trains_both_variants_and_reports(capsys, tmp_path):
+    code, out, _ = run(capsys, "bench", "ablation", "--scene", "oil-tank", "--seeds", "1", "--steps", "120",
+                       "--eval-every", "60", "--eval-episodes", "2", "--threshold", "0.5", "--out", str(tmp_path),
+                       "--net-arch", "16", "16", "--learning-starts", "60", "--train-scenes", "2",
+                       "--batch-size", "16", "--json")
+    result = json.loads(out)
+    assert code == 0 and set(result["runs"]) == {"SAC-PER", "SAC"} and result["threshold"] == 0.5
+    for runs in result["runs"].values():
+        assert len(runs) == 1 and 0 < runs[0]["steps_to_converge"] <= 120
+    assert (tmp_path / "ablation-oil-tank-replay.png").read_bytes()[:4] == b"\x89PNG"
+    code, _, err = run(capsys, "bench", "ablation", "--steps", "0")
+    assert code == 2 and "--steps" in err

@@ -331,6 +331,35 @@ def _name_list(text: str, known: list[str], field: str) -> tuple[str, ...]:
     return names
 
 
+def cmd_bench_ablation(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
+    from snakeplan.rl.ablation import CONVERGENCE_SUCCESS, run_ablation
+    from snakeplan.rl.train import parse_config
+
+    for field in ("seeds", "steps", "eval_every", "eval_episodes"):
+        if getattr(args, field) < 1:
+            raise UsageError(f"--{field.replace('_', '-')}: expected a positive integer, got {getattr(args, field)}")
+    if args.threshold is not None and not 0.0 < args.threshold <= 1.0:
+        raise UsageError(f"--threshold: expected a success rate in (0, 1], got {args.threshold}")
+    config = replace(parse_config(args.extra), eval_every=args.eval_every, eval_episodes=args.eval_episodes)
+    seeds = list(range(args.seed, args.seed + args.seeds))
+    threshold = CONVERGENCE_SUCCESS if args.threshold is None else args.threshold
+    result = run_ablation(args.scene, seeds, args.steps, args.out, args.compare, config, threshold)
+    if args.json:
+        _print_json(result)
+        return EXIT_OK
+    for label, runs in result["runs"].items():
+        steps = ", ".join(f"{r['steps_to_converge']:.0f}" + ("" if r["converged"] else " (not converged)")
+                          for r in runs)
+        sys.stdout.write(f"{label}: steps to {threshold:g} validation success per seed: {steps}\n")
+    bound = " (at least: a baseline run never converged)" if result["speedup_is_lower_bound"] else ""
+    speedup = "n/a" if result["speedup"] is None else f"{result['speedup']:.2f}x"
+    sys.stdout.write(f"speed-up to convergence: {speedup}{bound}\n"
+                     f"wrote {args.out}/ablation-{args.scene}-{args.compare}.png and .json\n")
+    return EXIT_OK
+
+
 def cmd_bench_station(args: argparse.Namespace) -> int:
     from snakeplan.bench.station import run_station_bench
 
@@ -380,12 +409,13 @@ def cmd_train_rl(args: argparse.Namespace) -> int:
 
 
 def cmd_bench_table2(args: argparse.Namespace) -> int:
-    from snakeplan.bench.table2 import SCENES, Table2Config, run_table2, summary_markdown
+    from snakeplan.bench.table2 import DEFAULT_PLANNERS, SCENES, Table2Config, run_table2, summary_markdown
     from snakeplan.planners import planner_names
 
     if args.runs < 1:
         raise UsageError(f"--runs: expected a positive integer, got {args.runs}")
-    config = Table2Config(planners=_name_list(args.planners, planner_names(), "--planners"),
+    planners = DEFAULT_PLANNERS if args.planners is None else _name_list(args.planners, planner_names(), "--planners")
+    config = Table2Config(planners=planners,
                           scenes=_name_list(args.scenes, list(SCENES), "--scenes"),
                           seeds=tuple(range(args.seed, args.seed + args.runs)),
                           time_limit_s=args.time_limit)
@@ -490,7 +520,8 @@ def build_parser() -> argparse.ArgumentParser:
                         description="Run planners on identical fuel-tank and oil-tank episodes, judge every plan, "
                                     "and write runs.csv (resumable), table2.md/csv with the paper's figures, "
                                     "Appendix A statistics and fig7_*.png.")
-    p.add_argument("--planners", default="rrt-star,sp-rrt,as-rrt", help="comma-separated planner names")
+    p.add_argument("--planners", help="comma-separated planner names (default rrt-star,sp-rrt,as-rrt,sac-her,"
+                                      "sac-per; sac-her has rows in fuel-tank, sac-per in oil-tank)")
     p.add_argument("--scenes", default="fuel-tank,oil-tank", help="comma-separated scene names")
     p.add_argument("--runs", type=int, default=10, help="seeds per scene (default 10, as the paper)")
     p.add_argument("--seed", type=_seed, default=0, help="first seed (default 0)")
@@ -510,6 +541,25 @@ def build_parser() -> argparse.ArgumentParser:
                    help="print per method the final RMSE, final covariance trace and planning time as JSON")
     p.set_defaults(func=cmd_bench_station)
 
+    p = bsub.add_parser("ablation", help="paper 000's Fig. 4: learning with and without HER / PER (long)",
+                        description="Train the scene's learned planner with and without its replay (HER in "
+                                    "fuel-tank, PER in oil-tank; or the two observation designs) over several "
+                                    "seeds; learning curves, steps to convergence and the speed-up. Each run "
+                                    "resumes from its folder. Further options set the training configuration, "
+                                    "as for 'snakeplan train rl'.")
+    p.add_argument("--scene", choices=("fuel-tank", "oil-tank"), default="fuel-tank")
+    p.add_argument("--compare", choices=("replay", "observation"), default="replay",
+                   help="what to ablate (default replay)")
+    p.add_argument("--seeds", type=int, default=3, help="training seeds per variant (default 3)")
+    p.add_argument("--seed", type=_seed, default=0, help="first training seed (default 0)")
+    p.add_argument("--steps", type=int, default=30000, help="environment steps per run (default 30000)")
+    p.add_argument("--eval-every", type=int, default=2500, help="validation period in steps (default 2500)")
+    p.add_argument("--eval-episodes", type=int, default=20, help="validation episodes (default 20)")
+    p.add_argument("--threshold", type=_finite,
+                   help="validation success that counts as converged (default 0.6)")
+    p.add_argument("--out", default="bench-ablation", help="output folder (default bench-ablation)")
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    p.set_defaults(func=cmd_bench_ablation, takes_options=True)
     p = bsub.add_parser("sscc", help="paper 001's Tables 4 and 6: SSCC in the pipe and the concentric pipe",
                         description="SSCC with the shipped DDPG agent and the non-learning searches on seeded "
                                     "targets (30 in pipe for sscc-16 and sscc-24, 52 in concentric-pipe); success, "

@@ -5,14 +5,12 @@ A run converges at the first validation whose success reaches ``CONVERGENCE_SUCC
 baseline's median steps to convergence over the variant's (a run that never converges counts as the run's
 length, so the speed-up is then a lower bound, flagged in the result). Every run is an ordinary
 :func:`snakeplan.rl.train.train` run in its own folder, so an interrupted ablation resumes.
-Run as ``python -m snakeplan.rl.ablation SCENE --seeds 0 1 2 --steps N --out DIR [--compare observation]``.
+Run as ``snakeplan bench ablation --scene SCENE --seeds 3 --steps N [--compare observation]``.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
-import sys
 from dataclasses import replace
 from pathlib import Path
 
@@ -20,8 +18,9 @@ import numpy as np
 
 from snakeplan.rl.train import DEFAULT_CONFIG, PAPER_ALGORITHM, TrainConfig, plot_curves, train
 
-#: Validation success that counts as converged.
-CONVERGENCE_SUCCESS = 0.9
+#: Validation success that counts as converged: the plain-SAC baselines rarely reach 0.9 within a run of a few
+#: tens of thousands of steps on two cores, so the speed-up is measured to a level every variant reaches.
+CONVERGENCE_SUCCESS = 0.6
 COMPARISONS = ("replay", "observation")
 
 
@@ -70,24 +69,3 @@ def run_ablation(scene: str, seeds: list[int], steps: int, out_dir: str | Path, 
     plot_curves(curves, out / f"ablation-{scene}-{compare}.png")
     (out / f"ablation-{scene}-{compare}.json").write_text(json.dumps(result, indent=1))
     return result
-
-
-def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m snakeplan.rl.ablation", description=__doc__.splitlines()[0])
-    p.add_argument("scene", choices=sorted(PAPER_ALGORITHM))
-    p.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
-    p.add_argument("--steps", type=int, required=True)
-    p.add_argument("--out", required=True)
-    p.add_argument("--compare", choices=COMPARISONS, default="replay")
-    p.add_argument("--eval-every", type=int, default=DEFAULT_CONFIG.eval_every)
-    p.add_argument("--eval-episodes", type=int, default=DEFAULT_CONFIG.eval_episodes)
-    p.add_argument("--threshold", type=float, default=CONVERGENCE_SUCCESS, help="validation success = converged")
-    args = p.parse_args(argv)
-    config = replace(DEFAULT_CONFIG, eval_every=args.eval_every, eval_episodes=args.eval_episodes)
-    result = run_ablation(args.scene, args.seeds, args.steps, args.out, args.compare, config, args.threshold)
-    print(json.dumps({k: result[k] for k in ("median_steps_to_converge", "speedup", "speedup_is_lower_bound")}))
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())
