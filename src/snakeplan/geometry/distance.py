@@ -382,18 +382,42 @@ def _segments_clear(rows, boxes, tris, ranges, a, b, radius):
 
 
 @njit(cache=True)
-def _raycast(rows, tris, ranges, origins, dirs, max_dist, eps):
+def _raycast(rows, boxes, tris, ranges, origins, dirs, max_dist, eps):
+    """Sphere tracing of each ray against only the obstacles whose bounding box (grown by ``eps``) its segment
+    [0, max_dist] meets: an obstacle the segment misses can neither stop the ray nor be entered by it, so a ray
+    costs a few obstacles' distances per step instead of the whole scene's."""
     out = np.full(origins.shape[0], np.inf)
+    cand = np.empty(rows.shape[0], dtype=np.int64)
+    p = np.empty(3)
     for i in range(origins.shape[0]):
+        n = 0
+        for k in range(rows.shape[0]):
+            t0, t1 = 0.0, max_dist
+            for a in range(3):
+                lo, hi = boxes[k, a] - eps, boxes[k, a + 3] + eps
+                d = dirs[i, a]
+                if abs(d) < 1e-12:
+                    if origins[i, a] < lo or origins[i, a] > hi:
+                        t0, t1 = 1.0, 0.0
+                else:
+                    ta, tb = (lo - origins[i, a]) / d, (hi - origins[i, a]) / d
+                    if ta > tb:
+                        ta, tb = tb, ta
+                    t0, t1 = max(t0, ta), min(t1, tb)
+            if t0 <= t1:
+                cand[n] = k
+                n += 1
         t = 0.0
-        for _ in range(100000):
-            d = _scene_sdf(rows, tris, ranges, origins[i] + t * dirs[i])
-            if d < eps:
+        while n > 0 and t <= max_dist:
+            for a in range(3):
+                p[a] = origins[i, a] + t * dirs[i, a]
+            best = np.inf
+            for j in range(n):
+                best = min(best, _sdf_row(rows[cand[j]], tris, ranges, p))
+            if best < eps:
                 out[i] = t
                 break
-            t += d
-            if t > max_dist:
-                break
+            t += best
     return out
 
 
@@ -465,7 +489,8 @@ class ObstacleSet:
         d = d / np.linalg.norm(d, axis=-1, keepdims=True)
         fo = np.ascontiguousarray(o.reshape(-1, 3))
         fd = np.ascontiguousarray(d.reshape(-1, 3))
-        return _raycast(self._rows, self._tris, self._ranges, fo, fd, float(max_distance), eps).reshape(o.shape[:-1])
+        return _raycast(self._rows, self._boxes, self._tris, self._ranges, fo, fd, float(max_distance),
+                        float(eps)).reshape(o.shape[:-1])
 
 
 def sampled_chain_clearance(obstacles: ObstacleSet, joints, radii, step: float = 1.0) -> np.ndarray:

@@ -35,7 +35,6 @@ from numba import njit
 
 from snakeplan import ftl
 from snakeplan.geometry import polyline
-from snakeplan.geometry.distance import _sdf_row
 from snakeplan.planners.base import Planner, Problem
 from snakeplan.planners.common import ArmModel
 from snakeplan.planners.registry import register_planner
@@ -79,56 +78,6 @@ OBSERVATIONS = ("local", "paper")
 POLICY_DIR = ("rl", "data")
 
 FAILURES = ("collision", "bend_limit", "out_of_bounds", "insertion")
-
-
-@njit(cache=True)
-def _raycast_culled(rows, boxes, tris, ranges, origin, dirs, max_dist, eps, out):
-    """Sphere-traced hit distances of rays from ``origin``, each traced only against the obstacles whose
-    bounding box its segment [0, max_dist] meets (an obstacle the segment misses cannot stop it), so a ray
-    costs a few obstacles' distances per step instead of the whole scene's."""
-    cand = np.empty(rows.shape[0], dtype=np.int64)
-    for i in range(dirs.shape[0]):
-        n = 0
-        for k in range(rows.shape[0]):
-            t0, t1 = 0.0, max_dist
-            for a in range(3):
-                lo, hi = boxes[k, a] - eps, boxes[k, a + 3] + eps
-                d = dirs[i, a]
-                if abs(d) < 1e-12:
-                    if origin[a] < lo or origin[a] > hi:
-                        t0, t1 = 1.0, 0.0
-                else:
-                    ta, tb = (lo - origin[a]) / d, (hi - origin[a]) / d
-                    if ta > tb:
-                        ta, tb = tb, ta
-                    t0, t1 = max(t0, ta), min(t1, tb)
-            if t0 <= t1:
-                cand[n] = k
-                n += 1
-        out[i] = np.inf
-        if n == 0:
-            continue
-        t = 0.0
-        p = np.empty(3)
-        while t <= max_dist:
-            for a in range(3):
-                p[a] = origin[a] + t * dirs[i, a]
-            best = np.inf
-            for j in range(n):
-                best = min(best, _sdf_row(rows[cand[j]], tris, ranges, p))
-            if best < eps:
-                out[i] = t
-                break
-            t += best
-
-
-def raycast(obstacles, origin: np.ndarray, dirs: np.ndarray, max_dist: float, eps: float = RAY_EPS_MM) -> np.ndarray:
-    """Distances (mm) along unit ``dirs (K, 3)`` from one ``origin`` to the first surface (inf past ``max_dist``)."""
-    out = np.empty(dirs.shape[0])
-    _raycast_culled(obstacles._rows, obstacles._boxes, obstacles._tris, obstacles._ranges,
-                    np.ascontiguousarray(origin, dtype=float), np.ascontiguousarray(dirs, dtype=float),
-                    float(max_dist), float(eps), out)
-    return out
 
 
 @njit(cache=True)
@@ -429,7 +378,7 @@ class Crawler:
 
     def ranges(self) -> np.ndarray:
         """Distances (mm, capped at ``RAY_RANGE_MM``) to the first surface along each ray from the tip."""
-        d = raycast(self.scene.obstacle_set, self.tip, self.rays @ self.frame, RAY_RANGE_MM)
+        d = self.scene.obstacle_set.raycast(self.tip, self.rays @ self.frame, RAY_RANGE_MM, RAY_EPS_MM)
         return np.minimum(d, RAY_RANGE_MM)
 
     def observation(self) -> dict[str, np.ndarray]:
