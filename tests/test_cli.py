@@ -211,3 +211,8 @@ def test_bench_ablation_trains_both_variants_and_reports(capsys, tmp_path):
     assert (tmp_path / "ablation-oil-tank-replay.png").read_bytes()[:4] == b"\x89PNG"
     code, _, err = run(capsys, "bench", "ablation", "--steps", "0")
     assert code == 2 and "--steps" in err
+
+
+def test_bench_rl_rejects_bad_repeats(capsys):
+    code, _, err = run(capsys, "bench", "rl", "--repeats", "0")
+    assert code == 2 and "--repeats" in err

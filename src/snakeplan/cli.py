@@ -323,6 +323,19 @@ def cmd_bench_kernels(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def cmd_bench_rl(args: argparse.Namespace) -> int:
+    from snakeplan.bench.rl import rl_markdown, run_rl_bench
+
+    if args.repeats < 1:
+        raise UsageError(f"--repeats: expected a positive integer, got {args.repeats}")
+    result = run_rl_bench(repeats=args.repeats, seed=args.seed)
+    if args.json:
+        _print_json(result)
+    else:
+        sys.stdout.write(rl_markdown(result) + "\n")
+    return EXIT_OK
+
+
 def _name_list(text: str, known: list[str], field: str) -> tuple[str, ...]:
     names = tuple(n.strip() for n in text.split(",") if n.strip())
     unknown = [n for n in names if n not in known]
@@ -515,6 +528,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=_seed, default=0, help="seed for scenes and configurations")
     p.add_argument("--json", action="store_true", help="also print the figures as JSON")
     p.set_defaults(func=cmd_bench_kernels)
+    p = bsub.add_parser("rl", help="training throughput of the learned planners",
+                        description="Environment steps, SAC-HER training steps and actor calls per second, each "
+                                    "against a baseline in the same process; medians over repeats.")
+    p.add_argument("--repeats", type=int, default=5, help="timed repeats (default 5)")
+    p.add_argument("--seed", type=_seed, default=0, help="seed for scenes and actions (default 0)")
+    p.add_argument("--json", action="store_true", help="print the figures as JSON")
+    p.set_defaults(func=cmd_bench_rl)
 
     p = bsub.add_parser("table2", help="paper 000's Table 2: planners on the same seeded episodes",
                         description="Run planners on identical fuel-tank and oil-tank episodes, judge every plan, "

@@ -21,7 +21,7 @@ from snakeplan.scenes import Scene, make_scene
 BASELINE_SAMPLING_MM = 5.0
 
 
-def _median_seconds(fn: Callable[[], object], repeats: int) -> float:
+def median_seconds(fn: Callable[[], object], repeats: int) -> float:
     fn()  # warm-up: jit compilation and caches
     times = []
     for _ in range(repeats):
@@ -72,9 +72,9 @@ def run_kernel_bench(repeats: int = 7, batch: int = 20000, seed: int = 0, print_
     radii = robot.radii
     small = bodies[: max(10, batch // 40)]
 
-    t_collide = _median_seconds(lambda: scene.chain_collides(bodies, radii), repeats)
-    t_clear = _median_seconds(lambda: scene.chain_clearance(bodies, radii), repeats)
-    t_base = _median_seconds(
+    t_collide = median_seconds(lambda: scene.chain_collides(bodies, radii), repeats)
+    t_clear = median_seconds(lambda: scene.chain_clearance(bodies, radii), repeats)
+    t_base = median_seconds(
         lambda: sampled_chain_clearance(scene.obstacle_set, small, radii, BASELINE_SAMPLING_MM), max(1, repeats // 2)
     )
     base_rate = len(small) / t_base
@@ -83,9 +83,9 @@ def run_kernel_bench(repeats: int = 7, batch: int = 20000, seed: int = 0, print_
     depths = np.random.default_rng(seed).uniform(0, 2000.0 * 0.999, batch)
     depths = np.minimum(depths, np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1)))
     u = scene.entrance.direction
-    t_fit = _median_seconds(lambda: ftl.fit_batch(path, robot.lengths, depths, u), repeats)
+    t_fit = median_seconds(lambda: ftl.fit_batch(path, robot.lengths, depths, u), repeats)
     loop_depths = depths[: max(10, batch // 100)]
-    t_loop = _median_seconds(lambda: [ftl.fit(path, robot.lengths, s, u) for s in loop_depths], max(1, repeats // 2))
+    t_loop = median_seconds(lambda: [ftl.fit(path, robot.lengths, s, u) for s in loop_depths], max(1, repeats // 2))
     loop_rate = len(loop_depths) / t_loop
 
     colliding = float(scene.chain_collides(bodies, radii).mean())

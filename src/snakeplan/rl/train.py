@@ -125,13 +125,15 @@ def judge_policy(policy: NumpyPolicy, scene_name: str, seeds, robot_name: str = 
             "runs": runs}
 
 
-def _make_env(scene: str, config: TrainConfig):
+def make_env(scene: str, config: TrainConfig):
+    """A factory of training environments for ``scene`` with ``config``'s crawl and observation settings."""
     seeds = (TRAIN_SEED, TRAIN_SEED + config.train_scenes)
     return lambda: SnakeEnv(scene, observation=config.observation, seeds=seeds, turn_radius_mm=config.turn_radius_mm,
                             capture_steps=config.capture_steps, lookahead=config.lookahead)
 
 
-def _build(scene: str, algorithm: str, config: TrainConfig, seed: int, env, steps: int):
+def build_model(scene: str, algorithm: str, config: TrainConfig, seed: int, env, steps: int):
+    """The SB3 model of ``algorithm`` on ``env`` (buffer sized for ``steps``) and the scene family's route graph."""
     graph = RoomGraph.from_scene(make_scene(scene, TRAIN_SEED)) if config.observation == "local" else None
     policy_kwargs = {"net_arch": list(config.net_arch), "features_extractor_class": GoalRouteExtractor,
                      "features_extractor_kwargs": {"mode": config.observation,
@@ -244,7 +246,7 @@ class _Run:
             return False
         state = json.loads(state_file.read_text())
         cls = {"sac-per": PerSAC}.get(self.algorithm, EpsilonGreedySAC)
-        env = DummyVecEnv([_make_env(self.scene, self.config)] * self.config.n_envs)
+        env = DummyVecEnv([make_env(self.scene, self.config)] * self.config.n_envs)
         self.model = cls.load(self.out / "checkpoint.zip", env=env, device="cpu")
         self.model.load_replay_buffer(self.out / "replay.pkl")
         self.last_eval, self.last_checkpoint = state["last_eval"], state["last_checkpoint"]
@@ -295,9 +297,9 @@ def train(scene: str, algorithm: str, steps: int, seed: int, out_dir: str | Path
     run = _Run(scene, algorithm, steps, seed, out, config, progress, command)
     resumed = resume and run.restore()
     if not resumed:
-        env = DummyVecEnv([_make_env(scene, config)] * config.n_envs)
+        env = DummyVecEnv([make_env(scene, config)] * config.n_envs)
         env.seed(seed)
-        run.model, run.graph = _build(scene, algorithm, config, seed, env, steps)
+        run.model, run.graph = build_model(scene, algorithm, config, seed, env, steps)
     else:
         run.graph = RoomGraph.from_scene(make_scene(scene, TRAIN_SEED)) if config.observation == "local" else None
     remaining = steps - run.model.num_timesteps
