@@ -180,23 +180,32 @@ def test_bench_sscc_smoke_and_train_input_errors(capsys, tmp_path):
     assert code == 2 and "--robot" in err and not (tmp_path / "a.npz").exists()
 
 
-def test_train_rl_forwards_trainer_options(capsys, tmp_path):
+def test_train_rl_for_your_robot_and_scene_then_plan_with_the_policy(capsys, tmp_path):
     from snakeplan.planners.sac import NumpyPolicy
 
     out = tmp_path / "run"
-    code, _, err = run(capsys, "train", "rl", "oil-tank", "sac-per", "--steps", "120", "--out", str(out),
+    code, _, err = run(capsys, "train", "rl", "pipe", "sac", "--steps", "120", "--out", str(out),
                        "--turn-radius-mm", "abc")
     assert code == 2 and "--turn-radius-mm" in err and not out.exists()
+    code, _, err = run(capsys, "train", "rl", "station", "sac", "--steps", "120", "--out", str(out))
+    assert code == 2 and "no targets" in err and not out.exists()
     code, _, err = run(capsys, "plan", "--scene", "oil-tank", "--turn-radius-mm", "215")
     assert code == 2 and "unrecognized arguments" in err
-    code, stdout, _ = run(capsys, "train", "rl", "oil-tank", "sac-per", "--steps", "120", "--out", str(out),
-                          "--net-arch", "16", "16", "--learning-starts", "60", "--eval-every", "100",
-                          "--eval-episodes", "2", "--checkpoint-every", "100", "--train-scenes", "2",
-                          "--batch-size", "16", "--turn-radius-mm", "215")
+    code, stdout, _ = run(capsys, "train", "rl", "pipe", "sac", "--steps", "120", "--out", str(out),
+                          "--robot", "sscc-24", "--net-arch", "16", "16", "--learning-starts", "60",
+                          "--eval-every", "100", "--eval-episodes", "2", "--checkpoint-every", "100",
+                          "--train-scenes", "2", "--batch-size", "16", "--turn-radius-mm", "215")
     assert code == 0 and "policy.npz" in stdout
     meta = NumpyPolicy.load(out / "last.npz").meta
+    assert meta["robot"] == "sscc-24" and meta["scene"] == "pipe"
     assert meta["config"]["net_arch"] == [16, 16] and meta["turn_radius_mm"] == pytest.approx(215.0)
-    assert "--turn-radius-mm 215" in meta["command"] and "--net-arch 16 16" in meta["command"]
+    assert "--robot sscc-24" in meta["command"] and "--turn-radius-mm 215" in meta["command"]
+    code, stdout, _ = run(capsys, "plan", "--scene", "pipe", "--seed", "1", "--planner", "sac", "--policy",
+                          str(out / "last.npz"), "--time-limit", "2", "--json")
+    data = json.loads(stdout)
+    assert code in (0, 1) and data["planner"] == "sac" and data["robot"] == "sscc-24" and len(data["path"]) > 1
+    code, _, err = run(capsys, "plan", "--scene", "pipe", "--planner", "sscc", "--policy", str(out / "last.npz"))
+    assert code == 2 and "--policy" in err
 
 
 def test_bench_ablation_trains_both_variants_and_reports(capsys, tmp_path):

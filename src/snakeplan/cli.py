@@ -20,6 +20,8 @@ DEFAULT_ROBOT = "sjtu-snake-iii"
 DEFAULT_SCENE = "fuel-tank"
 #: The robot each scene was sized for, used when --robot is not given.
 ROBOT_BY_SCENE = {"pipe": "sscc-24", "concentric-pipe": "sscc-24", "station": "hsr-10"}
+#: The planners that roll out a trained policy (``--policy``) and the algorithms ``train rl`` trains for them.
+LEARNED_PLANNERS = ("sac-her", "sac-per", "sac")
 INSPECTION_SCHEMA = "snakeplan.inspection/1"
 PLAN_SCHEMA = "snakeplan.plan/1"
 
@@ -237,11 +239,11 @@ def cmd_demo(args: argparse.Namespace) -> int:
     return EXIT_OK if report.success else EXIT_INFEASIBLE
 
 
-def _load_planner(name: str):
+def _load_planner(name: str, **options):
     from snakeplan.planners import get_planner
 
     try:
-        return get_planner(name)
+        return get_planner(name, **options)
     except KeyError as exc:
         raise UsageError(f"--planner: {exc.args[0]}") from None
 
@@ -257,7 +259,15 @@ def cmd_plan(args: argparse.Namespace) -> int:
         return _plan_inspection(args, scene, robot)
     problem = Problem(scene, robot, time_limit_s=args.time_limit, knowledge=args.knowledge)
     name = args.planner or default_planner(scene.name)
-    planner = _load_planner(name)
+    if args.policy is not None:
+        if name not in LEARNED_PLANNERS:
+            raise UsageError(f"--policy: only the learned planners ({', '.join(LEARNED_PLANNERS)}) take a policy "
+                             f"file, not {name}")
+        if not Path(args.policy).is_file():
+            raise UsageError(f"--policy: no such file {args.policy}")
+        planner = _load_planner(name, policy=args.policy)
+    else:
+        planner = _load_planner(name)
     plan = planner.plan(problem, seed=args.planner_seed)
     report = evaluate(scene, robot, plan.path) if plan.path is not None else None
     success = report is not None and report.success
@@ -510,6 +520,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--robot", help="robot preset (default: the one the scene is sized for, e.g. sjtu-snake-iii)")
     p.add_argument("--planner", help="planner name (default: the best shipped planner for the scene)")
     p.add_argument("--planner-seed", type=_seed, default=0, help="the planner's random seed (default 0)")
+    p.add_argument("--policy", help="a policy file (.npz from 'snakeplan train rl') for sac-her, sac-per or sac "
+                                    "(default: the shipped one for the scene)")
     p.add_argument("--time-limit", type=_finite, default=30.0, help="planning budget in seconds (default 30)")
     p.add_argument("--knowledge", choices=("full", "sensed"), default="full",
                    help="what the planner may know: the whole scene, or what its sensor revealed")
@@ -605,8 +617,8 @@ def build_parser() -> argparse.ArgumentParser:
                                     "checkpoint in --out. Any further option sets the training configuration "
                                     "(--paper, --turn-radius-mm 215, --capture-steps 4, --eval-episodes 50, ...; "
                                     "the list: 'python -m snakeplan.rl.train --help').")
-    t.add_argument("scene", choices=("fuel-tank", "oil-tank"))
-    t.add_argument("algorithm", choices=("sac-her", "sac-per", "sac"))
+    t.add_argument("scene", help="a scene family with targets (fuel-tank, oil-tank, pipe, or one you registered)")
+    t.add_argument("algorithm", choices=LEARNED_PLANNERS)
     t.add_argument("--steps", type=int, required=True, help="environment steps")
     t.add_argument("--seed", type=_seed, default=0, help="training seed (default 0)")
     t.add_argument("--out", required=True, help="output folder (policy.npz, curve.png, checkpoints)")

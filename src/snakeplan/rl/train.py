@@ -14,7 +14,8 @@ about 3,600/s, so gradient updates bound the wall time; 128 x 128 networks (an u
 against 13.9 ms at 256 and 29.8 ms at §4.1's 512), one update per environment step, one environment, SB3's lr
 3e-4 and tau 5e-3 (the paper's 2e-4 and 1e-3 are :data:`PAPER_CONFIG`, not re-measured here). With these,
 fuel-tank SAC-HER reached 0.9 validation success in 40,000 steps (13 min).
-Run as ``python -m snakeplan.rl.train SCENE ALGORITHM --steps N --seed S --out DIR``.
+Run as ``snakeplan train rl SCENE ALGORITHM --steps N --seed S --out DIR [--robot NAME ...]`` (or
+``python -m snakeplan.rl.train``, the same options); SCENE is any registered scene family with targets.
 """
 
 from __future__ import annotations
@@ -44,7 +45,7 @@ from snakeplan.rl.her import FastHerReplayBuffer
 from snakeplan.rl.per import ALPHA, BETA_START, PerSAC, PrioritizedDictReplayBuffer
 from snakeplan.rl.policy import from_sb3
 from snakeplan.robots import get_robot
-from snakeplan.scenes import make_scene
+from snakeplan.scenes import make_scene, scene_names
 
 ALGORITHMS = ("sac-her", "sac-per", "sac")
 #: The paper's pairing (Algorithm 1).
@@ -59,6 +60,8 @@ class TrainConfig:
     """Hyper-parameters and bookkeeping of one training run (steps are environment steps summed over envs)."""
 
     observation: str = "local"
+    #: The robot preset trained (any name :func:`snakeplan.robots.get_robot` knows).
+    robot: str = ROBOT
     net_arch: tuple[int, ...] = (128, 128)
     learning_rate: float = 3e-4
     tau: float = 5e-3
@@ -128,7 +131,8 @@ def judge_policy(policy: NumpyPolicy, scene_name: str, seeds, robot_name: str = 
 def make_env(scene: str, config: TrainConfig):
     """A factory of training environments for ``scene`` with ``config``'s crawl and observation settings."""
     seeds = (TRAIN_SEED, TRAIN_SEED + config.train_scenes)
-    return lambda: SnakeEnv(scene, observation=config.observation, seeds=seeds, turn_radius_mm=config.turn_radius_mm,
+    return lambda: SnakeEnv(scene, observation=config.observation, robot=config.robot, seeds=seeds,
+                            turn_radius_mm=config.turn_radius_mm,
                             capture_steps=config.capture_steps, lookahead=config.lookahead)
 
 
@@ -207,6 +211,7 @@ class _Run:
     def meta(self, n: int) -> dict:
         crawler = self.model.env.envs[0].crawler
         return {"name": f"{self.scene}-{self.algorithm}", "scene": self.scene, "algorithm": self.algorithm,
+                "robot": self.config.robot,
                 "observation": self.config.observation, "step_mm": crawler.step_mm,
                 "turn_radius_mm": crawler.step_mm / crawler.max_turn,
                 "capture_steps": round(crawler.capture_mm / crawler.step_mm), "lookahead": crawler.lookahead,
@@ -219,7 +224,7 @@ class _Run:
 
     def validate(self, n: int) -> None:
         policy = self.export(n)
-        result = judge_policy(policy, self.scene, self.seeds)
+        result = judge_policy(policy, self.scene, self.seeds, self.config.robot)
         rolling = float(np.mean(self.episodes)) if self.episodes else 0.0
         self.history.append({"env_steps": n, "updates": int(self.model._n_updates), "wall_s": self.wall,
                              "success": result["success_rate"], "train_success": rolling,
@@ -290,6 +295,11 @@ def train(scene: str, algorithm: str, steps: int, seed: int, out_dir: str | Path
         raise ValueError(f"algorithm: must be one of {ALGORITHMS}, got {algorithm!r}")
     if steps <= 0:
         raise ValueError(f"steps: must be positive, got {steps}")
+    if scene not in scene_names():
+        raise ValueError(f"scene: unknown scene family {scene!r} (known: {', '.join(scene_names())})")
+    if len(make_scene(scene, TRAIN_SEED).targets) == 0:
+        raise ValueError(f"scene: {scene} has no targets to learn to reach")
+    get_robot(config.robot)
     th.set_num_threads(config.torch_threads)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -395,7 +405,7 @@ def parse_config(options: list[str]) -> TrainConfig:
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m snakeplan.rl.train", description=__doc__.splitlines()[0])
-    p.add_argument("scene", choices=("fuel-tank", "oil-tank"))
+    p.add_argument("scene", help="a scene family with targets (fuel-tank, oil-tank, or one you registered)")
     p.add_argument("algorithm", choices=ALGORITHMS)
     p.add_argument("--steps", type=int, required=True)
     p.add_argument("--seed", type=int, default=0)
