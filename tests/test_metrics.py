@@ -92,3 +92,15 @@ def test_corner_turning_is_spread_over_one_step():
 def test_path_length():
     assert path_length([[0, 0, 0], [3, 4, 0], [3, 4, 12]]) == pytest.approx(17.0)
     assert math.isclose(path_length(_circle(1000.0, 20001, np.eye(3), np.zeros(3))), 8 * H, rel_tol=1e-8)
+
+
+def test_path_smoothness_of_an_arc_and_a_line():
+    from snakeplan.evaluation.metrics import path_smoothness
+
+    r, k_ul = 400.0, 1 / 200.0
+    theta = np.linspace(0.0, 2.0, 2001)  # 800 mm of a circle of radius 400 mm
+    arc = np.stack([r * np.cos(theta), r * np.sin(theta), np.zeros_like(theta)], axis=1)
+    # Constant curvature 1/R: k_max = k_mean, so S = 1 - k_max / k_ul = 1 - 200 / 400.
+    assert path_smoothness(arc, 50.0, k_ul) == pytest.approx(0.5, abs=1e-4)
+    line = np.array([[0.0, 0.0, 0.0], [500.0, 0.0, 0.0]])
+    assert path_smoothness(line, 50.0, k_ul) == 1.0

@@ -80,3 +80,8 @@ def smoothness_index(k_max: float, k_mean: float, k_ul: float) -> float:
             return 1.0
         raise ValueError(f"k_mean is 0 but k_max is {k_max}: not a curvature profile")
     return (1.0 - k_max / k_ul) * math.exp(-(((k_max - k_mean) / k_mean) ** 2))
+
+
+def path_smoothness(path: ArrayLike, step: float, k_ul: float) -> float:
+    """Smoothness index S (eq. 20) of a tip path with curvature measured at scale ``step`` (mm)."""
+    return smoothness_index(*curvature_stats(path, step), k_ul)
