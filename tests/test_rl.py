@@ -292,8 +292,7 @@ SHIPPED_MIN_SUCCESS = 0.8
 
 @pytest.mark.parametrize("scene,planner", SHIPPED)
 def test_shipped_policy_loads_and_succeeds(scene, planner):
-    if not policy_path(scene, planner).is_file():
-        pytest.skip(f"no shipped {planner} policy for {scene}")
+    assert policy_path(scene, planner).is_file()
     robot = get_robot("sjtu-snake-iii")
     ok = 0
     for seed in SHIPPED_SEEDS:

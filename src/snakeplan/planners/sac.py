@@ -6,9 +6,11 @@ This module holds everything a roll-out needs, so planning never imports the tra
 - :class:`Crawler`: the tip advances ``step_mm`` per action, the body follows the leader; observations are the
   paper's (tip position; action = direction of the next step) or ours, ``local`` (tip position, tip frame, ray
   ranges, previous action, inserted fraction; action = a heading change bounded so the path never turns tighter
-  than ``turn_radius_mm``, so every step keeps the bend limits). A goal within ``SNAP_FACTOR`` steps and inside the
-  turning bound ends the step on the goal; with goal capture (``capture_steps``) a goal a few steps ahead that an
-  arc within the turning bound reaches is steered to by pure pursuit.
+  than ``turn_radius_mm``: at the default every step keeps the bend limits; below 207 mm (where section chords bend
+  50.7 deg) only turns shorter than a section do, and the crawl check ends the others). A goal within
+  ``SNAP_FACTOR`` steps and inside the turning bound ends the step on the goal; with goal capture
+  (``capture_steps``) a goal a few steps ahead that an arc within the turning bound reaches is steered to by pure
+  pursuit.
 - :class:`RoomGraph` and :func:`policy_input`: the goal, the next hole on the fewest-holes route and the waypoint
   after it, in the tip frame; the coarse structure (rooms, holes) is what an operator knows of a tank (§4.1).
 - :class:`NumpyPolicy`: the actor from a plain ``.npz`` weights file (no pickle, no torch), ~20 us a call.
@@ -34,6 +36,7 @@ import numpy as np
 from numba import njit
 
 from snakeplan import ftl
+from snakeplan.evaluation.metrics import path_smoothness
 from snakeplan.geometry import polyline
 from snakeplan.planners.base import Planner, Problem
 from snakeplan.planners.common import ArmModel
@@ -43,7 +46,9 @@ from snakeplan.scenes import Scene
 
 #: Tip advance per step (mm).
 STEP_MM = 35.0
-#: Smallest turning radius (mm) of the local action: 177.5 mm chords on it bend 43 deg (limit 50.7 deg).
+#: Smallest turning radius (mm) of the local action: 177.5 mm chords on it bend 43 deg (limit 50.7 deg). The
+#: oil-tank policy turns down to 130 mm (its file's ``turn_radius_mm``): its targets a cell apart need turns
+#: sharper than any arc the bend limits allow over a whole section, which short ones may take.
 TURN_RADIUS_MM = 240.0
 #: Range (mm) of the tip's range sensor.
 RAY_RANGE_MM = 400.0
@@ -590,10 +595,12 @@ def load_policy(path: str | Path) -> NumpyPolicy:
 PLAN_ATTEMPTS = 16
 RETRY_NOISE = (0.2, 0.8)
 RETRY_LEVELS = 4
-#: Gaussian smoothing scales (mm of arc length) tried on a roll-out that reaches every target, widest first; the
-#: first smoothed path that passes the crawl check is planned, else the roll-out itself. The policy steers in
-#: ``STEP_MM`` steps with turns of up to ``TURN_RADIUS_MM``; spreading each turn over a few sections lowers the
-#: peak curvature towards the mean (the smoothness index of eq. 20) and often clears a tight crawl.
+#: Gaussian smoothing scales (mm of arc length) tried on a roll-out that reaches every target. The roll-out and
+#: its smoothings are ranked by the smoothness index of eq. 20 (curvature at the section length, the planner's
+#: own objective, as RRT* ranks by length) and the best that passes the crawl check is planned. The policy
+#: steers in ``STEP_MM`` steps with turns of up to its turning radius; spreading a turn over a few sections lowers
+#: the peak curvature towards the mean (fuel-tank), while a path whose turns are pinned at targets a cell apart
+#: only loses mean curvature by it (oil-tank), so the ranking, not the widest, decides.
 SMOOTHING_SIGMAS_MM = (480.0, 320.0, 240.0, 160.0, 120.0, 80.0)
 
 
@@ -622,13 +629,14 @@ class SacPlanner(Planner):
             raise ValueError(f"policy: no policy file {path} for planner {self.name} in scene {scene.name}")
         return load_policy(path)
 
-    def _smoothed(self, path: np.ndarray, goals: np.ndarray, model: ArmModel) -> tuple[np.ndarray, float] | None:
-        """The widest smoothing of ``path`` (targets kept) that passes the crawl check, with its scale (mm)."""
-        for sigma in self.smoothing:
-            candidate = polyline.smooth(path, sigma, pins=goals)
-            if model.first_failure(candidate) is None:
-                return candidate, sigma
-        return None
+    def _smoothest(self, path: np.ndarray, problem: Problem, model: ArmModel) -> tuple[np.ndarray, float] | None:
+        """The smoothest of ``path`` and its smoothings (targets kept) that passes the crawl check, with the
+        smoothing scale (mm; 0 for the roll-out itself); None when none passes."""
+        step, k_ul = float(np.mean(problem.robot.lengths)), problem.robot.k_ul
+        candidates = [(path, 0.0)] + [(polyline.smooth(path, sigma, pins=problem.goals), sigma)
+                                      for sigma in self.smoothing]
+        candidates.sort(key=lambda c: -path_smoothness(c[0], step, k_ul))
+        return next(((p, sigma) for p, sigma in candidates if model.first_failure(p) is None), None)
 
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float
                ) -> tuple[str, np.ndarray | None, dict]:
@@ -643,13 +651,11 @@ class SacPlanner(Planner):
             if outcome == "timeout":
                 break
             if outcome == "reached":
-                smoothed = self._smoothed(path, problem.goals, model)
-                if smoothed is not None:
-                    details["smoothing_sigma_mm"] = smoothed[1]
-                    return "found", smoothed[0], details
+                chosen = self._smoothest(path, problem, model)
+                if chosen is not None:
+                    details["smoothing_sigma_mm"] = chosen[1]
+                    return "found", chosen[0], details
                 failure = model.first_failure(path)
-                if failure is None:
-                    return "found", path, details
                 if failure > best_reach:
                     best, best_reach = path, failure
             elif best is None:
