@@ -37,7 +37,7 @@ def _load_builtin() -> None:
 
 #: The planner per scene used when none is named: the learned planner with its shipped policy where one ships
 #: (milliseconds, smoothest paths in Table 2; see README), SSCC in pipes.
-DEFAULT_PLANNER_BY_SCENE = {"fuel-tank": "sac-her", "oil-tank": "sp-rrt", "pipe": "sscc", "concentric-pipe": "sscc"}
+DEFAULT_PLANNER_BY_SCENE = {"fuel-tank": "sac-her", "oil-tank": "sac-per", "pipe": "sscc", "concentric-pipe": "sscc"}
 
 
 def default_planner(scene_name: str) -> str:
