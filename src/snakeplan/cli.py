@@ -540,6 +540,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=_seed, default=0, help="seed for scenes and configurations")
     p.add_argument("--json", action="store_true", help="also print the figures as JSON")
     p.set_defaults(func=cmd_bench_kernels)
+
     p = bsub.add_parser("rl", help="training throughput of the learned planners",
                         description="Environment steps, SAC-HER training steps and actor calls per second, each "
                                     "against a baseline in the same process; medians over repeats.")

@@ -183,7 +183,10 @@ def _pm(pair: tuple[float, float] | None, digits: int) -> str:
 def summary_markdown(summary: dict, config: Table2Config) -> str:
     head = ("| scene | planner | runs | success | path length (mm) | paper | time (s) | paper | "
             "smoothness index | paper |\n|---|---|---|---|---|---|---|---|---|---|")
-    lines = [f"Table 2 on seeds {list(config.seeds)} with a {config.time_limit_s:g} s budget per plan "
+    seeds = list(config.seeds)
+    contiguous = len(seeds) > 2 and seeds == list(range(seeds[0], seeds[-1] + 1))
+    shown = f"{seeds[0]}-{seeds[-1]}" if contiguous else ", ".join(map(str, seeds))
+    lines = [f"Table 2 on seeds {shown} with a {config.time_limit_s:g} s budget per plan "
              f"({config.robot}); length and smoothness over successful runs, time over all runs.", "", head]
     for key, e in summary.items():
         s, p = key.split("/")
