@@ -16,9 +16,9 @@ This module holds everything a roll-out needs, so planning never imports the tra
 - :class:`NumpyPolicy`: the actor from a plain ``.npz`` weights file (no pickle, no torch), ~20 us a call.
 
 The planners roll the policy out from the entrance (a roll-out takes milliseconds) until every target is reached;
-the widest Gaussian smoothing of the roll-out (``SMOOTHING_SIGMAS_MM``) that passes the planning-time crawl check
-(:class:`ArmModel`) is planned, else the roll-out itself; a roll-out that fails the check is rolled out again with
-seeded action noise, up to ``PLAN_ATTEMPTS`` times within the budget; the path goes to the judge. Policy files ship in
+the smoothest of the roll-out and its Gaussian smoothings (``SMOOTHING_SIGMAS_MM``) that passes the planning-time
+crawl check (:class:`ArmModel`) is planned; when none passes, the policy is rolled out again with seeded action
+noise, up to ``PLAN_ATTEMPTS`` times within the budget; the path goes to the judge. Policy files ship in
 ``snakeplan/rl/data`` as ``{scene}-{algorithm}.npz`` (with ``.curve.json``, the learning curve that made them).
 """
 
@@ -607,10 +607,10 @@ SMOOTHING_SIGMAS_MM = (480.0, 320.0, 240.0, 160.0, 120.0, 80.0)
 @register_planner
 class SacPlanner(Planner):
     """`sac`: a plain-SAC policy rolled out deterministically; ``policy=`` a file, else the shipped one for the
-    scene. A roll-out that reaches every target is smoothed (``smoothing``, widest first; the roll-out itself when
-    no smoothing passes); one whose crawl fails the planning-time check (:class:`ArmModel`) is retried with action noise
-    (seeded), up to ``attempts`` roll-outs within the budget. It senses only what its rays and camera see, so it
-    also plans with ``knowledge="sensed"``."""
+    scene. A roll-out that reaches every target is planned as the smoothest of itself and its ``smoothing``
+    scales (:data:`SMOOTHING_SIGMAS_MM`) that passes the planning-time crawl check (:class:`ArmModel`); when none
+    passes, it is rolled out again with seeded action noise, up to ``attempts`` roll-outs within the budget. It
+    senses only what its rays and camera see, so it also plans with ``knowledge="sensed"``."""
 
     name = "sac"
     needs_full_scene = False
