@@ -215,8 +215,11 @@ def test_bench_ablation_trains_both_variants_and_reports(capsys, tmp_path):
                        "--batch-size", "16", "--json")
     result = json.loads(out)
     assert code == 0 and set(result["runs"]) == {"SAC-PER", "SAC"} and result["threshold"] == 0.5
-    for runs in result["runs"].values():
+    for label, runs in result["runs"].items():
         assert len(runs) == 1 and 0 < runs[0]["steps_to_converge"] <= 120
+        curve = json.loads((tmp_path / f"oil-tank-{'sac-per' if label == 'SAC-PER' else 'sac'}-local-seed0"
+                            / "curve.json").read_text())
+        assert result["mean_success"][label] == pytest.approx(np.mean([h["success"] for h in curve]))
     assert (tmp_path / "ablation-oil-tank-replay.png").read_bytes()[:4] == b"\x89PNG"
     code, _, err = run(capsys, "bench", "ablation", "--steps", "0")
     assert code == 2 and "--steps" in err

@@ -381,7 +381,8 @@ def cmd_bench_ablation(args: argparse.Namespace) -> int:
     for label, runs in result["runs"].items():
         steps = ", ".join(f"{r['steps_to_converge']:.0f}" + ("" if r["converged"] else " (not converged)")
                           for r in runs)
-        sys.stdout.write(f"{label}: steps to {threshold:g} validation success per seed: {steps}\n")
+        sys.stdout.write(f"{label}: steps to {threshold:g} validation success per seed: {steps}; mean validation "
+                         f"success over the run {result['mean_success'][label]:.3f}\n")
     bound = " (at least: a baseline run never converged)" if result["speedup_is_lower_bound"] else ""
     speedup = "n/a" if result["speedup"] is None else f"{result['speedup']:.2f}x"
     sys.stdout.write(f"speed-up to convergence: {speedup}{bound}\n"

@@ -3,7 +3,9 @@ over several seeds, the speed-up to convergence, and the same comparison for the
 
 A run converges at the first validation whose success reaches ``CONVERGENCE_SUCCESS``; the speed-up is the
 baseline's median steps to convergence over the variant's (a run that never converges counts as the run's
-length, so the speed-up is then a lower bound, flagged in the result). Every run is an ordinary
+length, so the speed-up is then a lower bound, flagged in the result). Validation success is noisy, so the
+result also gives each variant's mean validation success over the run (the area under its learning curve,
+averaged over seeds). Every run is an ordinary
 :func:`snakeplan.rl.train.train` run in its own folder, so an interrupted ablation resumes.
 Run as ``snakeplan bench ablation --scene SCENE --seeds 3 --steps N [--compare observation]``.
 """
@@ -65,6 +67,8 @@ def run_ablation(scene: str, seeds: list[int], steps: int, out_dir: str | Path, 
     result["median_steps_to_converge"] = med
     result["speedup"] = med[second] / med[first] if med[first] > 0 else None
     result["speedup_is_lower_bound"] = not all(r["converged"] for r in result["runs"][second])
+    result["mean_success"] = {k: float(np.mean([np.mean([h["success"] for h in c]) for c in curves[k] if c]))
+                              for k in curves}
     out.mkdir(parents=True, exist_ok=True)
     plot_curves(curves, out / f"ablation-{scene}-{compare}.png")
     (out / f"ablation-{scene}-{compare}.json").write_text(json.dumps(result, indent=1))
