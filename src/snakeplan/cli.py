@@ -265,16 +265,15 @@ def cmd_plan(args: argparse.Namespace) -> int:
         return _plan_inspection(args, scene, robot)
     problem = Problem(scene, robot, time_limit_s=args.time_limit, knowledge=args.knowledge)
     name = args.planner or default_planner(scene.name)
+    options = {}
     if args.policy is not None:
         if name not in LEARNED_PLANNERS:
             raise UsageError(f"--policy: only the learned planners ({', '.join(LEARNED_PLANNERS)}) take a policy "
                              f"file, not {name}")
         if not Path(args.policy).is_file():
             raise UsageError(f"--policy: no such file {args.policy}")
-        planner = _load_planner(name, policy=args.policy)
-    else:
-        planner = _load_planner(name)
-    plan = planner.plan(problem, seed=args.planner_seed)
+        options["policy"] = args.policy
+    plan = _load_planner(name, **options).plan(problem, seed=args.planner_seed)
     report = evaluate(scene, robot, plan.path) if plan.path is not None else None
     success = report is not None and report.success
     out = {"schema": PLAN_SCHEMA, "scene": {"name": scene.name, "seed": scene.seed}, "robot": robot.name,

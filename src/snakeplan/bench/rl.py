@@ -15,7 +15,6 @@ generate; training meets each of its scenes once before the cache serves it).
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 from dataclasses import replace
 
@@ -40,10 +39,15 @@ BUFFER_STEPS = 100_000
 CALL_BLOCK = 200
 
 
-def _env_rate(scene: str, observation: str, repeats: int, seed: int) -> float:
-    env = SnakeEnv(scene, observation=observation, seeds=(TRAIN_SEED, TRAIN_SEED + BENCH_SCENES))
+def _generate_scenes(env: SnakeEnv) -> None:
+    """Generate the ``BENCH_SCENES`` scenes an environment draws from, before anything is timed."""
     for k in range(BENCH_SCENES):
         env.scene_for(TRAIN_SEED + k)
+
+
+def _env_rate(scene: str, observation: str, repeats: int, seed: int) -> float:
+    env = SnakeEnv(scene, observation=observation, seeds=(TRAIN_SEED, TRAIN_SEED + BENCH_SCENES))
+    _generate_scenes(env)
     env.reset(seed=seed)
     rng = np.random.default_rng(seed)
 
@@ -56,27 +60,22 @@ def _env_rate(scene: str, observation: str, repeats: int, seed: int) -> float:
     return ENV_BLOCK / median_seconds(block, repeats)
 
 
-def _trainer(config, seed: int):
+def _train_rate(config, repeats: int, seed: int):
+    """SAC-HER training steps per second with ``config``, and the trained model with its route graph."""
     config = replace(config, learning_starts=TRAIN_BLOCK, train_scenes=BENCH_SCENES)
     env = DummyVecEnv([make_env("fuel-tank", config)])
-    for k in range(BENCH_SCENES):
-        env.envs[0].unwrapped.scene_for(TRAIN_SEED + k)
+    _generate_scenes(env.envs[0].unwrapped)
     env.seed(seed)
     model, graph = build_model("fuel-tank", "sac-her", config, seed, env, BUFFER_STEPS)
     model.learn(TRAIN_BLOCK)
-    return model, graph
+    rate = TRAIN_BLOCK / median_seconds(lambda: model.learn(TRAIN_BLOCK, reset_num_timesteps=False), repeats)
+    return rate, model, graph
 
 
-def _train_rate(config, repeats: int, seed: int) -> float:
-    model, _ = _trainer(config, seed)
-    return TRAIN_BLOCK / median_seconds(lambda: model.learn(TRAIN_BLOCK, reset_num_timesteps=False), repeats)
-
-
-def _call_rates(repeats: int, seed: int) -> tuple[float, float]:
-    model, graph = _trainer(DEFAULT_CONFIG, seed)
+def _call_rates(model, graph, repeats: int, seed: int) -> tuple[float, float]:
+    """Actor calls per second: the NumPy export of ``model`` and SB3's ``predict`` on the same observation."""
     policy = from_sb3(model, {"observation": "local"}, graph)
-    env = SnakeEnv("fuel-tank")
-    obs, _ = env.reset(seed=seed)
+    obs, _ = SnakeEnv("fuel-tank").reset(seed=seed)
 
     def calls(fn: Callable) -> Callable[[], None]:
         def block() -> None:
@@ -96,9 +95,9 @@ def run_rl_bench(repeats: int = 5, seed: int = 0) -> dict:
     try:
         env = {scene: {obs: _env_rate(scene, obs, repeats, seed) for obs in ("local", "paper")}
                for scene in ("fuel-tank", "oil-tank")}
-        ours = _train_rate(DEFAULT_CONFIG, repeats, seed)
-        paper = _train_rate(PAPER_CONFIG, repeats, seed)
-        numpy_rate, sb3_rate = _call_rates(repeats, seed)
+        ours, model, graph = _train_rate(DEFAULT_CONFIG, repeats, seed)
+        paper, _, _ = _train_rate(PAPER_CONFIG, repeats, seed)
+        numpy_rate, sb3_rate = _call_rates(model, graph, repeats, seed)
     finally:
         th.set_num_threads(threads)
     return {

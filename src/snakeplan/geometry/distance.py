@@ -382,42 +382,40 @@ def _segments_clear(rows, boxes, tris, ranges, a, b, radius):
 
 
 @njit(cache=True)
+def _ray_meets_box(box, origin, d, max_dist, eps):
+    """Whether the ray segment origin + t d, t in [0, max_dist], meets the box [lo(3), hi(3)] grown by eps."""
+    t0, t1 = 0.0, max_dist
+    for a in range(3):
+        lo, hi = box[a] - eps, box[a + 3] + eps
+        if abs(d[a]) < 1e-12:
+            if origin[a] < lo or origin[a] > hi:
+                return False
+        else:
+            ta, tb = (lo - origin[a]) / d[a], (hi - origin[a]) / d[a]
+            t0, t1 = max(t0, min(ta, tb)), min(t1, max(ta, tb))
+    return t0 <= t1
+
+
+@njit(cache=True)
 def _raycast(rows, boxes, tris, ranges, origins, dirs, max_dist, eps):
     """Sphere tracing of each ray against only the obstacles whose bounding box (grown by ``eps``) its segment
     [0, max_dist] meets: an obstacle the segment misses can neither stop the ray nor be entered by it, so a ray
     costs a few obstacles' distances per step instead of the whole scene's."""
     out = np.full(origins.shape[0], np.inf)
     cand = np.empty(rows.shape[0], dtype=np.int64)
-    p = np.empty(3)
     for i in range(origins.shape[0]):
         n = 0
         for k in range(rows.shape[0]):
-            t0, t1 = 0.0, max_dist
-            for a in range(3):
-                lo, hi = boxes[k, a] - eps, boxes[k, a + 3] + eps
-                d = dirs[i, a]
-                if abs(d) < 1e-12:
-                    if origins[i, a] < lo or origins[i, a] > hi:
-                        t0, t1 = 1.0, 0.0
-                else:
-                    ta, tb = (lo - origins[i, a]) / d, (hi - origins[i, a]) / d
-                    if ta > tb:
-                        ta, tb = tb, ta
-                    t0, t1 = max(t0, ta), min(t1, tb)
-            if t0 <= t1:
+            if _ray_meets_box(boxes[k], origins[i], dirs[i], max_dist, eps):
                 cand[n] = k
                 n += 1
         t = 0.0
         while n > 0 and t <= max_dist:
-            for a in range(3):
-                p[a] = origins[i, a] + t * dirs[i, a]
-            best = np.inf
-            for j in range(n):
-                best = min(best, _sdf_row(rows[cand[j]], tris, ranges, p))
-            if best < eps:
+            step = _min_over(rows, tris, ranges, cand, n, origins[i] + t * dirs[i])
+            if step < eps:
                 out[i] = t
                 break
-            t += best
+            t += step
     return out
 
 

@@ -186,7 +186,7 @@ def fillet(waypoints: ArrayLike, radius: float, step: float = 5.0) -> np.ndarray
             continue
         tangent = min(r_max * np.tan(turn / 2), share[i - 1], share[i])
         r = tangent / np.tan(turn / 2)
-        a, b = p[i] - tangent * u, p[i] + tangent * v
+        a = p[i] - tangent * u
         inward = v - np.dot(v, u) * u  # towards the centre, perpendicular to the incoming direction
         centre = a + r * inward / np.linalg.norm(inward)
         n = max(int(np.ceil(r * turn / h)), 1)

@@ -629,14 +629,23 @@ class SacPlanner(Planner):
             raise ValueError(f"policy: no policy file {path} for planner {self.name} in scene {scene.name}")
         return load_policy(path)
 
-    def _smoothest(self, path: np.ndarray, problem: Problem, model: ArmModel) -> tuple[np.ndarray, float] | None:
-        """The smoothest of ``path`` and its smoothings (targets kept) that passes the crawl check, with the
-        smoothing scale (mm; 0 for the roll-out itself); None when none passes."""
+    def _smoothest(self, path: np.ndarray, problem: Problem, model: ArmModel
+                   ) -> tuple[np.ndarray | None, float, float]:
+        """The smoothest of ``path`` and its smoothings (targets kept) that passes the crawl check, with its
+        smoothing scale (mm; 0 for the roll-out itself); when none passes, (None, 0, depth (mm) at which the
+        roll-out's own crawl fails)."""
         step, k_ul = float(np.mean(problem.robot.lengths)), problem.robot.k_ul
         candidates = [(path, 0.0)] + [(polyline.smooth(path, sigma, pins=problem.goals), sigma)
                                       for sigma in self.smoothing]
         candidates.sort(key=lambda c: -path_smoothness(c[0], step, k_ul))
-        return next(((p, sigma) for p, sigma in candidates if model.first_failure(p) is None), None)
+        raw_failure = 0.0
+        for candidate, sigma in candidates:
+            failure = model.first_failure(candidate)
+            if failure is None:
+                return candidate, sigma, 0.0
+            if candidate is path:
+                raw_failure = failure
+        return None, 0.0, raw_failure
 
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float
                ) -> tuple[str, np.ndarray | None, dict]:
@@ -651,11 +660,10 @@ class SacPlanner(Planner):
             if outcome == "timeout":
                 break
             if outcome == "reached":
-                chosen = self._smoothest(path, problem, model)
+                chosen, sigma, failure = self._smoothest(path, problem, model)
                 if chosen is not None:
-                    details["smoothing_sigma_mm"] = chosen[1]
-                    return "found", chosen[0], details
-                failure = model.first_failure(path)
+                    details["smoothing_sigma_mm"] = sigma
+                    return "found", chosen, details
                 if failure > best_reach:
                     best, best_reach = path, failure
             elif best is None:
