@@ -20,6 +20,7 @@ from snakeplan.planners.sscc.swinging import (
 )
 from snakeplan.robots import get_robot
 from snakeplan.scenes import Entrance, Scene, make_scene
+from snakeplan.world import FullView
 
 ROBOT24 = get_robot("sscc-24")  # 12 x 100 mm
 ROBOT16 = get_robot("sscc-16")  # 8 x 150 mm
@@ -64,7 +65,7 @@ def test_swing_keeps_the_tip_on_the_target_and_forces_push_joints():
     scene = make_scene("concentric-pipe", 3)
     target = scene.targets[0]
     k = inner_module_counts(ROBOT24, scene.entrance.position, target)[-1]
-    arm = InnerArm(ROBOT24, scene.obstacle_set, scene.entrance.position, scene.entrance.direction, target, k)
+    arm = InnerArm(ROBOT24, FullView(scene), target, k)
     rng = np.random.default_rng(0)
     q = arm.initial(rng)
     assert q is not None and arm.tip_error(q) <= 1.0

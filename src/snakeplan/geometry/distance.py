@@ -28,8 +28,10 @@ from snakeplan.geometry.primitives import (
 
 #: Accuracy (mm) of the minimum clearance reported for a segment.
 CLEARANCE_TOLERANCE_MM = 0.05
-#: Smallest interval half-length (mm) the collision test subdivides to: a touch closer than this is a touch.
-COLLISION_RESOLUTION_MM = 1e-6
+#: Contact resolution (mm): a capsule that penetrates an obstacle by more than this collides; one that only grazes
+#: it (tangent contact, or a penetration shallower than this) is a touch. It is also the resolution floor of the
+#: branch-and-bound, so a grazing link costs no more than about length / resolution distance evaluations.
+CONTACT_RESOLUTION_MM = 0.01
 
 
 @njit(cache=True)
@@ -242,7 +244,7 @@ def _box_distance(box: np.ndarray, p: np.ndarray) -> float:
 
 
 @njit(cache=True)
-def _candidates(rows, boxes, tris, ranges, a, b, cutoff, cand):
+def _candidates(rows, boxes, tris, ranges, a, b, cutoff, cand, stats):
     """Obstacles that may come within ``cutoff`` of segment ab; returns their count in ``cand``.
 
     The bounding-box distance culls far obstacles before their exact distance is evaluated.
@@ -254,6 +256,7 @@ def _candidates(rows, boxes, tris, ranges, a, b, cutoff, cand):
         outside = _box_distance(boxes[k], mid)  # a lower bound on the distance only outside the box
         if outside > 0.0 and outside - half >= cutoff:
             continue
+        stats[0] += 1
         if _sdf_row(rows[k], tris, ranges, mid) - half < cutoff:
             cand[n] = k
             n += 1
@@ -261,7 +264,8 @@ def _candidates(rows, boxes, tris, ranges, a, b, cutoff, cand):
 
 
 @njit(cache=True)
-def _min_over(rows, tris, ranges, cand, n, p):
+def _min_over(rows, tris, ranges, cand, n, p, stats):
+    stats[0] += n
     best = np.inf
     for j in range(n):
         d = _sdf_row(rows[cand[j]], tris, ranges, p)
@@ -271,14 +275,16 @@ def _min_over(rows, tris, ranges, cand, n, p):
 
 
 @njit(cache=True)
-def _segment_min(rows, boxes, tris, ranges, a, b, cutoff, tol, cand, stack):
-    """Minimum signed distance along segment ab, accurate to ``tol``; values >= ``cutoff`` come back as cutoff."""
-    n = _candidates(rows, boxes, tris, ranges, a, b, cutoff, cand)
+def _segment_min(rows, boxes, tris, ranges, a, b, cutoff, tol, radius, cand, stack, stats):
+    """Minimum signed distance along segment ab (ends included), accurate to ``tol``; values >= ``cutoff`` come
+    back as cutoff. Where the minimum may lie below ``radius - CONTACT_RESOLUTION_MM`` while the best found does
+    not, the search goes on to the contact resolution, so the sign of the clearance is never decided by ``tol``."""
+    n = _candidates(rows, boxes, tris, ranges, a, b, cutoff, cand, stats)
     if n == 0:
         return cutoff
+    contact = radius - CONTACT_RESOLUTION_MM
     length = math.sqrt(((b - a) ** 2).sum())
-    best = cutoff
-    top = 0
+    best = min(cutoff, _min_over(rows, tris, ranges, cand, n, a, stats), _min_over(rows, tris, ranges, cand, n, b, stats))
     stack[0, 0] = 0.0
     stack[0, 1] = 1.0
     top = 1
@@ -287,11 +293,12 @@ def _segment_min(rows, boxes, tris, ranges, a, b, cutoff, tol, cand, stack):
         t0 = stack[top, 0]
         t1 = stack[top, 1]
         tm = 0.5 * (t0 + t1)
-        f = _min_over(rows, tris, ranges, cand, n, a + tm * (b - a))
+        f = _min_over(rows, tris, ranges, cand, n, a + tm * (b - a), stats)
         if f < best:
             best = f
         h = 0.5 * (t1 - t0) * length
-        if f - h < best - tol and top + 2 <= stack.shape[0]:
+        refine = f - h < best - tol or (best >= contact and f - h < contact and h > 0.5 * CONTACT_RESOLUTION_MM)
+        if refine and top + 2 <= stack.shape[0]:
             stack[top, 0] = t0
             stack[top, 1] = tm
             stack[top + 1, 0] = tm
@@ -301,11 +308,16 @@ def _segment_min(rows, boxes, tris, ranges, a, b, cutoff, tol, cand, stack):
 
 
 @njit(cache=True)
-def _segment_hits(rows, boxes, tris, ranges, a, b, radius, cand, stack):
-    """True when some point of segment ab is closer than ``radius`` to an obstacle (capsule overlap)."""
-    n = _candidates(rows, boxes, tris, ranges, a, b, radius, cand)
+def _segment_hits(rows, boxes, tris, ranges, a, b, radius, cand, stack, stats):
+    """True when some point of segment ab is closer than ``radius - CONTACT_RESOLUTION_MM`` to an obstacle.
+
+    Intervals are halved only while their bound could hide such a point and they are longer than the contact
+    resolution, so a link grazing a surface (tangent contact) costs length / resolution evaluations at most.
+    """
+    n = _candidates(rows, boxes, tris, ranges, a, b, radius, cand, stats)
     if n == 0:
         return False
+    contact = radius - CONTACT_RESOLUTION_MM
     length = math.sqrt(((b - a) ** 2).sum())
     stack[0, 0] = 0.0
     stack[0, 1] = 1.0
@@ -315,11 +327,11 @@ def _segment_hits(rows, boxes, tris, ranges, a, b, radius, cand, stack):
         t0 = stack[top, 0]
         t1 = stack[top, 1]
         tm = 0.5 * (t0 + t1)
-        f = _min_over(rows, tris, ranges, cand, n, a + tm * (b - a))
-        if f < radius:
+        f = _min_over(rows, tris, ranges, cand, n, a + tm * (b - a), stats)
+        if f < contact:
             return True
         h = 0.5 * (t1 - t0) * length
-        if f - h < radius and h > COLLISION_RESOLUTION_MM and top + 2 <= stack.shape[0]:
+        if f - h < contact and h > 0.5 * CONTACT_RESOLUTION_MM and top + 2 <= stack.shape[0]:
             stack[top, 0] = t0
             stack[top, 1] = tm
             stack[top + 1, 0] = tm
@@ -329,7 +341,7 @@ def _segment_hits(rows, boxes, tris, ranges, a, b, radius, cand, stack):
 
 
 @njit(cache=True)
-def _chains_clearance(rows, boxes, tris, ranges, joints, radii, tol):
+def _chains_clearance(rows, boxes, tris, ranges, joints, radii, tol, stats):
     B = joints.shape[0]
     n = radii.shape[0]
     out = np.empty(B)
@@ -340,6 +352,7 @@ def _chains_clearance(rows, boxes, tris, ranges, joints, radii, tol):
         # pruned from the start instead of refining distances to far obstacles.
         best = np.inf
         for k in range(n):
+            stats[0] += rows.shape[0]
             d = _scene_sdf(rows, tris, ranges, 0.5 * (joints[i, k] + joints[i, k + 1])) - radii[k]
             if d < best:
                 best = d
@@ -348,7 +361,8 @@ def _chains_clearance(rows, boxes, tris, ranges, joints, radii, tol):
             continue
         for k in range(n):
             cutoff = best + radii[k]
-            d = _segment_min(rows, boxes, tris, ranges, joints[i, k], joints[i, k + 1], cutoff, tol, cand, stack)
+            d = _segment_min(rows, boxes, tris, ranges, joints[i, k], joints[i, k + 1], cutoff, tol, radii[k], cand,
+                             stack, stats)
             d -= radii[k]
             if d < best:
                 best = d
@@ -357,27 +371,45 @@ def _chains_clearance(rows, boxes, tris, ranges, joints, radii, tol):
 
 
 @njit(cache=True)
-def _chains_collide(rows, boxes, tris, ranges, joints, radii):
+def _chain_hit(rows, boxes, tris, ranges, joints, radii, cand, stack, stats):
+    """Index of a link of one chain ``(n+1, 3)`` that touches an obstacle (tip first), or -1."""
+    # Tip first: in follow-the-leader motion the leading links meet obstacles first, so exits come early.
+    for k in range(radii.shape[0] - 1, -1, -1):
+        if _segment_hits(rows, boxes, tris, ranges, joints[k], joints[k + 1], radii[k], cand, stack, stats):
+            return k
+    return -1
+
+
+@njit(cache=True)
+def _chains_collide(rows, boxes, tris, ranges, joints, radii, stats):
     B = joints.shape[0]
     out = np.zeros(B, dtype=np.bool_)
     cand = np.empty(rows.shape[0], dtype=np.int64)
     stack = np.empty((256, 2))
     for i in range(B):
-        # Tip first: in follow-the-leader motion the leading links meet obstacles first, so exits come early.
-        for k in range(radii.shape[0] - 1, -1, -1):
-            if _segment_hits(rows, boxes, tris, ranges, joints[i, k], joints[i, k + 1], radii[k], cand, stack):
-                out[i] = True
-                break
+        out[i] = _chain_hit(rows, boxes, tris, ranges, joints[i], radii, cand, stack, stats) >= 0
     return out
 
 
 @njit(cache=True)
-def _segments_clear(rows, boxes, tris, ranges, a, b, radius):
+def _first_hit(rows, boxes, tris, ranges, joints, radii, stats):
+    """(chain, link) of the first chain in order that touches an obstacle, or (-1, -1): the crawl's early exit."""
+    cand = np.empty(rows.shape[0], dtype=np.int64)
+    stack = np.empty((256, 2))
+    for i in range(joints.shape[0]):
+        k = _chain_hit(rows, boxes, tris, ranges, joints[i], radii, cand, stack, stats)
+        if k >= 0:
+            return i, k
+    return -1, -1
+
+
+@njit(cache=True)
+def _segments_clear(rows, boxes, tris, ranges, a, b, radius, stats):
     out = np.empty(a.shape[0], dtype=np.bool_)
     cand = np.empty(rows.shape[0], dtype=np.int64)
     stack = np.empty((256, 2))
     for i in range(a.shape[0]):
-        out[i] = not _segment_hits(rows, boxes, tris, ranges, a[i], b[i], radius, cand, stack)
+        out[i] = not _segment_hits(rows, boxes, tris, ranges, a[i], b[i], radius, cand, stack, stats)
     return out
 
 
@@ -397,7 +429,7 @@ def _ray_meets_box(box, origin, d, max_dist, eps):
 
 
 @njit(cache=True)
-def _raycast(rows, boxes, tris, ranges, origins, dirs, max_dist, eps):
+def _raycast(rows, boxes, tris, ranges, origins, dirs, max_dist, eps, stats):
     """Sphere tracing of each ray against only the obstacles whose bounding box (grown by ``eps``) its segment
     [0, max_dist] meets: an obstacle the segment misses can neither stop the ray nor be entered by it, so a ray
     costs a few obstacles' distances per step instead of the whole scene's."""
@@ -411,7 +443,7 @@ def _raycast(rows, boxes, tris, ranges, origins, dirs, max_dist, eps):
                 n += 1
         t = 0.0
         while n > 0 and t <= max_dist:
-            step = _min_over(rows, tris, ranges, cand, n, origins[i] + t * dirs[i])
+            step = _min_over(rows, tris, ranges, cand, n, origins[i] + t * dirs[i], stats)
             if step < eps:
                 out[i] = t
                 break
@@ -438,6 +470,9 @@ class ObstacleSet:
         self._tris = np.concatenate(tris) if tris else np.zeros((0, 3, 3))
         self._ranges = np.array(ranges, dtype=np.int64).reshape(len(ranges), 2)
         self._boxes = np.array([np.concatenate(o.aabb()) for o in self.obstacles], dtype=float).reshape(-1, 6)
+        #: Point-to-obstacle distance evaluations made by this set's queries so far (a cost measure for tests and
+        #: benchmarks, independent of the machine's speed).
+        self.evaluations = np.zeros(1, dtype=np.int64)
 
     def __len__(self) -> int:
         return len(self.obstacles)
@@ -446,25 +481,39 @@ class ObstacleSet:
         """Signed distance (mm) from points ``(..., 3)`` to the nearest obstacle (+inf with no obstacles)."""
         p = np.asarray(points, dtype=float)
         flat = np.ascontiguousarray(p.reshape(-1, 3))
+        self.evaluations[0] += flat.shape[0] * len(self.obstacles)
         return _sdf_points(self._rows, self._tris, self._ranges, flat).reshape(p.shape[:-1])
 
     def chain_clearance(self, joints, radii, tol: float = CLEARANCE_TOLERANCE_MM) -> np.ndarray:
         """Minimum clearance (mm) between obstacles and chains of capsules.
 
         ``joints`` is ``(..., n+1, 3)``, ``radii`` is ``(n,)``; negative means penetration.
-        The value is accurate to ``tol`` (it never exceeds the true clearance by more than ``tol``).
+        The value is attained at a point of the chain (link ends included) and exceeds the true clearance by at
+        most ``tol``; where the true clearance may be below ``-CONTACT_RESOLUTION_MM``, the search resolves it, so
+        a value >= ``-CONTACT_RESOLUTION_MM`` means the chain at most touches (as :meth:`chain_collides` says).
         """
         J = np.asarray(joints, dtype=float)
         r = np.ascontiguousarray(radii, dtype=float)
         flat = np.ascontiguousarray(J.reshape(-1, J.shape[-2], 3))
-        return _chains_clearance(self._rows, self._boxes, self._tris, self._ranges, flat, r, tol).reshape(J.shape[:-2])
+        return _chains_clearance(self._rows, self._boxes, self._tris, self._ranges, flat, r, tol,
+                                 self.evaluations).reshape(J.shape[:-2])
 
     def chain_collides(self, joints, radii) -> np.ndarray:
-        """True where any capsule of a chain ``(..., n+1, 3)`` overlaps an obstacle; exits early per chain."""
+        """True where any capsule of a chain ``(..., n+1, 3)`` penetrates an obstacle by more than
+        ``CONTACT_RESOLUTION_MM``; exits early per chain."""
         J = np.asarray(joints, dtype=float)
         r = np.ascontiguousarray(radii, dtype=float)
         flat = np.ascontiguousarray(J.reshape(-1, J.shape[-2], 3))
-        return _chains_collide(self._rows, self._boxes, self._tris, self._ranges, flat, r).reshape(J.shape[:-2])
+        return _chains_collide(self._rows, self._boxes, self._tris, self._ranges, flat, r,
+                               self.evaluations).reshape(J.shape[:-2])
+
+    def first_hit(self, joints, radii) -> tuple[int, int] | None:
+        """(chain, link) of the first chain of ``(B, n+1, 3)``, in order, that :meth:`chain_collides`, or None;
+        the chains after it are not examined."""
+        flat = np.ascontiguousarray(np.asarray(joints, dtype=float).reshape(-1, np.shape(joints)[-2], 3))
+        i, k = _first_hit(self._rows, self._boxes, self._tris, self._ranges, flat,
+                          np.ascontiguousarray(radii, dtype=float), self.evaluations)
+        return None if i < 0 else (int(i), int(k))
 
     def segments_clear(self, a, b, radius: float = 0.0) -> np.ndarray:
         """True where the capsule of ``radius`` around segment a->b ``(..., 3)`` touches no obstacle."""
@@ -473,7 +522,8 @@ class ObstacleSet:
         A, Bp = np.broadcast_arrays(A, Bp)
         fa = np.ascontiguousarray(A.reshape(-1, 3))
         fb = np.ascontiguousarray(Bp.reshape(-1, 3))
-        return _segments_clear(self._rows, self._boxes, self._tris, self._ranges, fa, fb, float(radius)).reshape(A.shape[:-1])
+        return _segments_clear(self._rows, self._boxes, self._tris, self._ranges, fa, fb, float(radius),
+                               self.evaluations).reshape(A.shape[:-1])
 
     def line_of_sight(self, a, b) -> np.ndarray:
         """True where the straight segment a->b passes through no obstacle's interior."""
@@ -488,7 +538,7 @@ class ObstacleSet:
         fo = np.ascontiguousarray(o.reshape(-1, 3))
         fd = np.ascontiguousarray(d.reshape(-1, 3))
         return _raycast(self._rows, self._boxes, self._tris, self._ranges, fo, fd, float(max_distance),
-                        float(eps)).reshape(o.shape[:-1])
+                        float(eps), self.evaluations).reshape(o.shape[:-1])
 
 
 def sampled_chain_clearance(obstacles: ObstacleSet, joints, radii, step: float = 1.0) -> np.ndarray:

@@ -10,7 +10,7 @@ Tree. A node is a tip pose: position, unit heading, depth (length of its branch 
 The root is the entrance, heading along the feed direction, so the path leaves the port in line with the part of
 the arm still behind it. Node fields live in NumPy arrays that double in size when full.
 
-Curvature. Every arc has curvature at most ``1 / ArmModel.turn_radius``: the circle whose section-length chords
+Curvature. Every arc has curvature at most ``1 / ValidityChecker.turn_radius``: the circle whose section-length chords
 bend within the bend limits times the planning safety factor (217.5 mm for SJTU-Snake III).
 
 Extension (one iteration). Draw a sample: the stage's target with probability ``GOAL_BIAS``, otherwise uniform
@@ -26,7 +26,7 @@ repeat the pose of a node of its stage (``TWIN_MM``, ``TWIN_COS``) is not added.
 
 Validity, for every extension and landing, cheap check first. (1) Sweep: the tip capsule (body radius plus the
 planning margin) clears every known obstacle along each chord of the arcs, inside the bounds. (2) Body: the
-follow-the-leader crawl of the new branch from the parent's depth to the new node's (``ArmModel.first_failure``,
+follow-the-leader crawl of the new branch from the parent's depth to the new node's (``ValidityChecker.first_failure``,
 every ``PLANNING_CRAWL_STEP_MM``: every link clear, bends within the limits, insertion within the arm's length).
 The crawl runs on every extension that passes the sweep: the jitted kernels make it about a millisecond, and
 checking less often would grow branches whose body already collides, which the judge would reject. A failed
@@ -53,10 +53,9 @@ Restarts. A tree either finds the targets within a few hundred iterations or has
 lead nowhere; so after ``RESTART_ITERATIONS`` iterations the tree is dropped and a fresh one grown, each with
 ``RESTART_GROWTH`` times the previous patience (the random generator carries on, so trees differ).
 
-Knowledge. ``"full"``: every obstacle of the scene. ``"sensed"``: an obstacle becomes known once its distance to a
-node of a tree (any tree grown so far, the root included) is within ``problem.sensor_range_mm``; each new node
-reveals what is in range (an axis-aligned bounding-box distance prefilter, then the exact distance). The checks
-use only known obstacles. Every arc and landing is capped at the sensor range minus the tip radius, so the tip
+Knowledge. The planner sees obstacles only through ``problem.world`` (:mod:`snakeplan.world.knowledge`). With a
+sensed view, each node of a tree (any tree grown so far, the root included) is reported to the sensor, which
+reveals every obstacle within ``problem.sensor_range_mm`` of it; the checks use only known obstacles. Every arc and landing is capped at the sensor range minus the tip radius, so the tip
 never sweeps beyond what its start node sensed, and the body's capsules lie within about 50 mm (radius plus
 chord deviation) of the tree's own arcs, near its nodes: for any sensor range above about 100 mm, every obstacle
 that could touch an extension is known when it is checked. The sensed planner then accepts what the full one
@@ -76,10 +75,9 @@ import time
 
 import numpy as np
 
-from snakeplan.geometry.distance import ObstacleSet
 from snakeplan.planners.base import Planner, Problem
-from snakeplan.planners.common import ArmModel
 from snakeplan.planners.registry import register_planner
+from snakeplan.world import PLANNING, ValidityChecker
 
 #: Probability (per iteration) of sampling the stage's target instead of a uniform point in the bounds.
 GOAL_BIAS = 0.3
@@ -259,42 +257,6 @@ def biarc(p: np.ndarray, t: np.ndarray, q: np.ndarray, h: np.ndarray, kappa_max:
     return pieces
 
 
-class _Sensor:
-    """Which obstacles are known: all of them, or those within range of the tree's nodes."""
-
-    def __init__(self, problem: Problem):
-        self.problem = problem
-        self.obstacles = problem.scene.obstacles
-        self.full = problem.knowledge == "full"
-        self.range = problem.sensor_range_mm
-        self.known = np.full(len(self.obstacles), self.full)
-        boxes = [o.aabb() for o in self.obstacles]
-        self.lo = np.array([b[0] for b in boxes]).reshape(-1, 3)
-        self.hi = np.array([b[1] for b in boxes]).reshape(-1, 3)
-        self._single: dict[int, ObstacleSet] = {}
-
-    def reveal(self, point: np.ndarray) -> bool:
-        """Mark obstacles within range of ``point`` as known; True when any was new."""
-        unknown = np.flatnonzero(~self.known)
-        if unknown.size == 0:
-            return False
-        gap = np.maximum(np.maximum(self.lo[unknown] - point, point - self.hi[unknown]), 0.0)
-        new = False
-        for k in unknown[np.linalg.norm(gap, axis=1) <= self.range]:
-            if k not in self._single:
-                self._single[k] = ObstacleSet([self.obstacles[k]])
-            if float(self._single[k].signed_distance(point)) <= self.range:
-                self.known[k] = True
-                new = True
-        return new
-
-    def model(self) -> ArmModel:
-        """The arm model against the known obstacles."""
-        if self.full:
-            return ArmModel(self.problem)
-        return ArmModel(self.problem, ObstacleSet([o for o, k in zip(self.obstacles, self.known) if k]))
-
-
 class _Tree:
     """Node poses (mm), depths (mm), parents, stages, goal-tried flags and the arc points leading to each node."""
 
@@ -348,12 +310,13 @@ class _Search:
         self.problem = problem
         self.rng = rng
         self.goals = problem.goals
-        self.sensor = _Sensor(problem)
-        self.sensor.reveal(problem.start)
-        self._remodel()
+        self.world = problem.world
+        self.world.sense(problem.start)
+        self.model = ValidityChecker(self.world, problem.robot, PLANNING)
+        self.blocked = not bool(self.model.tip_free(self.goals).all())
         self.kappa_max = 1.0 / self.model.turn_radius
         section = float(np.mean(self.model.lengths))
-        cap = math.inf if self.sensor.full else problem.sensor_range_mm - self.model.tip_radius
+        cap = math.inf if self.world.kind == "full" else problem.sensor_range_mm - self.model.tip_radius
         self.step = min(planner.arc_sections * section, cap)
         self.landing_max = min(LANDING_SECTIONS * section, cap)
         self.counts = {"iterations": 0, "restarts": 0, "sweep_rejects": 0, "body_rejects": 0, "twins": 0,
@@ -370,8 +333,8 @@ class _Search:
     def details(self, reason: str) -> dict:
         """Planner-specific facts of the run (counts over all trees; nodes, landings and targets of the last)."""
         return {"reason": reason, "nodes": self.tree.n, "targets_reached": self.reached,
-                "landings": self.landings, "known_obstacles": int(self.sensor.known.sum()),
-                "total_obstacles": len(self.sensor.known), "knowledge": self.problem.knowledge,
+                "landings": self.landings, "known_obstacles": len(self.world.obstacle_set),
+                "knowledge": self.problem.knowledge,
                 "arc_length_mm": self.step, "turn_radius_mm": self.model.turn_radius, **self.counts}
 
     def run(self, deadline: float) -> tuple[str, np.ndarray | None, dict]:
@@ -476,17 +439,12 @@ class _Search:
         return True
 
     def _add(self, parent: int, pts: np.ndarray, heading: np.ndarray, stage: int) -> int:
-        """Add a node and sense from it (rebuilding the arm model when something new is seen)."""
+        """Add a node and sense from it; a target closer to a newly seen obstacle than the tip radius (or out of
+        bounds) can never be landed on, which ``blocked`` records."""
         k = self.tree.add(parent, pts, heading, stage)
-        if self.sensor.reveal(self.tree.P[k]):
-            self._remodel()
+        if self.world.sense(self.tree.P[k]):
+            self.blocked = not bool(self.model.tip_free(self.goals).all())
         return k
-
-    def _remodel(self) -> None:
-        """Rebuild the arm model on the known obstacles; a target closer to one of them than the tip radius (or
-        out of bounds) can never be landed on, which ``blocked`` records."""
-        self.model = self.sensor.model()
-        self.blocked = not bool(self.model.tip_free(self.goals).all())
 
 
 @register_planner

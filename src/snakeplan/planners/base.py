@@ -14,18 +14,17 @@ from __future__ import annotations
 import math
 import time
 from abc import ABC, abstractmethod
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import ClassVar, Literal
 
 import numpy as np
 
 from snakeplan.robots import Chain
 from snakeplan.scenes import Scene
+from snakeplan.world import DEFAULT_SENSOR_RANGE_MM, KnowledgeView, view_for
 
 #: Default planning budget (s), the same for every planner in a comparison.
 DEFAULT_TIME_LIMIT_S = 30.0
-#: Default range (mm) of the tip sensor for planners that only know what they have sensed.
-DEFAULT_SENSOR_RANGE_MM = 400.0
 
 Knowledge = Literal["full", "sensed"]
 STATUSES = ("found", "timeout", "failed")
@@ -36,7 +35,9 @@ class Problem:
     """What to plan: a robot in a scene, from the entrance through the targets, within a time budget.
 
     ``knowledge`` says what the planner may use: ``"full"`` the whole scene, ``"sensed"`` only obstacles within
-    ``sensor_range_mm`` of where the tip has been (planners that work in unknown scenes honour this).
+    ``sensor_range_mm`` of where the tip has been. ``world`` is the knowledge view that says it
+    (:mod:`snakeplan.world.knowledge`; built from ``knowledge`` when not given): the only way a planner reaches
+    obstacles. ``scene`` supplies the structure (bounds, entrance, targets).
     """
 
     scene: Scene
@@ -44,6 +45,7 @@ class Problem:
     time_limit_s: float = DEFAULT_TIME_LIMIT_S
     knowledge: Knowledge = "full"
     sensor_range_mm: float = DEFAULT_SENSOR_RANGE_MM
+    world: KnowledgeView | None = None
 
     def __post_init__(self) -> None:
         if not (isinstance(self.time_limit_s, (int, float)) and math.isfinite(self.time_limit_s)
@@ -53,6 +55,10 @@ class Problem:
             raise ValueError(f"knowledge: must be 'full' or 'sensed', got {self.knowledge!r}")
         if len(self.scene.targets) == 0:
             raise ValueError(f"scene: {self.scene.name} has no targets to plan to")
+        if self.world is None:
+            object.__setattr__(self, "world", view_for(self.scene, self.knowledge, self.sensor_range_mm))
+        elif self.world.kind != self.knowledge:
+            raise ValueError(f"world: a {self.world.kind} view does not match knowledge={self.knowledge!r}")
 
     @property
     def start(self) -> np.ndarray:
@@ -90,6 +96,7 @@ class Planner(ABC):
         """Plan within ``problem.time_limit_s``; the wall time is measured here, the same way for all planners."""
         if self.needs_full_scene and problem.knowledge != "full":
             raise ValueError(f"knowledge: planner {self.name} needs the whole scene ('full')")
+        problem = replace(problem, world=problem.world.fresh())  # every plan starts knowing only the prior
         t0 = time.perf_counter()
         status, path, details = self._solve(problem, np.random.default_rng(seed), t0 + problem.time_limit_s)
         return Plan(self.name, status, path, time.perf_counter() - t0, details)

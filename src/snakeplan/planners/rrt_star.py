@@ -3,13 +3,13 @@
 RRT* here is the generic sampling baseline of paper 000 (§1, Table 2): it searches for the tip's path alone and
 ignores the body while it searches. The state is the tip position (mm) in the scene's bounds
 (``RealVectorStateSpace(3)``). A state is valid when a ball of the body radius plus the planning margin
-(:attr:`ArmModel.tip_radius`) around the tip clears every obstacle. A motion is valid when the capsule that
+(:attr:`ValidityChecker.tip_radius`) around the tip clears every obstacle. A motion is valid when the capsule that
 ball sweeps along the straight segment clears every obstacle: an exact sweep
-(:meth:`ObstacleSet.segments_clear`), so no wall is thin enough to tunnel through, and one call per motion
+(:meth:`ValidityChecker.segment_free`), so no wall is thin enough to tunnel through, and one call per motion
 instead of one per interpolated state (3.7x faster than OMPL's discrete check at a 10 mm step, with the same
 success, on fuel-tank seeds 0-9). The objective is path length, the planner ``og.RRTstar`` (extension
 ``RANGE_MM``, goal bias ``GOAL_BIAS``, OMPL's other defaults). The body, its bend limits and the
-follow-the-leader crawl play no part in the search; they are checked afterwards (:meth:`ArmModel.crawl_ok`).
+follow-the-leader crawl play no part in the search; they are checked afterwards (:meth:`ValidityChecker.first_failure`).
 
 Choices, each a named default below:
 
@@ -34,7 +34,7 @@ Choices, each a named default below:
 * Smoothing: a target that is an interior corner becomes two corners on a straight stretch through the
   target (the tip passes within ``TARGET_TOL_MM`` of it); neighbouring corners too close for their fillets
   are merged into one where their outer segments' lines meet; then every corner is rounded by
-  :func:`fillet` with radius ``RADIUS_FACTOR`` x :attr:`ArmModel.turn_radius`, arcs sampled every
+  :func:`fillet` with radius ``RADIUS_FACTOR`` x :attr:`ValidityChecker.turn_radius`, arcs sampled every
   ``ARC_STEP_MM``.
 * Repair (bounded, a good-faith baseline): when the smoothed path fails the crawl check, smoothing is redone
   with each larger shortcut margin of ``SHORTCUT_MARGINS_MM``; when all fail, the legs are planned again with
@@ -61,8 +61,8 @@ from ompl import util as ou
 
 from snakeplan.geometry.polyline import densify, drop_duplicates, fillet, path_length
 from snakeplan.planners.base import Planner, Problem
-from snakeplan.planners.common import ArmModel
 from snakeplan.planners.registry import register_planner
+from snakeplan.world import PLANNING, ValidityChecker
 
 #: Shortest straight lead (mm) along the feed axis from the entrance; RRT* starts at its end.
 LEAD_MM = 60.0
@@ -84,7 +84,7 @@ SHORTCUT_STEP_MM = 20.0
 SHORTCUT_MARGINS_MM = (10.0, 25.0, 45.0)
 #: Extra tip clearance (mm) of re-planned legs when no shortcut margin gives a path that crawls.
 REPAIR_PLAN_MARGINS_MM = (15.0, 30.0)
-#: Fillet radius as a multiple of :attr:`ArmModel.turn_radius`; the slack absorbs the chords of the sampled
+#: Fillet radius as a multiple of :attr:`ValidityChecker.turn_radius`; the slack absorbs the chords of the sampled
 #: arcs, which bend slightly more than the circle they approximate.
 RADIUS_FACTOR = 1.05
 #: Arc-length step (mm) at which fillet arcs are sampled.
@@ -108,20 +108,10 @@ def _seed_ompl(rng: np.random.Generator) -> None:
     ou.setLogLevel(level)
 
 
-def _segments_free(arm: ArmModel, a: np.ndarray, b: np.ndarray, radius: float) -> np.ndarray:
-    """True where a ball of ``radius`` (mm) swept a -> b clears every obstacle and stays in the bounds."""
-    return arm.obstacles.segments_clear(a, b, radius) & arm.scene.in_bounds(a) & arm.scene.in_bounds(b)
-
-
-def _points_free(arm: ArmModel, points: np.ndarray, radius: float) -> np.ndarray:
-    """True where a ball of ``radius`` (mm) at ``points`` clears every obstacle and lies in the bounds."""
-    return (arm.obstacles.signed_distance(points) >= radius) & arm.scene.in_bounds(points)
-
-
 class _SweptTip(ob.MotionValidator):
     """OMPL motion check: the tip ball of ``radius`` (mm) swept along the segment clears every obstacle."""
 
-    def __init__(self, si: ob.SpaceInformation, arm: ArmModel, radius: float):
+    def __init__(self, si: ob.SpaceInformation, arm: ValidityChecker, radius: float):
         super().__init__(si)
         self._arm = arm
         self._radius = radius
@@ -129,21 +119,21 @@ class _SweptTip(ob.MotionValidator):
     def checkMotion(self, s1: ob.State, s2: ob.State) -> bool:
         a = np.array([[s1[0], s1[1], s1[2]]])
         b = np.array([[s2[0], s2[1], s2[2]]])
-        return bool(_segments_free(self._arm, a, b, self._radius)[0])
+        return bool(self._arm.segment_free(a, b, self._radius)[0])
 
 
-def _plan_leg(arm: ArmModel, start: np.ndarray, goal: np.ndarray, radius: float, deadline: float
+def _plan_leg(arm: ValidityChecker, start: np.ndarray, goal: np.ndarray, radius: float, deadline: float
               ) -> tuple[np.ndarray | None, int]:
     """RRT* from ``start`` to ``goal`` (mm) with tip clearance ``radius`` (mm) until ``deadline`` (a
     perf_counter value) or ``IMPROVE_ITERATIONS`` after the first solution; (waypoints or None, tree size)."""
     space = ob.RealVectorStateSpace(3)
     bounds = ob.RealVectorBounds(3)
     for k in range(3):
-        bounds.setLow(k, float(arm.scene.bounds_min[k]))
-        bounds.setHigh(k, float(arm.scene.bounds_max[k]))
+        bounds.setLow(k, float(arm.world.scene.bounds_min[k]))
+        bounds.setHigh(k, float(arm.world.scene.bounds_max[k]))
     space.setBounds(bounds)
     setup = og.SimpleSetup(space)
-    setup.setStateValidityChecker(lambda s: bool(_points_free(arm, np.array([s[0], s[1], s[2]]), radius)))
+    setup.setStateValidityChecker(lambda s: bool(arm.tip_free(np.array([s[0], s[1], s[2]]), radius)))
     si = setup.getSpaceInformation()
     validator = _SweptTip(si, arm, radius)  # kept referenced while OMPL uses it
     si.setMotionValidator(validator)
@@ -180,14 +170,14 @@ def _plan_leg(arm: ArmModel, start: np.ndarray, goal: np.ndarray, radius: float,
     return pts, tree
 
 
-def _furthest_visible(arm: ArmModel, point: np.ndarray, later: np.ndarray, radius: float) -> int:
+def _furthest_visible(arm: ValidityChecker, point: np.ndarray, later: np.ndarray, radius: float) -> int:
     """Index of the furthest of ``later`` points a ball of ``radius`` (mm) reaches from ``point`` in a straight
     line; 0 when none is (callers pass a raw path whose first step is valid)."""
-    hits = np.flatnonzero(_segments_free(arm, np.broadcast_to(point, later.shape), later, radius))
+    hits = np.flatnonzero(arm.segment_free(np.broadcast_to(point, later.shape), later, radius))
     return int(hits[-1]) if hits.size else 0
 
 
-def _shortcut(arm: ArmModel, dense: np.ndarray, radius: float) -> list[np.ndarray]:
+def _shortcut(arm: ValidityChecker, dense: np.ndarray, radius: float) -> list[np.ndarray]:
     """Greedy shortcut of a densified leg (mm): from each kept point, jump to the furthest later point that a
     ball of ``radius`` reaches in a straight line; both ends are kept."""
     keep = [dense[0]]
@@ -203,7 +193,7 @@ def _turn(u: np.ndarray, v: np.ndarray) -> float:
     return float(np.arctan2(np.linalg.norm(np.cross(u, v)), np.dot(u, v)))
 
 
-def _entry(arm: ArmModel, start: np.ndarray, dense: np.ndarray, radius: float, turn_radius: float,
+def _entry(arm: ValidityChecker, start: np.ndarray, dense: np.ndarray, radius: float, turn_radius: float,
            ends_path: bool) -> tuple[np.ndarray, int]:
     """End of the straight lead along the feed axis (mm), and the index of the point of the first densified
     raw leg ``dense`` (which starts ``LEAD_MM`` in) that the path turns towards from there.
@@ -232,7 +222,7 @@ def _entry(arm: ArmModel, start: np.ndarray, dense: np.ndarray, radius: float, t
     return best[1], best[2]
 
 
-def _pass_through(arm: ArmModel, prev: np.ndarray, target: np.ndarray, nxt: np.ndarray, radius: float,
+def _pass_through(arm: ValidityChecker, prev: np.ndarray, target: np.ndarray, nxt: np.ndarray, radius: float,
                   turn_radius: float) -> list[np.ndarray]:
     """Corners (mm) that replace a target corner: two on the line through the target along the bisector of
     the turn, far enough apart that their fillets leave the stretch through the target straight. Their
@@ -250,7 +240,7 @@ def _pass_through(arm: ArmModel, prev: np.ndarray, target: np.ndarray, nxt: np.n
     for _ in range(PASS_TRIES):
         corners = [target - d * t, target + d * t]
         chain = np.array([prev, *corners, nxt])
-        if bool(np.all(_segments_free(arm, chain[:-1], chain[1:], radius))):
+        if bool(np.all(arm.segment_free(chain[:-1], chain[1:], radius))):
             return corners
         d /= 2.0
     return [target]
@@ -297,7 +287,7 @@ def _on_path(pts: np.ndarray, targets: np.ndarray) -> bool:
     return True
 
 
-def _merge_tight(arm: ArmModel, pts: np.ndarray, targets: np.ndarray, radius: float, turn_radius: float
+def _merge_tight(arm: ValidityChecker, pts: np.ndarray, targets: np.ndarray, radius: float, turn_radius: float
                  ) -> np.ndarray:
     """Merge neighbouring corners whose fillets do not fit (:func:`_tightness` > 1) into one corner where the
     lines of their outer segments meet, when the two new segments are free for a ball of ``radius`` (mm), the
@@ -319,7 +309,7 @@ def _merge_tight(arm: ArmModel, pts: np.ndarray, targets: np.ndarray, radius: fl
                     continue
                 cand = np.vstack([pts[:lo], x[None], pts[lo + 2:]])
                 new = cand[lo - 1:lo + 2]
-                if (np.all(_segments_free(arm, new[:-1], new[1:], radius)) and _on_path(cand, targets)
+                if (np.all(arm.segment_free(new[:-1], new[1:], radius)) and _on_path(cand, targets)
                         and _tightness(cand, turn_radius)[lo - 1] < max(tight[lo - 1], tight[lo])):
                     merged = cand
                     break
@@ -331,7 +321,7 @@ def _merge_tight(arm: ArmModel, pts: np.ndarray, targets: np.ndarray, radius: fl
     return pts
 
 
-def _smooth(arm: ArmModel, start: np.ndarray, legs: list[np.ndarray], targets: np.ndarray, margin: float
+def _smooth(arm: ValidityChecker, start: np.ndarray, legs: list[np.ndarray], targets: np.ndarray, margin: float
             ) -> np.ndarray:
     """Shortcut every raw leg with a ball of tip radius + ``margin`` (mm) after a straight lead from ``start``
     (:func:`_entry`), join the legs through the targets (:func:`_pass_through`), merge corners too tight for
@@ -351,9 +341,9 @@ def _smooth(arm: ArmModel, start: np.ndarray, legs: list[np.ndarray], targets: n
     return fillet(waypoints, turn_radius, ARC_STEP_MM)
 
 
-def _crawls(arm: ArmModel, path: np.ndarray) -> bool:
+def _crawls(arm: ValidityChecker, path: np.ndarray) -> bool:
     """Whether the tip capsule clears the obstacles along ``path`` and the body crawls along it."""
-    return bool(np.all(arm.segment_free(path[:-1], path[1:]))) and arm.crawl_ok(path)
+    return bool(np.all(arm.segment_free(path[:-1], path[1:]))) and arm.first_failure(path) is None
 
 
 @register_planner
@@ -374,18 +364,18 @@ class RRTStar(Planner):
 
     def _search(self, problem: Problem, rng: np.random.Generator, deadline: float
                 ) -> tuple[str, np.ndarray | None, dict]:
-        arm = ArmModel(problem)
+        arm = ValidityChecker(problem.world, problem.robot, PLANNING)
         _seed_ompl(rng)
         start, goals = problem.start, problem.goals
         lead = start + LEAD_MM * arm.direction
         details: dict = {"legs": len(goals), "tree_sizes": [], "raw_length_mm": None, "smoothed_length_mm": None,
                          "repairs": 0, "plan_margin_mm": None, "shortcut_margin_mm": None}
-        if not (arm.segment_free(start[None], lead[None])[0] and np.all(_points_free(arm, goals, arm.tip_radius))):
+        if not (arm.segment_free(start[None], lead[None])[0] and np.all(arm.tip_free(goals, arm.tip_radius))):
             return "failed", None, details
         search_deadline = deadline - POST_RESERVE_FRACTION * problem.time_limit_s
         for plan_margin in (0.0, *REPAIR_PLAN_MARGINS_MM):
             radius = arm.tip_radius + plan_margin
-            if not np.all(_points_free(arm, np.vstack([lead, goals]), radius)):
+            if not np.all(arm.tip_free(np.vstack([lead, goals]), radius)):
                 continue
             legs: list[np.ndarray] = []
             for k, goal in enumerate(goals):

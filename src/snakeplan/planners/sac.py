@@ -17,7 +17,7 @@ This module holds everything a roll-out needs, so planning never imports the tra
 
 The planners roll the policy out from the entrance (a roll-out takes milliseconds) until every target is reached;
 the smoothest of the roll-out and its Gaussian smoothings (``SMOOTHING_SIGMAS_MM``) that passes the planning-time
-crawl check (:class:`ArmModel`) is planned; when none passes, the policy is rolled out again with seeded action
+crawl check (the ``PLANNING`` profile of :class:`~snakeplan.world.ValidityChecker`) is planned; when none passes, the policy is rolled out again with seeded action
 noise, up to ``PLAN_ATTEMPTS`` times within the budget; the path goes to the judge. Policy files ship in
 ``snakeplan/rl/data`` as ``{scene}-{algorithm}.npz`` (with ``.curve.json``, the learning curve that made them).
 """
@@ -35,14 +35,13 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
-from snakeplan import ftl
 from snakeplan.evaluation.metrics import path_smoothness
 from snakeplan.geometry import polyline
 from snakeplan.planners.base import Planner, Problem
-from snakeplan.planners.common import ArmModel
 from snakeplan.planners.registry import register_planner
 from snakeplan.robots import Chain
 from snakeplan.scenes import Scene
+from snakeplan.world import PLANNING, REACH_TOLERANCE_MM, ROLLOUT, FullView, KnowledgeView, ValidityChecker
 
 #: Tip advance per step (mm).
 STEP_MM = 35.0
@@ -61,15 +60,6 @@ SNAP_FACTOR = 2.0
 #: Goal capture (local design): a goal within this many steps that an arc no tighter than the turning radius
 #: reaches is steered to by pure pursuit, overriding the action (0 disables it).
 CAPTURE_STEPS = 4
-#: Clearance (mm) the crawl keeps beyond the body radius: wider than the planners' margin, so that a policy
-#: trained to keep it clears obstacles between the crawl's checks and under the judge's finer crawl.
-BODY_MARGIN_MM = 8.0
-#: Body checks per step, evenly spaced in depth (the last at the new tip).
-BODY_CHECKS = 3
-#: Fraction of each bend limit a roll-out allows (the rest absorbs chord effects between checks).
-BEND_SAFETY = 0.97
-#: The tip within this distance (mm) of a target reaches it (the judge's tolerance).
-REACH_TOLERANCE_MM = 10.0
 #: Goals and tip positions in observations are divided by this (mm) (the "scaled error" of eq. 5).
 GOAL_SCALE_MM = 1000.0
 #: Route feature lengths are divided by this (mm) and clipped to ``FEATURE_CLIP``.
@@ -82,7 +72,6 @@ OBSERVATIONS = ("local", "paper")
 #: Where shipped policy files live (package data of snakeplan.rl).
 POLICY_DIR = ("rl", "data")
 
-FAILURES = ("collision", "bend_limit", "out_of_bounds", "insertion")
 
 
 @njit(cache=True)
@@ -352,12 +341,13 @@ class Crawler:
         self.capture_mm = capture_steps * self.step_mm if mode == "local" else 0.0
         self.lookahead = lookahead and mode == "local"
         self.rays = ray_directions()
-        self.radii = robot.radii + BODY_MARGIN_MM
-        self.max_bends = robot.max_bends * BEND_SAFETY
 
-    def reset(self, scene: Scene) -> None:
-        """Start at the entrance of ``scene``, heading along the feed direction."""
+    def reset(self, scene: Scene, world: KnowledgeView | None = None) -> None:
+        """Start at the entrance of ``scene``, heading along the feed direction, sensing through ``world`` (default:
+        the whole scene) and checking each step's crawl with the ``ROLLOUT`` profile."""
         self.scene = scene
+        self.world = FullView(scene) if world is None else world
+        self.checker = ValidityChecker(self.world, self.robot, ROLLOUT)
         self.tank_scale = float(np.max(scene.bounds_max))
         self.path = [scene.entrance.position.copy()]
         self.heading = scene.entrance.direction.copy()
@@ -383,7 +373,7 @@ class Crawler:
 
     def ranges(self) -> np.ndarray:
         """Distances (mm, capped at ``RAY_RANGE_MM``) to the first surface along each ray from the tip."""
-        d = self.scene.obstacle_set.raycast(self.tip, self.rays @ self.frame, RAY_RANGE_MM, RAY_EPS_MM)
+        d = self.world.raycast(self.tip, self.rays @ self.frame, RAY_RANGE_MM, RAY_EPS_MM)
         return np.minimum(d, RAY_RANGE_MM)
 
     def observation(self) -> dict[str, np.ndarray]:
@@ -451,23 +441,16 @@ class Crawler:
         return d / np.linalg.norm(d)
 
     def _failure(self) -> str | None:
-        """Why the crawl over the last step (``BODY_CHECKS`` depths) is infeasible, or None."""
-        if not bool(self.scene.in_bounds(self.tip)):
+        """Why the crawl over the last step is infeasible, or None: with ``check_body`` the validity checker's
+        verdict on the step's depths; without (a planning roll-out, whose whole path is checked afterwards) only
+        a tip out of the bounds or past the arm's length ends it."""
+        if self.check_body:
+            last = self.depth - float(np.linalg.norm(self.path[-1] - self.path[-2]))
+            failure = self.checker.first_failure(np.array(self.path), last)
+            return None if failure is None else failure.kind
+        if not bool(self.world.in_bounds(self.tip)):
             return "out_of_bounds"
-        if self.depth > self.robot.total_length:
-            return "insertion"
-        if not self.check_body:
-            return None
-        last = self.depth - float(np.linalg.norm(self.path[-1] - self.path[-2]))
-        depths = last + (self.depth - last) * np.arange(1, BODY_CHECKS + 1) / BODY_CHECKS
-        states = ftl.fit_states(np.array(self.path), self.robot.lengths, depths, self.scene.entrance.direction)
-        if np.any(self.scene.obstacle_set.chain_collides(states.joints, self.radii)):
-            return "collision"
-        if np.any(states.bend_angles > self.max_bends):
-            return "bend_limit"
-        if not np.all(states.insertion_ok):
-            return "insertion"
-        return None
+        return "insertion" if self.depth > self.robot.total_length else None
 
     def advance(self, action) -> tuple[str | None, bool]:
         """Apply one action; return (failure or None, whether a target was reached by this step)."""
@@ -552,13 +535,13 @@ class NumpyPolicy:
 
 def rollout(policy: NumpyPolicy, scene: Scene, robot: Chain, deadline: float = math.inf,
             max_steps: int | None = None, check_body: bool = False, noise: float = 0.0,
-            rng: np.random.Generator | None = None) -> tuple[np.ndarray, str]:
+            rng: np.random.Generator | None = None, world: KnowledgeView | None = None) -> tuple[np.ndarray, str]:
     """Roll the policy out in ``scene``: (tip path, outcome), outcome "reached", a failure name, "steps" (out of
     steps) or "timeout". Deterministic unless ``noise`` (std of Gaussian action noise, drawn from ``rng``).
     Without ``check_body`` (planning: the path is checked afterwards) the crawl stops only on reaching, leaving
-    the bounds or running out of arm."""
+    the bounds or running out of arm. The crawler senses through ``world`` (default: the whole scene)."""
     crawler = policy.crawler(robot, check_body)
-    crawler.reset(scene)
+    crawler.reset(scene, world)
     limit = max_steps or math.ceil(robot.total_length / crawler.step_mm) + 1
     for _ in range(limit):
         if time.perf_counter() > deadline:
@@ -608,9 +591,10 @@ SMOOTHING_SIGMAS_MM = (480.0, 320.0, 240.0, 160.0, 120.0, 80.0)
 class SacPlanner(Planner):
     """`sac`: a plain-SAC policy rolled out deterministically; ``policy=`` a file, else the shipped one for the
     scene. A roll-out that reaches every target is planned as the smoothest of itself and its ``smoothing``
-    scales (:data:`SMOOTHING_SIGMAS_MM`) that passes the planning-time crawl check (:class:`ArmModel`); when none
+    scales (:data:`SMOOTHING_SIGMAS_MM`) that passes the planning-time crawl check (the ``PLANNING`` profile of :class:`~snakeplan.world.ValidityChecker`); when none
     passes, it is rolled out again with seeded action noise, up to ``attempts`` roll-outs within the budget. It
-    senses only what its rays and camera see, so it also plans with ``knowledge="sensed"``."""
+    plans with ``knowledge="sensed"`` too: its rays and every crawl check then see only what the tip sensor has
+    revealed along its roll-outs (``problem.world``), so a retry re-plans within what has been sensed."""
 
     name = "sac"
     needs_full_scene = False
@@ -629,7 +613,7 @@ class SacPlanner(Planner):
             raise ValueError(f"policy: no policy file {path} for planner {self.name} in scene {scene.name}")
         return load_policy(path)
 
-    def _smoothest(self, path: np.ndarray, problem: Problem, model: ArmModel
+    def _smoothest(self, path: np.ndarray, problem: Problem, model: ValidityChecker
                    ) -> tuple[np.ndarray | None, float, float]:
         """The smoothest of ``path`` and its smoothings (targets kept) that passes the crawl check, with its
         smoothing scale (mm; 0 for the roll-out itself); when none passes, (None, 0, depth (mm) at which the
@@ -644,18 +628,19 @@ class SacPlanner(Planner):
             if failure is None:
                 return candidate, sigma, 0.0
             if candidate is path:
-                raw_failure = failure
+                raw_failure = failure.depth_mm
         return None, 0.0, raw_failure
 
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float
                ) -> tuple[str, np.ndarray | None, dict]:
         policy = self._policy(problem.scene)
-        model = ArmModel(problem)
+        model = ValidityChecker(problem.world, problem.robot, PLANNING)
         details = {"policy": policy.meta.get("name", str(self.policy_file or self.name))}
         best, best_reach = None, -1.0
         for attempt in range(self.attempts):
             noise = self.noise_levels[(attempt - 1) % RETRY_LEVELS] if attempt else 0.0
-            path, outcome = rollout(policy, problem.scene, problem.robot, deadline, noise=noise, rng=rng)
+            path, outcome = rollout(policy, problem.scene, problem.robot, deadline, noise=noise, rng=rng,
+                                    world=problem.world)
             details.update(outcome=outcome, attempts=attempt + 1, steps=len(path) - 1)
             if outcome == "timeout":
                 break

@@ -13,10 +13,10 @@ from the entrance, may be shorter).
 Choices (every number is a module-level default below):
 
 * **Bend limits.** The tree allows ``TREE_BEND_FRACTION`` of each section's limit; the crawl check
-  (:class:`ArmModel`, ``BEND_SAFETY``) and the judge (the full limit) keep the rest. Between node depths the
-  follow-the-leader links are chords across the node polyline's corners; their bends were measured to exceed the
+  (the ``PLANNING`` profile of :class:`~snakeplan.world.ValidityChecker`) and the judge (the full limit) keep
+  the rest. Between node depths the follow-the-leader links are chords across the node polyline's corners; their bends were measured to exceed the
   node bends by well under a degree, which this margin absorbs.
-* **Collision.** A link is a capsule of the largest body radius plus ``PLANNING_MARGIN_MM``, and a node must lie in
+* **Collision.** A link is a capsule of the largest body radius plus the ``PLANNING`` margin, and a node must lie in
   the bounds. Chords cut corners (by up to l sin(theta/2) / 2, about 34 mm at 45 degrees), so the chord from the
   middle of a new link to the middle of its parent link is checked as well. The candidates of an iteration go to
   the obstacle kernel in one batch.
@@ -62,7 +62,7 @@ Choices (every number is a module-level default below):
   The legs join inside one chain, so the bend limit holds at every junction; many chains pass a target in
   different directions and all keep growing, which is the backtracking between legs. A sample's stage is the
   most advanced one present with ``ADVANCE_BIAS``, else one drawn uniformly among those present.
-* **Check and repair.** Each solution is crawled with :meth:`ArmModel.first_failure` (every intermediate depth, the
+* **Check and repair.** Each solution is crawled with :meth:`ValidityChecker.first_failure` (every intermediate depth, the
   planning bend safety and margin). A failing bend at joint j or colliding link j depends only on the path from
   joint j-1 (or j) to the tip, so the last node behind that joint and its whole subtree are closed; the tree
   then grows on to the next solution, until the budget runs out.
@@ -84,8 +84,8 @@ from numba import njit
 from snakeplan import ftl
 from snakeplan.geometry.polyline import cumulative_length
 from snakeplan.planners.base import Planner, Problem
-from snakeplan.planners.common import ArmModel
 from snakeplan.planners.registry import register_planner
+from snakeplan.world import PLANNING, Failure, ValidityChecker
 from snakeplan.scenes.reach import (
     DEFAULT_FEED_MM,
     SDF_HORIZON_MM,
@@ -273,7 +273,7 @@ class _Search:
         self.cfg = cfg
         self.rng = rng
         self.deadline = deadline
-        self.model = ArmModel(problem)
+        self.model = ValidityChecker(problem.world, problem.robot, PLANNING)
         robot = problem.robot
         self.n = robot.n_sections
         self.lengths = np.asarray(robot.lengths, dtype=float)
@@ -320,7 +320,7 @@ class _Search:
                 self.source_depth = float(a)
                 break
         grid = Grid.covering(scene.bounds_min, scene.bounds_max, cell_mm)
-        sdf = free_space(scene.obstacle_set, grid, self.radius + SDF_HORIZON_MM)
+        sdf = free_space(self.model.obstacles, grid, self.radius + SDF_HORIZON_MM)
         source = Entrance(self.entrance + self.source_depth * self.u, self.u)
         self.field = geodesic_from_sdf(grid, sdf, source, self.radius, DEFAULT_FEED_MM)
 
@@ -360,7 +360,7 @@ class _Search:
 
     def _clear(self, a: np.ndarray, b: np.ndarray, nodes: np.ndarray) -> np.ndarray:
         """For each segment a -> b: the capsule is clear and the end ``nodes`` lie inside the bounds."""
-        return self.model.obstacles.segments_clear(a, b, self.radius) & self.model.scene.in_bounds(nodes)
+        return self.model.obstacles.segments_clear(a, b, self.radius) & self.model.world.in_bounds(nodes)
 
     # --- sampling and extension -------------------------------------------------------------------------------
     def _samples(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -575,21 +575,19 @@ class _Search:
             self.timing["crawl_s"] += time.perf_counter() - t0
         return None
 
-    def _prune(self, path: np.ndarray, offset: int, chain: list[int], depth: float) -> None:
-        """Close the subtree that a crawl failure at ``depth`` (mm) dooms.
+    def _prune(self, path: np.ndarray, offset: int, chain: list[int], failure: Failure) -> None:
+        """Close the subtree that a crawl ``failure`` dooms.
 
-        The failing bend (at joint j, between links j-1 and j) or colliding link j depends only on the path from
-        joint j-1 (or j) to the tip, so every chain through the last node behind that joint fails the same way:
-        that node and its descendants stop growing. Failures in the entrance connection close nothing.
+        The failing bend (at joint j, between links j-1 and j) or colliding link j (the tip-most one: the checker
+        reports it) depends only on the path from joint j-1 (or j) to the tip, so every chain through the last node
+        behind that joint fails the same way: that node and its descendants stop growing. Failures in the entrance
+        connection, and insertion or bounds failures, close nothing.
         """
-        m = self.model
-        st = ftl.fit_states(path, m.lengths, [depth], m.direction)
-        arc, joints = st.joint_arclength[0], st.joints[0]
-        bad = [arc[max(j - 1, 0)] for j in np.flatnonzero(st.bend_angles[0] > m.max_bends)]
-        bad += [arc[j] for j in np.flatnonzero(~m.obstacles.segments_clear(joints[:-1], joints[1:], self.radius))]
-        if not bad:
+        if failure.kind not in ("collision", "bend_limit"):
             return
-        k = int(np.searchsorted(cumulative_length(path), max(bad), side="right")) - 1
+        st = ftl.fit_states(path, self.model.lengths, [failure.depth_mm], self.model.direction)
+        j = failure.link if failure.kind == "collision" else max(failure.link - 1, 0)
+        k = int(np.searchsorted(cumulative_length(path), st.joint_arclength[0, j], side="right")) - 1
         if k < offset:
             return
         t = self.tree

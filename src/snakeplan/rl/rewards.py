@@ -17,7 +17,8 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from snakeplan.planners.sac import GOAL_SCALE_MM, REACH_TOLERANCE_MM
+from snakeplan.planners.sac import GOAL_SCALE_MM
+from snakeplan.world import REACH_TOLERANCE_MM
 
 #: R_s (eq. 5): reward for reaching a target.
 REACH_REWARD = 10.0

@@ -20,6 +20,11 @@ from snakeplan.geometry.primitives import Obstacle, obstacle_from_dict, vec3
 SCHEMA = "snakeplan.scene/1"
 
 
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a.setflags(write=False)
+    return a
+
+
 @dataclass(frozen=True, eq=False)
 class Entrance:
     """Where the arm enters: a point (mm) and the unit feed direction pointing into the scene."""
@@ -28,20 +33,24 @@ class Entrance:
     direction: np.ndarray
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "position", vec3(self.position, "entrance.position"))
+        object.__setattr__(self, "position", _frozen(vec3(self.position, "entrance.position")))
         d = vec3(self.direction, "entrance.direction")
         n = np.linalg.norm(d)
         if n < 1e-12:
             raise ValueError("entrance.direction: must be a non-zero vector")
-        object.__setattr__(self, "direction", d / n)
+        object.__setattr__(self, "direction", _frozen(d / n))
 
     def to_dict(self) -> dict:
         return {"position": self.position.tolist(), "direction": self.direction.tolist()}
 
 
-@dataclass(eq=False)
+@dataclass(frozen=True, eq=False)
 class Scene:
-    """A workspace to plan in. ``targets`` are visited in order; ``metadata`` holds generator facts."""
+    """A workspace to plan in. ``targets`` are visited in order; ``metadata`` holds generator facts.
+
+    Immutable: its arrays are read-only and its obstacles a tuple, so the packed obstacles it caches can never go
+    stale. Build a changed scene with ``dataclasses.replace``.
+    """
 
     name: str
     seed: int | None
@@ -49,19 +58,19 @@ class Scene:
     bounds_max: np.ndarray
     entrance: Entrance
     targets: np.ndarray
-    obstacles: list[Obstacle] = field(default_factory=list)
+    obstacles: tuple[Obstacle, ...] = ()
     metadata: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        self.bounds_min = vec3(self.bounds_min, "bounds.min")
-        self.bounds_max = vec3(self.bounds_max, "bounds.max")
-        if np.any(self.bounds_max <= self.bounds_min):
+        lo, hi = vec3(self.bounds_min, "bounds.min"), vec3(self.bounds_max, "bounds.max")
+        if np.any(hi <= lo):
             raise ValueError("bounds: max must exceed min on every axis")
-        t = np.asarray(self.targets, dtype=float).reshape(-1, 3) if len(self.targets) else np.zeros((0, 3))
+        t = np.array(self.targets, dtype=float).reshape(-1, 3) if len(self.targets) else np.zeros((0, 3))
         if not np.all(np.isfinite(t)):
             raise ValueError("targets: coordinates must be finite")
-        self.targets = t
-        self.obstacles = list(self.obstacles)
+        for name, value in (("bounds_min", _frozen(lo)), ("bounds_max", _frozen(hi)), ("targets", _frozen(t)),
+                            ("obstacles", tuple(self.obstacles))):
+            object.__setattr__(self, name, value)
 
     # --- queries -------------------------------------------------------------------------------------------
     @cached_property

@@ -38,6 +38,7 @@ from snakeplan.planners.sscc.swinging import (
 )
 from snakeplan.robots import Chain, get_robot
 from snakeplan.scenes import Scene, make_scene
+from snakeplan.world import FullView
 
 #: Training targets: scenes and their seeds (``TRAIN_TARGETS`` per scene from ``TRAIN_SEED_OFFSET``).
 TRAIN_SCENES = ("pipe", "concentric-pipe")
@@ -130,8 +131,7 @@ class SwingEnv(_Spaces):
                                          self.settings.inner_module_schedule)
             k = counts[int(rng.integers(len(counts)))]
             if (*key, k) not in self._arms:
-                self._arms[(*key, k)] = InnerArm(self.chain, scene.obstacle_set, scene.entrance.position,
-                                                 scene.entrance.direction, target, k, self.settings)
+                self._arms[(*key, k)] = InnerArm(self.chain, FullView(scene), target, k, self.settings)
             q0 = self._arms[(*key, k)].initial(rng)
             if q0 is None:
                 continue

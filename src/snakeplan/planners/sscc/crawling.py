@@ -31,12 +31,12 @@ import numpy as np
 from numba import njit
 
 from snakeplan import ftl
-from snakeplan.geometry.distance import ObstacleSet
 from snakeplan.geometry.transforms import frame_from_z, pose
 from snakeplan.robots import Chain
+from snakeplan.world import JUDGE
 
-#: Arc-length step (mm) between crawl configurations: the judge's own crawl step, so we check what it checks.
-CRAWL_STEP_MM = 5.0
+#: Arc-length step (mm) between crawl configurations: the judge's own crawl step, so D is measured where it judges.
+CRAWL_STEP_MM = JUDGE.step_mm
 #: Points sampled uniformly on each module to measure its deviation from the directive modules (paper's ``e``).
 E_SAMPLES = 10
 
@@ -141,18 +141,6 @@ def crawl(directive: Directive, lengths: np.ndarray, step_mm: float = CRAWL_STEP
     """The Crawling Process along ``directive`` for an arm of section ``lengths (n,)`` (mm), every ``step_mm``."""
     states = ftl.crawl(directive.tip_path(), lengths, directive.direction, step_mm)
     return Crawl(directive, states, deviation_distances(directive, states, e))
-
-
-def first_failure(motion: Crawl, obstacles: ObstacleSet, radii: np.ndarray, max_bends: np.ndarray) -> float | None:
-    """Depth (mm) of the first crawl step whose body touches ``obstacles`` (capsules of ``radii``), bends past
-    ``max_bends`` or runs out of arm, or None when the whole crawl is clear: the Crawling Control's collision check."""
-    st = motion.states
-    bad = ~st.insertion_ok | np.any(st.bend_angles > max_bends, axis=1)
-    stop = int(np.argmax(bad)) if bad.any() else len(st)
-    hits = np.flatnonzero(obstacles.chain_collides(st.joints[:stop], radii))
-    if hits.size:
-        return float(st.s[hits[0]])
-    return float(st.s[stop]) if stop < len(st) else None
 
 
 def arm_base(robot: Chain, entrance: np.ndarray, direction: np.ndarray) -> np.ndarray:

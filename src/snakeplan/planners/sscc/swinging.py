@@ -43,13 +43,12 @@ from typing import Protocol
 
 import numpy as np
 
-from snakeplan.geometry.distance import ObstacleSet
 from snakeplan.geometry.transforms import any_perpendicular, pose
 from snakeplan.planners.base import Problem
-from snakeplan.planners.common import BEND_SAFETY, PLANNING_MARGIN_MM
-from snakeplan.planners.sscc.crawling import CRAWL_STEP_MM, Crawl, Directive, crawl, first_failure
+from snakeplan.planners.sscc.crawling import Crawl, Directive, crawl
 from snakeplan.robots import Chain
 from snakeplan.robots.chain import Section
+from snakeplan.world import PLANNING, KnowledgeView, Tolerances, ValidityChecker
 
 #: Largest joint change (rad; the overhang in units of its module length) of one swing step.
 SWING_STEP_RAD = 0.05
@@ -99,10 +98,8 @@ class SwingSettings:
 
     step_rad: float = SWING_STEP_RAD
     episode_steps: int = EPISODE_STEPS
-    margin_mm: float = PLANNING_MARGIN_MM
+    tolerances: Tolerances = PLANNING
     directive_bend_safety: float = DIRECTIVE_BEND_SAFETY
-    crawl_bend_safety: float = BEND_SAFETY
-    crawl_step_mm: float = CRAWL_STEP_MM
     tip_tolerance_mm: float = TIP_TOLERANCE_MM
     inner_module_schedule: tuple[int, ...] = INNER_MODULE_SCHEDULE
 
@@ -147,14 +144,16 @@ def inner_module_counts(robot: Chain, entrance: np.ndarray, target: np.ndarray,
 class InnerArm:
     """The ``k`` inner modules of ``robot`` swinging about a target: a sub-chain standing at the entrance."""
 
-    def __init__(self, robot: Chain, obstacles: ObstacleSet, entrance: np.ndarray, direction: np.ndarray,
-                 target: np.ndarray, k: int, settings: SwingSettings = SwingSettings()):
+    def __init__(self, robot: Chain, world: KnowledgeView, target: np.ndarray, k: int,
+                 settings: SwingSettings = SwingSettings()):
         n = robot.n_sections
         if not 1 <= k <= n - 1:
             raise ValueError(f"k: inner modules must be in 1..{n - 1}, got {k}")
-        self.robot, self.obstacles, self.settings, self.k = robot, obstacles, settings, k
-        self.entrance = np.asarray(entrance, dtype=float)
-        self.direction = np.asarray(direction, dtype=float) / np.linalg.norm(direction)
+        self.robot, self.settings, self.k = robot, settings, k
+        self.checker = ValidityChecker(world, robot, settings.tolerances)
+        self.obstacles = self.checker.obstacles
+        self.entrance = self.checker.entrance
+        self.direction = self.checker.direction
         self.target = np.asarray(target, dtype=float)
         self.frame = search_frame(self.direction, self.entrance, self.target)
         c = n - k - 1
@@ -261,17 +260,17 @@ class SwingEpisode:
     def _evaluate(self) -> SwingStatus:
         arm, s = self.arm, self.arm.settings
         clearance = arm.link_clearance(self._joints)
-        short = np.clip((s.margin_mm - clearance) / arm.radii, 0.0, 1.0)
+        margin = s.tolerances.margin_mm
+        short = np.clip((margin - clearance) / arm.radii, 0.0, 1.0)
         reward = -STEP_PENALTY - COLLISION_PENALTY * float(short.sum())
-        clear = bool(np.all(clearance >= s.margin_mm)) and arm.tip_error(self.q) <= s.tip_tolerance_mm
+        clear = bool(np.all(clearance >= margin)) and arm.tip_error(self.q) <= s.tip_tolerance_mm
         status = SwingStatus(clearance, clear)
         if clear:
-            motion = crawl(arm.directive(self.q), arm.robot.lengths, s.crawl_step_mm)
-            status.motion = motion
-            failed = first_failure(motion, arm.obstacles, arm.radii + s.margin_mm,
-                                   arm.robot.max_bends * s.crawl_bend_safety)
-            status.feasible = failed is None
+            directive = arm.directive(self.q)
+            status.feasible = arm.checker.first_failure(directive.tip_path()) is None
             if status.feasible:
+                motion = crawl(directive, arm.robot.lengths)
+                status.motion = motion
                 mean_length = float(np.mean(arm.robot.lengths))
                 reward -= D_WEIGHT_STEPS * STEP_PENALTY * motion.D / mean_length
             else:
@@ -308,7 +307,8 @@ class SwingEpisode:
         angles[2 * (m - k):] = self.q[1:] / np.repeat(arm.max_bends, 2)
         overhang = 2.0 * self.q[0] / arm.critical_length - 1.0
         clear = np.ones(m + 1)
-        clear[m - k:] = np.clip((self.status.clearance[arm.critical:] - s.margin_mm) / CLEARANCE_SCALE_MM, -1, 1)
+        clear[m - k:] = np.clip((self.status.clearance[arm.critical:] - s.tolerances.margin_mm) / CLEARANCE_SCALE_MM,
+                                -1, 1)
         away = np.zeros((m + 1, 3))
         away[m - k:] = arm.repulsion(self._joints)
         positions = np.zeros((m, 3))
@@ -365,7 +365,7 @@ class GradientSwing:
         dim = 2 * arm.k + 1
         h = GRADIENT_FD_STEP
         Q = episode.q + np.vstack([np.zeros(dim), np.eye(dim) * h * arm.scale])
-        goal = arm.settings.margin_mm + self.clearance_mm
+        goal = arm.settings.tolerances.margin_mm + self.clearance_mm
         U = np.sum(np.maximum(goal - arm.link_clearance(arm.joints(Q)), 0.0) ** 2, axis=-1)
         grad = (U[1:] - U[0]) / h
         size = float(np.max(np.abs(grad)))
@@ -400,7 +400,7 @@ def swinging_search(problem: Problem, policy: SwingPolicy, rng: np.random.Genera
     next state, done) is kept for learning (the policy must then expose its ``last_action``).
     """
     scene, robot = problem.scene, problem.robot
-    entrance, direction, target = scene.entrance.position, scene.entrance.direction, problem.goals[0]
+    entrance, target = scene.entrance.position, problem.goals[0]
     counts = inner_module_counts(robot, entrance, target, settings.inner_module_schedule)
     arms: dict[int, InnerArm] = {}
     out = SearchOutcome(None)
@@ -408,7 +408,7 @@ def swinging_search(problem: Problem, policy: SwingPolicy, rng: np.random.Genera
         k = counts[out.episodes % len(counts)]
         out.episodes += 1
         if k not in arms:
-            arms[k] = InnerArm(robot, scene.obstacle_set, entrance, direction, target, k, settings)
+            arms[k] = InnerArm(robot, problem.world, target, k, settings)
         q0 = arms[k].initial(rng)
         if q0 is None:
             continue

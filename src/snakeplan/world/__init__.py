@@ -1,0 +1,17 @@
+"""The world a planner and the judge share: the one validity checker, its tolerance profiles, knowledge views."""
+
+from snakeplan.world.knowledge import (
+    DEFAULT_SENSOR_RANGE_MM,
+    FullView,
+    KnowledgeView,
+    SensedView,
+    UnsensedObstacleError,
+    guarded,
+    view_for,
+)
+from snakeplan.world.tolerances import JUDGE, PLANNING, REACH_TOLERANCE_MM, ROLLOUT, Tolerances
+from snakeplan.world.validity import CrawlCheck, Failure, ValidityChecker, min_turn_radius, targets_reached
+
+__all__ = ["DEFAULT_SENSOR_RANGE_MM", "JUDGE", "PLANNING", "REACH_TOLERANCE_MM", "ROLLOUT", "CrawlCheck", "Failure",
+           "FullView", "KnowledgeView", "SensedView", "Tolerances", "UnsensedObstacleError", "ValidityChecker",
+           "guarded", "min_turn_radius", "targets_reached"]

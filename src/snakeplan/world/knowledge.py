@@ -1,0 +1,177 @@
+"""What a planner knows of the obstacles: the whole scene, or only what its tip sensor has revealed (mm).
+
+A planner reaches obstacles only through a knowledge view (``Problem.world``): its ``obstacle_set`` is what is known
+now, and its ``raycast`` is the range sensor. Two views:
+
+- :class:`FullView`: every obstacle of the scene.
+- :class:`SensedView`: the obstacles known before the job (``prior``; none unless given) plus every obstacle that
+  came within ``sensor_range_mm`` of a point the tip has visited. A planner reports the points its tip reaches
+  with :meth:`SensedView.sense` (rays sense at their origins); the view reveals an obstacle when the exact distance
+  from one of those points to it is at most the range. A retry after a failed check re-plans with what has been
+  sensed so far; the judge always uses the whole scene.
+
+:func:`guarded` wraps a scene so that reading its obstacles raises :class:`UnsensedObstacleError`: a planner
+handed a guarded scene and a sensed view can only plan honestly.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from snakeplan.geometry.distance import ObstacleSet
+from snakeplan.geometry.primitives import Obstacle
+from snakeplan.scenes import Scene
+
+#: Default range (mm) of the tip sensor for planners that only know what they have sensed.
+DEFAULT_SENSOR_RANGE_MM = 400.0
+
+
+class UnsensedObstacleError(RuntimeError):
+    """A planner read an obstacle it has not sensed."""
+
+
+class KnowledgeView(ABC):
+    """The obstacles a planner may use, with the scene's structure (bounds, entrance, targets)."""
+
+    kind: str = ""
+
+    def __init__(self, scene: Scene):
+        self.scene = scene
+
+    @property
+    @abstractmethod
+    def obstacle_set(self) -> ObstacleSet:
+        """The obstacles known now."""
+
+    def sense(self, points) -> bool:
+        """Reveal what the tip sensor sees from ``points (..., 3)``; True when something new became known."""
+        return False
+
+    def raycast(self, origins, directions, max_distance: float, eps: float = 1e-3) -> np.ndarray:
+        """Range readings (mm, inf for none within ``max_distance``) from ``origins`` along unit ``directions``."""
+        self.sense(origins)
+        return self.obstacle_set.raycast(origins, directions, max_distance, eps)
+
+    def in_bounds(self, points, margin: float = 0.0) -> np.ndarray:
+        return self.scene.in_bounds(points, margin)
+
+    @abstractmethod
+    def fresh(self) -> KnowledgeView:
+        """The same view before anything was sensed (every plan starts from one)."""
+
+
+class FullView(KnowledgeView):
+    """Every obstacle of the scene."""
+
+    kind = "full"
+
+    def __init__(self, scene: Scene, obstacles: ObstacleSet | None = None):
+        super().__init__(scene)
+        self._set = scene.obstacle_set if obstacles is None else obstacles
+
+    @property
+    def obstacle_set(self) -> ObstacleSet:
+        return self._set
+
+    def fresh(self) -> FullView:
+        return self
+
+
+class SensedView(KnowledgeView):
+    """Prior obstacles plus those revealed within ``sensor_range_mm`` of the points the tip has visited.
+
+    ``truth`` is the scene's obstacle list (read here, never handed to the planner); ``prior`` marks the ones known
+    before the job (default: none).
+    """
+
+    kind = "sensed"
+
+    def __init__(self, scene: Scene, truth: Sequence[Obstacle], sensor_range_mm: float = DEFAULT_SENSOR_RANGE_MM,
+                 prior: Sequence[bool] | None = None):
+        super().__init__(scene)
+        self._truth = tuple(truth)
+        self.sensor_range_mm = float(sensor_range_mm)
+        self._prior = np.zeros(len(self._truth), dtype=bool) if prior is None else np.array(prior, dtype=bool)
+        if self._prior.shape != (len(self._truth),):
+            raise ValueError(f"prior: expected {len(self._truth)} flags, got {self._prior.shape}")
+        self.known = self._prior.copy()
+        boxes = [o.aabb() for o in self._truth]
+        self._lo = np.array([b[0] for b in boxes], dtype=float).reshape(-1, 3)
+        self._hi = np.array([b[1] for b in boxes], dtype=float).reshape(-1, 3)
+        self._single: dict[int, ObstacleSet] = {}
+        self._set: ObstacleSet | None = None
+
+    @classmethod
+    def of(cls, scene: Scene, sensor_range_mm: float = DEFAULT_SENSOR_RANGE_MM) -> SensedView:
+        """The sensed view of ``scene``: nothing known before the job."""
+        return cls(scene, scene.obstacles, sensor_range_mm)
+
+    @property
+    def obstacle_set(self) -> ObstacleSet:
+        if self._set is None:
+            self._set = ObstacleSet([o for o, k in zip(self._truth, self.known) if k])
+        return self._set
+
+    def sense(self, points) -> bool:
+        unknown = np.flatnonzero(~self.known)
+        if unknown.size == 0:
+            return False
+        pts = np.asarray(points, dtype=float).reshape(-1, 3)
+        new = False
+        for p in pts:
+            gap = np.maximum(np.maximum(self._lo[unknown] - p, p - self._hi[unknown]), 0.0)
+            for k in unknown[np.linalg.norm(gap, axis=1) <= self.sensor_range_mm]:
+                if self.known[k]:
+                    continue
+                if k not in self._single:
+                    self._single[k] = ObstacleSet([self._truth[k]])
+                if float(self._single[k].signed_distance(p)) <= self.sensor_range_mm:
+                    self.known[k] = True
+                    new = True
+        if new:
+            self._set = None
+        return new
+
+    def raycast(self, origins, directions, max_distance: float, eps: float = 1e-3) -> np.ndarray:
+        """Readings of the range sensor: it sees no further than its range."""
+        return super().raycast(origins, directions, min(float(max_distance), self.sensor_range_mm), eps)
+
+    def fresh(self) -> SensedView:
+        return SensedView(self.scene, self._truth, self.sensor_range_mm, self._prior)
+
+
+def view_for(scene: Scene, knowledge: str, sensor_range_mm: float = DEFAULT_SENSOR_RANGE_MM) -> KnowledgeView:
+    """The view a ``knowledge`` mode (``"full"`` or ``"sensed"``) gives of ``scene``."""
+    if knowledge == "full":
+        return FullView(scene)
+    if knowledge == "sensed":
+        return SensedView.of(scene, sensor_range_mm)
+    raise ValueError(f"knowledge: must be 'full' or 'sensed', got {knowledge!r}")
+
+
+@dataclass(frozen=True, eq=False)
+class _GuardedScene(Scene):
+    """A scene whose obstacles cannot be read (see :func:`guarded`)."""
+
+    def __getattribute__(self, name: str):
+        if name in _OBSTACLE_READS:
+            raise UnsensedObstacleError(f"scene.{name}: a planner with sensed knowledge read the whole scene's "
+                                        f"obstacles instead of its knowledge view")
+        return super().__getattribute__(name)
+
+
+_OBSTACLE_READS = frozenset({"obstacles", "obstacle_set", "signed_distance", "chain_clearance", "chain_collides",
+                             "line_of_sight"})
+
+
+def guarded(scene: Scene) -> Scene:
+    """``scene`` with its structure (bounds, entrance, targets, metadata) but obstacles that raise when read."""
+    g = object.__new__(_GuardedScene)
+    for f in ("name", "seed", "bounds_min", "bounds_max", "entrance", "targets", "metadata"):
+        object.__setattr__(g, f, getattr(scene, f))
+    object.__setattr__(g, "obstacles", ())
+    return g

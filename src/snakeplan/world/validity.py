@@ -1,0 +1,219 @@
+"""THE validity checker: is a follow-the-leader crawl along a tip path feasible for a robot in a known world?
+
+The judge and every planner check crawls here and nowhere else; they differ only in the
+:class:`~snakeplan.world.tolerances.Tolerances` profile and in the knowledge view that supplies the obstacles.
+A crawl is feasible at insertion depth s when (mm, rad):
+
+- ``collision``: no link, a capsule of its section's radius plus the profile's margin, penetrates an obstacle by
+  more than the contact resolution (``CONTACT_RESOLUTION_MM``; exact branch-and-bound, never sampled);
+- ``bend_limit``: every bend (feed axis vs link 0, then link vs link) is within the profile's fraction of its
+  section's limit;
+- ``insertion``: the arm is long enough (its base never passes the entrance);
+- ``out_of_bounds``: the tip path so far stays inside the scene's bounds (checked exactly: the bounds are a box,
+  so a straight segment is inside when its ends are).
+
+Depths are checked on the grid ``0, h, 2h, ..., L`` (h the profile's step, L the path's length; the last step
+takes the remainder), the same grid for every profile, so a profile whose step divides the judge's checks every
+depth the judge checks.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from snakeplan import ftl
+from snakeplan.geometry.distance import CONTACT_RESOLUTION_MM, ObstacleSet
+from snakeplan.geometry.polyline import arclength_grid, cumulative_length, validate_path
+from snakeplan.robots import Chain
+from snakeplan.world.knowledge import KnowledgeView
+from snakeplan.world.tolerances import BEND_TOLERANCE_RAD, PLANNING, REACH_TOLERANCE_MM, Tolerances
+
+FailureKind = Literal["collision", "bend_limit", "insertion", "out_of_bounds"]
+#: Failure kinds in the order that breaks a tie at one depth.
+FAILURE_KINDS: tuple[FailureKind, ...] = ("collision", "bend_limit", "insertion", "out_of_bounds")
+
+
+@dataclass(frozen=True)
+class Failure:
+    """Why a crawl is infeasible: the first failing depth (mm), the kind, and the tip-most link (collision) or joint
+    (bend: joint 0 is the feed axis against link 0) that fails there, or the path vertex that leaves the bounds
+    (out_of_bounds); None for insertion."""
+
+    depth_mm: float
+    kind: FailureKind
+    link: int | None = None
+
+
+@dataclass(frozen=True)
+class CrawlCheck:
+    """A whole crawl, every state judged: the configurations, per state the exact minimum clearance (mm) and what
+    failed, and the first failure (None when feasible)."""
+
+    states: ftl.FTLBatch
+    clearance: np.ndarray
+    collides: np.ndarray
+    bend_bad: np.ndarray
+    insertion_bad: np.ndarray
+    in_bounds: bool
+    failure: Failure | None
+
+
+def _last(flags: np.ndarray) -> int:
+    """Index of the last True flag."""
+    return int(flags.shape[0] - 1 - np.argmax(flags[::-1]))
+
+
+def min_turn_radius(lengths: np.ndarray, max_bends: np.ndarray) -> float:
+    """Smallest circle radius (mm) whose chords of every section length bend within the limits.
+
+    Consecutive chords of length l on a circle of radius R meet at 2 asin(l / 2R), so R >= l / (2 sin(theta/2)).
+    """
+    return float(np.max(lengths / (2.0 * np.sin(max_bends / 2.0))))
+
+
+def targets_reached(path, targets, tolerance: float = REACH_TOLERANCE_MM) -> int:
+    """How many ``targets (k, 3)``, in order, the tip path passes within ``tolerance`` (mm) of (exact: distances
+    to the path's segments, each target found after the point where the previous one was reached)."""
+    p = np.asarray(path, dtype=float)
+    count, seg, t0 = 0, 0, 0.0
+    for target in np.asarray(targets, dtype=float).reshape(-1, 3):
+        a, b = p[seg:-1].copy(), p[seg + 1:]
+        a[0] = p[seg] + t0 * (p[seg + 1] - p[seg])
+        d = b - a
+        dd = np.einsum("ij,ij->i", d, d)
+        t = np.clip(np.einsum("ij,ij->i", target - a, d) / np.where(dd > 0.0, dd, 1.0), 0.0, 1.0)
+        near = np.linalg.norm(a + t[:, None] * d - target, axis=1) <= tolerance
+        hits = np.flatnonzero(near)
+        if hits.size == 0:
+            break
+        j = int(hits[0])
+        # the first point of that segment within tolerance: the smaller root of |a + t d - target| = tolerance
+        w = a[j] - target
+        qa, qb, qc = dd[j], 2.0 * float(w @ d[j]), float(w @ w) - tolerance ** 2
+        first = 0.0 if qc <= 0.0 or qa == 0.0 else max((-qb - math.sqrt(max(qb * qb - 4 * qa * qc, 0.0))) / (2 * qa), 0.0)
+        base = t0 if j == 0 else 0.0
+        seg, t0 = seg + j, base + first * (1.0 - base)
+        count += 1
+    return count
+
+
+class ValidityChecker:
+    """Crawl checks for ``robot`` in the obstacles ``world`` knows, under ``tolerances`` (see the module)."""
+
+    def __init__(self, world: KnowledgeView, robot: Chain, tolerances: Tolerances = PLANNING):
+        self.world = world
+        self.robot = robot
+        self.tolerances = tolerances
+        self.entrance = world.scene.entrance.position
+        self.direction = world.scene.entrance.direction
+        self.lengths = robot.lengths
+        self.radii = robot.radii + tolerances.margin_mm
+        self.tip_radius = float(self.radii[-1])
+        self.max_bends = robot.max_bends * tolerances.bend_fraction
+        self.total_length = robot.total_length
+        self.turn_radius = min_turn_radius(robot.lengths, self.max_bends)
+
+    @property
+    def obstacles(self) -> ObstacleSet:
+        """The obstacles known now (a sensed view's grow as it senses)."""
+        return self.world.obstacle_set
+
+    # --- the tip alone ------------------------------------------------------------------------------------------
+    def tip_free(self, points, radius: float | None = None) -> np.ndarray:
+        """True where a ball of ``radius`` (default: the tip's, with margin) at ``points`` is clear and in bounds."""
+        p = np.asarray(points, dtype=float)
+        r = self.tip_radius if radius is None else radius
+        return (self.obstacles.signed_distance(p) >= r) & self.world.in_bounds(p)
+
+    def segment_free(self, a, b, radius: float | None = None) -> np.ndarray:
+        """True where the capsule of ``radius`` (default: the tip's, with margin) along a -> b is clear and its ends
+        are in bounds (so the whole segment is)."""
+        r = self.tip_radius if radius is None else radius
+        return self.obstacles.segments_clear(a, b, r) & self.world.in_bounds(a) & self.world.in_bounds(b)
+
+    # --- crawls -------------------------------------------------------------------------------------------------
+    def _grid(self, cum: np.ndarray, start: float, stop: float) -> np.ndarray:
+        """The profile's depths in (start, stop], and 0 when start is 0; never past where insertion must fail."""
+        h = self.tolerances.step_mm
+        stop = min(stop, self.total_length + h)
+        full = arclength_grid(stop, h)
+        return full[full > start] if start > 0.0 else full
+
+    def _bounds_failure(self, p: np.ndarray, cum: np.ndarray, start: float, stop: float) -> Failure | None:
+        """The depth at which the tip path first leaves the bounds within [start, stop], exactly."""
+        inside = self.world.in_bounds(p)
+        lo_vertex = int(np.searchsorted(cum, start, side="right")) - 1
+        hi_vertex = int(np.searchsorted(cum, stop, side="left"))
+        out = np.flatnonzero(~inside[max(lo_vertex, 0):hi_vertex + 1])
+        if out.size == 0:
+            return None
+        i = max(lo_vertex, 0) + int(out[0])
+        if i == 0:
+            return Failure(0.0, "out_of_bounds", 0)
+        a, d = p[i - 1], p[i] - p[i - 1]
+        lo, hi = self.world.scene.bounds_min, self.world.scene.bounds_max
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = np.where(d > 0, (hi - a) / d, np.where(d < 0, (lo - a) / d, np.inf))
+        depth = float(cum[i - 1] + min(float(t.min()), 1.0) * (cum[i] - cum[i - 1]))
+        return Failure(max(depth, start), "out_of_bounds", i)
+
+    def first_failure(self, path, from_depth: float = 0.0, to_depth: float | None = None) -> Failure | None:
+        """The first failure of the crawl at depths in (``from_depth``, ``to_depth``] (mm; depth 0 included when
+        ``from_depth`` is 0; default: to the path's end), or None. Stops at the first failing depth."""
+        p = np.asarray(path, dtype=float)
+        cum = cumulative_length(p)
+        stop = float(cum[-1]) if to_depth is None else min(max(float(to_depth), 0.0), float(cum[-1]))
+        start = min(max(float(from_depth), 0.0), stop)
+        found = [self._bounds_failure(p, cum, start, stop)]
+        depths = self._grid(cum, start, stop)
+        if depths.size:
+            states = ftl.fit_states(p, self.lengths, depths, self.direction)
+            bends = states.bend_angles > self.max_bends + BEND_TOLERANCE_RAD
+            bend_rows = np.flatnonzero(bends.any(axis=1))
+            ins_rows = np.flatnonzero(~states.insertion_ok)
+            if bend_rows.size:
+                i = int(bend_rows[0])
+                found.append(Failure(float(depths[i]), "bend_limit", _last(bends[i])))
+            if ins_rows.size:
+                found.append(Failure(float(depths[ins_rows[0]]), "insertion"))
+            stop_row = min([int(r[0]) for r in (bend_rows, ins_rows) if r.size] + [len(depths) - 1])
+            if found[0] is not None:
+                stop_row = min(stop_row, int(np.searchsorted(depths, found[0].depth_mm, side="right")))
+            hit = self.obstacles.first_hit(states.joints[:stop_row + 1], self.radii)
+            if hit is not None:
+                found.append(Failure(float(depths[hit[0]]), "collision", hit[1]))
+        found = [f for f in found if f is not None]
+        if not found:
+            return None
+        return min(found, key=lambda f: (f.depth_mm, FAILURE_KINDS.index(f.kind)))
+
+    def crawl(self, path) -> CrawlCheck:
+        """Every state of the crawl from depth 0 to the path's end (or to where insertion must have failed), with
+        exact clearances: what the judge reports."""
+        p = validate_path(path)
+        cum = cumulative_length(p)
+        depths = self._grid(cum, 0.0, float(cum[-1]))
+        states = ftl.fit_states(p, self.lengths, depths, self.direction)
+        clearance = self.obstacles.chain_clearance(states.joints, self.radii)
+        collides = clearance < -CONTACT_RESOLUTION_MM
+        bends = states.bend_angles > self.max_bends + BEND_TOLERANCE_RAD
+        bend_bad = bends.any(axis=1)
+        insertion_bad = ~states.insertion_ok
+        found = [self._bounds_failure(p, cum, 0.0, float(cum[-1]))]
+        for kind, bad in (("collision", collides), ("bend_limit", bend_bad), ("insertion", insertion_bad)):
+            rows = np.flatnonzero(bad)
+            if rows.size:
+                i = int(rows[0])
+                link = _last(bends[i]) if kind == "bend_limit" else None
+                if kind == "collision":
+                    hit = self.obstacles.first_hit(states.joints[i:i + 1], self.radii)
+                    link = None if hit is None else hit[1]
+                found.append(Failure(float(depths[i]), kind, link))
+        found = [f for f in found if f is not None]
+        failure = min(found, key=lambda f: (f.depth_mm, FAILURE_KINDS.index(f.kind))) if found else None
+        return CrawlCheck(states, clearance, collides, bend_bad, insertion_bad,
+                          not any(f.kind == "out_of_bounds" for f in found), failure)
