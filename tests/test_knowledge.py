@@ -1,0 +1,99 @@
+"""Knowledge views: what a sensed planner may know, and the honesty test for every planner that plans sensed."""
+
+import numpy as np
+import pytest
+
+from snakeplan.evaluation import evaluate
+from snakeplan.geometry.primitives import Sphere
+from snakeplan.planners import Planner, Problem, get_planner, planner_names
+from snakeplan.robots import get_robot
+from snakeplan.scenes import Entrance, Scene, make_scene
+from snakeplan.world import FullView, SensedView, UnsensedObstacleError, guarded
+
+ROBOT = get_robot("sjtu-snake-iii")
+
+
+def spheres_scene():
+    """Spheres of radius 10 whose surfaces lie 100, 300 and 500 mm from the origin along x."""
+    obstacles = [Sphere([110.0, 0.0, 0.0], 10.0), Sphere([0.0, 310.0, 0.0], 10.0), Sphere([0.0, 0.0, -510.0], 10.0)]
+    return Scene("spheres", 0, [-1000.0] * 3, [1000.0] * 3, Entrance([0.0, 0.0, 0.0], [1.0, 0.0, 0.0]),
+                 np.array([[500.0, 0.0, 0.0]]), obstacles)
+
+
+def test_sensing_reveals_exactly_the_obstacles_within_range():
+    scene = spheres_scene()
+    view = SensedView.of(scene, sensor_range_mm=300.0)
+    assert len(view.obstacle_set) == 0
+    assert view.sense([0.0, 0.0, 0.0])  # 100 and 300 mm away: both within range (exact distance, not box)
+    assert list(view.known) == [True, True, False]
+    assert not view.sense([0.0, 0.0, 0.0])  # nothing new
+    assert view.sense([0.0, 0.0, -210.0]) and view.known.all()
+    assert len(view.obstacle_set) == 3
+    fresh = view.fresh()
+    assert not fresh.known.any() and view.known.all()
+
+
+def test_range_sensor_sees_no_further_than_its_range():
+    scene = spheres_scene()
+    view = SensedView.of(scene, sensor_range_mm=200.0)
+    d = view.raycast(np.zeros((2, 3)), np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]), max_distance=1000.0)
+    assert d[0] == pytest.approx(100.0, abs=1e-2) and np.isinf(d[1])  # the sphere at 300 mm is out of range
+    assert np.allclose(FullView(scene).raycast(np.zeros((1, 3)), np.array([[0.0, 1.0, 0.0]]), 1000.0), 300.0,
+                       atol=1e-2)
+
+
+def test_a_prior_obstacle_is_known_from_the_start():
+    scene = spheres_scene()
+    view = SensedView(scene, scene.obstacles, 100.0, prior=[False, False, True])
+    assert list(view.known) == [False, False, True] and list(view.fresh().known) == [False, False, True]
+
+
+def test_guarded_scene_keeps_its_structure_and_hides_its_obstacles():
+    scene = make_scene("fuel-tank", 1)
+    g = guarded(scene)
+    assert np.array_equal(g.targets, scene.targets) and g.name == scene.name
+    assert bool(g.in_bounds(scene.entrance.position))
+    for read in (lambda: g.obstacles, lambda: g.obstacle_set, lambda: g.signed_distance(np.zeros(3))):
+        with pytest.raises(UnsensedObstacleError):
+            read()
+
+
+def test_a_problems_view_must_match_its_knowledge():
+    scene = make_scene("fuel-tank", 1)
+    with pytest.raises(ValueError, match="world"):
+        Problem(scene, ROBOT, knowledge="full", world=SensedView.of(scene))
+
+
+class _Peeking(Planner):
+    """Plans straight ahead after a look at the whole scene: dishonest under sensed knowledge."""
+
+    name = "peeking"
+    needs_full_scene = False
+
+    def _solve(self, problem, rng, deadline):
+        len(problem.scene.obstacles)
+        return "found", np.array([problem.start, problem.goals[0]]), {}
+
+
+def test_a_planner_that_reads_unsensed_obstacles_fails_the_honesty_test():
+    scene = make_scene("fuel-tank", 1)
+    with pytest.raises(UnsensedObstacleError):
+        _Peeking().plan(Problem(guarded(scene), ROBOT, knowledge="sensed", world=SensedView.of(scene)))
+
+
+SENSED = [name for name in planner_names() if not get_planner(name).needs_full_scene and name != "sac"]
+
+
+@pytest.mark.parametrize("name", SENSED)
+def test_sensed_planners_plan_honestly(name):
+    """Every planner that declares sensed support plans with a scene whose obstacles raise when read, so all it
+    knows comes from the sensed view; its plans are still judged against the whole scene."""
+    family = "oil-tank" if name == "sac-per" else "fuel-tank"
+    successes = 0
+    for seed in range(3):
+        scene = make_scene(family, seed)
+        view = SensedView.of(scene)
+        plan = get_planner(name).plan(Problem(guarded(scene), ROBOT, time_limit_s=10.0, knowledge="sensed",
+                                              world=view), seed=0)
+        successes += plan.path is not None and evaluate(scene, ROBOT, plan.path).success
+    assert successes >= 2
