@@ -77,7 +77,7 @@ import time
 import numpy as np
 
 from snakeplan.geometry.distance import ObstacleSet
-from snakeplan.planners.base import Planner, Problem
+from snakeplan.planners.base import Planner, Problem, Status
 from snakeplan.planners.common import ArmModel
 from snakeplan.planners.registry import register_planner
 
@@ -374,15 +374,15 @@ class _Search:
                 "total_obstacles": len(self.sensor.known), "knowledge": self.problem.knowledge,
                 "arc_length_mm": self.step, "turn_radius_mm": self.model.turn_radius, **self.counts}
 
-    def run(self, deadline: float) -> tuple[str, np.ndarray | None, dict]:
+    def run(self, deadline: float) -> tuple[Status, np.ndarray | None, dict]:
         """Grow trees until the last target is landed on, a target is found blocked, or the deadline."""
         if self.blocked:
-            return "failed", None, self.details("target_blocked")
+            return Status.FAILED, None, self.details("target_blocked")
         usable = self.model.total_length - MIN_ARC_MM
         patience, grown = float(RESTART_ITERATIONS), 0
         while True:
             if self.counts["iterations"] % CLOCK_EVERY == 0 and time.perf_counter() >= deadline:
-                return "timeout", None, self.details("timeout")
+                return Status.TIMEOUT, None, self.details("timeout")
             self.counts["iterations"] += 1
             grown += 1
             if grown > patience:
@@ -400,9 +400,9 @@ class _Search:
             while k is not None and tree.stage[k] < len(self.goals) and not self.blocked:
                 k = self._land(k, int(tree.stage[k]))
             if self.blocked:
-                return "failed", None, self.details("target_blocked")
+                return Status.FAILED, None, self.details("target_blocked")
             if k is not None:
-                return "found", tree.branch(k), self.details("reached")
+                return Status.FOUND, tree.branch(k), self.details("reached")
 
     def _extend(self, stage: int, live: np.ndarray) -> int | None:
         """One extension of ``stage`` toward a sample; the new node, or None."""
@@ -502,5 +502,5 @@ class AsRRT(Planner):
         self.arc_sections = arc_sections
 
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float
-               ) -> tuple[str, np.ndarray | None, dict]:
+               ) -> tuple[Status, np.ndarray | None, dict]:
         return _Search(self, problem, rng).run(deadline)

@@ -38,7 +38,7 @@ from numba import njit
 from snakeplan import ftl
 from snakeplan.evaluation.metrics import path_smoothness
 from snakeplan.geometry import polyline
-from snakeplan.planners.base import Planner, Problem
+from snakeplan.planners.base import Planner, Problem, Status
 from snakeplan.planners.common import ArmModel
 from snakeplan.planners.registry import register_planner
 from snakeplan.robots import Chain
@@ -609,8 +609,9 @@ class SacPlanner(Planner):
     """`sac`: a plain-SAC policy rolled out deterministically; ``policy=`` a file, else the shipped one for the
     scene. A roll-out that reaches every target is planned as the smoothest of itself and its ``smoothing``
     scales (:data:`SMOOTHING_SIGMAS_MM`) that passes the planning-time crawl check (:class:`ArmModel`); when none
-    passes, it is rolled out again with seeded action noise, up to ``attempts`` roll-outs within the budget. It
-    senses only what its rays and camera see, so it also plans with ``knowledge="sensed"``."""
+    passes, it is rolled out again with seeded action noise, up to ``attempts`` roll-outs within the budget; when
+    none passes, the plan is ``approximate``: the reaching roll-out whose crawl failed deepest, else the first
+    roll-out. It senses only what its rays and camera see, so it also plans with ``knowledge="sensed"``."""
 
     name = "sac"
     needs_full_scene = False
@@ -648,7 +649,7 @@ class SacPlanner(Planner):
         return None, 0.0, raw_failure
 
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float
-               ) -> tuple[str, np.ndarray | None, dict]:
+               ) -> tuple[Status, np.ndarray | None, dict]:
         policy = self._policy(problem.scene)
         model = ArmModel(problem)
         details = {"policy": policy.meta.get("name", str(self.policy_file or self.name))}
@@ -663,13 +664,17 @@ class SacPlanner(Planner):
                 chosen, sigma, failure = self._smoothest(path, problem, model)
                 if chosen is not None:
                     details["smoothing_sigma_mm"] = sigma
-                    return "found", chosen, details
+                    return Status.FOUND, chosen, details
                 if failure > best_reach:
                     best, best_reach = path, failure
             elif best is None:
                 best = path
-        status = "timeout" if details["outcome"] == "timeout" else "failed"
-        return status, best if best is not None else path, details
+        stopped = Status.TIMEOUT if details["outcome"] == "timeout" else Status.FAILED
+        best = best if best is not None else path
+        if len(best) < 2:
+            return stopped, None, details
+        details["stopped"] = stopped
+        return Status.APPROXIMATE, best, details
 
 
 @register_planner

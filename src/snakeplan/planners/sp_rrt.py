@@ -83,7 +83,7 @@ from numba import njit
 
 from snakeplan import ftl
 from snakeplan.geometry.polyline import cumulative_length
-from snakeplan.planners.base import Planner, Problem
+from snakeplan.planners.base import Planner, Problem, Status
 from snakeplan.planners.common import ArmModel
 from snakeplan.planners.registry import register_planner
 from snakeplan.scenes.reach import (
@@ -261,7 +261,7 @@ class SpRRT(Planner):
         self.field_cell_mm = field_cell_mm
 
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float
-               ) -> tuple[str, np.ndarray | None, dict]:
+               ) -> tuple[Status, np.ndarray | None, dict]:
         return _Search(self, problem, rng, deadline).run()
 
 
@@ -614,13 +614,13 @@ class _Search:
             "search_s": round(time.perf_counter() - t_start, 4),
         }
 
-    def run(self) -> tuple[str, np.ndarray | None, dict]:
+    def run(self) -> tuple[Status, np.ndarray | None, dict]:
         """Grow until a solution passes the crawl check, the budget runs out or the tree cannot grow."""
         t_start = time.perf_counter()
         root = self.targets[-1][None]
         stage = np.array([len(self.targets) - 2])
         if not self._admissible(root, np.array([0]), stage, self._geo(root))[0]:
-            return "failed", None, {**self._details(t_start), "reason": "target beyond the arm's geodesic reach"}
+            return Status.FAILED, None, {**self._details(t_start), "reason": "target beyond the arm's geodesic reach"}
         queue = list(self._add(root, np.array([-1]), np.array([0]), stage))
         while True:
             while queue and time.perf_counter() < self.deadline:
@@ -628,12 +628,12 @@ class _Search:
                 if self.tree.stage[i] < 0:
                     path = self._try_solution(i)
                     if path is not None:
-                        return "found", path, self._details(t_start)
+                        return Status.FOUND, path, self._details(t_start)
                 else:
                     queue.extend(self._through(i))
             if time.perf_counter() >= self.deadline:
-                return "timeout", None, self._details(t_start)
+                return Status.TIMEOUT, None, self._details(t_start)
             if self.tree.n >= MAX_NODES or not self.open_count.any():
-                return "failed", None, self._details(t_start)
+                return Status.FAILED, None, self._details(t_start)
             queue = list(self._extend())
             self.iterations += 1
