@@ -233,7 +233,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     problem = Problem(scene, robot, time_limit_s=DEMO_TIME_LIMIT_S)
     first = planner.plan(problem, seed=0)  # on a fresh install this compiles the jitted kernels (cached on disk)
     plan = planner.plan(problem, seed=0)
-    sys.stdout.write(f"{robot.name} in {scene.name} (seed {scene.seed}), planned by {name}: {plan.status} "
+    sys.stdout.write(f"{robot.name} in {scene.name} (seed {scene.seed}), planned by {name}: {_status(plan)} "
                      f"in {plan.compute_time_s:.3f} s (first call, with kernel compilation: "
                      f"{first.compute_time_s:.3f} s)\n")
     if plan.path is None:
@@ -243,6 +243,12 @@ def cmd_demo(args: argparse.Namespace) -> int:
     _write_plot(args.out, scene, robot, plan.path, report)
     sys.stdout.write(f"wrote {args.out}\n")
     return EXIT_OK if report.success else EXIT_INFEASIBLE
+
+
+def _status(plan) -> str:
+    """The plan's status, with why the planner stopped when the path is only approximate."""
+    stopped = plan.details.get("stopped")
+    return f"{plan.status} (stopped: {stopped})" if stopped else str(plan.status)
 
 
 def _load_planner(name: str, **options):
@@ -286,7 +292,8 @@ def cmd_plan(args: argparse.Namespace) -> int:
     if args.json:
         _print_json(out)
     else:
-        sys.stdout.write(f"{name} on {scene.name} (seed {scene.seed}): {plan.status} in {plan.compute_time_s:.3f} s\n")
+        sys.stdout.write(f"{name} on {scene.name} (seed {scene.seed}): {_status(plan)} "
+                         f"in {plan.compute_time_s:.3f} s\n")
         if report is not None:
             sys.stdout.write("\n".join(_report_lines(report)) + "\n")
     return EXIT_OK if success else EXIT_INFEASIBLE

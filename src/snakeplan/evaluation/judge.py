@@ -16,12 +16,18 @@ from snakeplan.evaluation.metrics import curvature_profile, path_length, smoothn
 from snakeplan.geometry.polyline import validate_path
 from snakeplan.robots import Chain
 from snakeplan.scenes import Scene
-from snakeplan.world import JUDGE, REACH_TOLERANCE_MM, FullView, Tolerances, ValidityChecker, targets_reached
+from snakeplan.world import (
+    ENTRANCE_TOLERANCE_MM,
+    JUDGE,
+    REACH_TOLERANCE_MM,
+    FullView,
+    Tolerances,
+    ValidityChecker,
+    targets_reached,
+)
 
 #: Arc-length step (mm) between judged crawl configurations.
 CRAWL_STEP_MM = JUDGE.step_mm
-#: Largest gap (mm) allowed between the path's start and the entrance.
-ENTRANCE_TOLERANCE_MM = 1e-6
 
 REASONS = ("reached", "invalid_path", "collision", "bend_limit", "insertion", "out_of_bounds", "not_reached")
 

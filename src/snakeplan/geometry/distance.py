@@ -284,7 +284,8 @@ def _segment_min(rows, boxes, tris, ranges, a, b, cutoff, tol, radius, cand, sta
         return cutoff
     contact = radius - CONTACT_RESOLUTION_MM
     length = math.sqrt(((b - a) ** 2).sum())
-    best = min(cutoff, _min_over(rows, tris, ranges, cand, n, a, stats), _min_over(rows, tris, ranges, cand, n, b, stats))
+    best = min(cutoff, _min_over(rows, tris, ranges, cand, n, a, stats),
+               _min_over(rows, tris, ranges, cand, n, b, stats))
     stack[0, 0] = 0.0
     stack[0, 1] = 1.0
     top = 1

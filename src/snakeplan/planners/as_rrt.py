@@ -54,14 +54,14 @@ lead nowhere; so after ``RESTART_ITERATIONS`` iterations the tree is dropped and
 ``RESTART_GROWTH`` times the previous patience (the random generator carries on, so trees differ).
 
 Knowledge. The planner sees obstacles only through ``problem.world`` (:mod:`snakeplan.world.knowledge`). With a
-sensed view, each node of a tree (any tree grown so far, the root included) is reported to the sensor, which
-reveals every obstacle within ``problem.sensor_range_mm`` of it; the checks use only known obstacles. Every arc and landing is capped at the sensor range minus the tip radius, so the tip
-never sweeps beyond what its start node sensed, and the body's capsules lie within about 50 mm (radius plus
-chord deviation) of the tree's own arcs, near its nodes: for any sensor range above about 100 mm, every obstacle
-that could touch an extension is known when it is checked. The sensed planner then accepts what the full one
-would (the same seed gives the same path), while seeing only the obstacles near its tree. A target closer to a
-known obstacle than the tip radius, or out of bounds, can never be landed on: the planner then stops at once with
-``"failed"``.
+sensed view, each node of a tree (any tree grown so far, the root included) is reported to the sensor, which reveals
+every obstacle within ``problem.sensor_range_mm`` of it; the checks use only known obstacles. Every arc and landing
+is capped at the sensor range minus the tip radius, so the tip never sweeps beyond what its start node sensed, and
+the body's capsules lie within about 50 mm (radius plus chord deviation) of the tree's own arcs, near its nodes: for
+any sensor range above about 100 mm, every obstacle that could touch an extension is known when it is checked. The
+sensed planner then accepts what the full one would (the same seed gives the same path), while seeing only the
+obstacles near its tree. A target closer to a known obstacle than the tip radius, or out of bounds, can never be
+landed on: the planner then stops at once with ``"failed"``.
 
 Ends. ``"found"`` when the last target is landed on, ``"failed"`` for a blocked target (above), ``"timeout"`` at
 the budget (path None). The same seed gives the same trees and path: the only randomness is the seeded
@@ -75,7 +75,7 @@ import time
 
 import numpy as np
 
-from snakeplan.planners.base import Planner, Problem
+from snakeplan.planners.base import Planner, Problem, Status
 from snakeplan.planners.registry import register_planner
 from snakeplan.world import PLANNING, ValidityChecker
 
@@ -337,15 +337,15 @@ class _Search:
                 "knowledge": self.problem.knowledge,
                 "arc_length_mm": self.step, "turn_radius_mm": self.model.turn_radius, **self.counts}
 
-    def run(self, deadline: float) -> tuple[str, np.ndarray | None, dict]:
+    def run(self, deadline: float) -> tuple[Status, np.ndarray | None, dict]:
         """Grow trees until the last target is landed on, a target is found blocked, or the deadline."""
         if self.blocked:
-            return "failed", None, self.details("target_blocked")
+            return Status.FAILED, None, self.details("target_blocked")
         usable = self.model.total_length - MIN_ARC_MM
         patience, grown = float(RESTART_ITERATIONS), 0
         while True:
             if self.counts["iterations"] % CLOCK_EVERY == 0 and time.perf_counter() >= deadline:
-                return "timeout", None, self.details("timeout")
+                return Status.TIMEOUT, None, self.details("timeout")
             self.counts["iterations"] += 1
             grown += 1
             if grown > patience:
@@ -363,9 +363,9 @@ class _Search:
             while k is not None and tree.stage[k] < len(self.goals) and not self.blocked:
                 k = self._land(k, int(tree.stage[k]))
             if self.blocked:
-                return "failed", None, self.details("target_blocked")
+                return Status.FAILED, None, self.details("target_blocked")
             if k is not None:
-                return "found", tree.branch(k), self.details("reached")
+                return Status.FOUND, tree.branch(k), self.details("reached")
 
     def _extend(self, stage: int, live: np.ndarray) -> int | None:
         """One extension of ``stage`` toward a sample; the new node, or None."""
@@ -460,5 +460,5 @@ class AsRRT(Planner):
         self.arc_sections = arc_sections
 
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float
-               ) -> tuple[str, np.ndarray | None, dict]:
+               ) -> tuple[Status, np.ndarray | None, dict]:
         return _Search(self, problem, rng).run(deadline)

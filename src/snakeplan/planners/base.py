@@ -2,6 +2,7 @@
 
 A planner turns a :class:`Problem` into a :class:`Plan`: a tip path from the entrance. It never judges
 itself; :func:`snakeplan.evaluation.evaluate` does, with the same rules for every planner.
+:func:`snakeplan.planners.check_planner` checks a planner against the contract stated in :class:`Planner`.
 
 Multi-target rule (decided once here, applied to every planner): targets are visited in the scene's order
 (generators order them by geodesic distance from the entrance) along ONE continuous follow-the-leader path;
@@ -15,10 +16,12 @@ import math
 import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field, replace
+from enum import Enum
 from typing import ClassVar, Literal
 
 import numpy as np
 
+from snakeplan.geometry.polyline import validate_path
 from snakeplan.robots import Chain
 from snakeplan.scenes import Scene
 from snakeplan.world import DEFAULT_SENSOR_RANGE_MM, KnowledgeView, view_for
@@ -27,7 +30,25 @@ from snakeplan.world import DEFAULT_SENSOR_RANGE_MM, KnowledgeView, view_for
 DEFAULT_TIME_LIMIT_S = 30.0
 
 Knowledge = Literal["full", "sensed"]
-STATUSES = ("found", "timeout", "failed")
+
+
+class Status(str, Enum):
+    """How a plan ended, after OMPL's ``PlannerStatus`` (EXACT_SOLUTION, APPROXIMATE_SOLUTION, TIMEOUT, ...).
+
+    A ``str`` so that JSON and CSV hold the plain value (``"found"``). Which statuses carry a path: :class:`Plan`.
+    """
+
+    FOUND = "found"
+    APPROXIMATE = "approximate"
+    TIMEOUT = "timeout"
+    FAILED = "failed"
+
+    def __str__(self) -> str:
+        return self.value
+
+
+#: Why an approximate plan stopped (its ``details["stopped"]``).
+STOPPED = (Status.TIMEOUT, Status.FAILED)
 
 
 @dataclass(frozen=True)
@@ -48,13 +69,18 @@ class Problem:
     world: KnowledgeView | None = None
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.time_limit_s, (int, float)) and math.isfinite(self.time_limit_s)
-                and self.time_limit_s > 0):
-            raise ValueError(f"time_limit: must be a positive number of seconds, got {self.time_limit_s!r}")
+        if not _positive(self.time_limit_s):
+            raise ValueError(f"time_limit_s: must be a positive number of seconds, got {self.time_limit_s!r}")
         if self.knowledge not in ("full", "sensed"):
             raise ValueError(f"knowledge: must be 'full' or 'sensed', got {self.knowledge!r}")
+        if not isinstance(self.scene, Scene):
+            raise ValueError(f"scene: must be a Scene, got {type(self.scene).__name__}")
         if len(self.scene.targets) == 0:
             raise ValueError(f"scene: {self.scene.name} has no targets to plan to")
+        if not isinstance(self.robot, Chain):
+            raise ValueError(f"robot: must be a Chain, got {type(self.robot).__name__}")
+        if not _positive(self.sensor_range_mm):
+            raise ValueError(f"sensor_range_mm: must be a positive number of mm, got {self.sensor_range_mm!r}")
         if self.world is None:
             object.__setattr__(self, "world", view_for(self.scene, self.knowledge, self.sensor_range_mm))
         elif self.world.kind != self.knowledge:
@@ -70,23 +96,56 @@ class Problem:
         return self.scene.targets
 
 
-@dataclass
+def _positive(value) -> bool:
+    """Whether ``value`` is a finite positive number (not a bool)."""
+    return (isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+            and value > 0)
+
+
+@dataclass(frozen=True)
 class Plan:
-    """A planner's answer: the tip path (mm) or None, how it ended, and how long it took (s)."""
+    """A planner's answer: how it ended, the tip path (mm, ``(m, 3)``, m >= 2) or None, and how long it took (s).
+
+    Status and path agree (checked here, ValueError naming the field):
+
+    * ``FOUND``: a path that the planner's own checks accept;
+    * ``APPROXIMATE``: a best-effort path that failed the planner's own checks (the judge may still accept
+      it), with ``details["stopped"]`` saying why the planner stopped, ``"timeout"`` or ``"failed"``;
+    * ``TIMEOUT`` (the budget ran out) and ``FAILED`` (the planner gave up): no path.
+    """
 
     planner: str
-    status: str
+    status: Status
     path: np.ndarray | None
     compute_time_s: float
     details: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        if self.status not in STATUSES:
-            raise ValueError(f"status: must be one of {STATUSES}, got {self.status!r}")
+        try:
+            object.__setattr__(self, "status", Status(self.status))
+        except ValueError:
+            raise ValueError(f"status: must be one of {', '.join(s.value for s in Status)}, "
+                             f"got {self.status!r}") from None
+        if self.path is not None:
+            object.__setattr__(self, "path", validate_path(self.path))
+        if self.status in (Status.FOUND, Status.APPROXIMATE) and self.path is None:
+            raise ValueError(f"path: a {self.status} plan needs a path")
+        if self.status in (Status.TIMEOUT, Status.FAILED) and self.path is not None:
+            raise ValueError(f"path: a {self.status} plan has no path (a best-effort path is 'approximate')")
+        if self.status is Status.APPROXIMATE and self.details.get("stopped") not in STOPPED:
+            raise ValueError(f"details: an approximate plan says why it stopped in details['stopped'] "
+                             f"({' or '.join(STOPPED)}), got {self.details.get('stopped')!r}")
 
 
 class Planner(ABC):
-    """A motion planner for follow-the-leader tip paths. Subclasses set ``name`` and implement ``_solve``."""
+    """A motion planner for follow-the-leader tip paths. Subclasses set ``name`` and implement ``_solve``.
+
+    The contract (:func:`snakeplan.planners.check_planner` checks it): a path starts at the entrance; status and
+    path agree as :class:`Plan` says, and a found path passes the targets in order; ``plan`` returns within the
+    time limit plus a small slack; the same problem and seed give the same plan, path equal to the bit; a problem
+    the planner cannot take raises ValueError naming the field (``knowledge`` for a sensed problem given to a
+    planner that ``needs_full_scene``).
+    """
 
     name: ClassVar[str] = ""
     #: Whether the planner needs the whole scene (it then refuses ``knowledge="sensed"`` problems).
@@ -103,5 +162,6 @@ class Planner(ABC):
 
     @abstractmethod
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float
-               ) -> tuple[str, np.ndarray | None, dict]:
-        """Return (status, tip path or None, details); stop by ``deadline`` (a time.perf_counter() value)."""
+               ) -> tuple[Status, np.ndarray | None, dict]:
+        """Return (status, tip path or None, details) as :class:`Plan` says; stop by ``deadline`` (a
+        time.perf_counter() value)."""

@@ -60,7 +60,7 @@ from ompl import geometric as og
 from ompl import util as ou
 
 from snakeplan.geometry.polyline import densify, drop_duplicates, fillet, path_length
-from snakeplan.planners.base import Planner, Problem
+from snakeplan.planners.base import Planner, Problem, Status
 from snakeplan.planners.registry import register_planner
 from snakeplan.world import PLANNING, ValidityChecker
 
@@ -354,7 +354,7 @@ class RRTStar(Planner):
     needs_full_scene = True
 
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float
-               ) -> tuple[str, np.ndarray | None, dict]:
+               ) -> tuple[Status, np.ndarray | None, dict]:
         level = ou.getLogLevel()
         ou.setLogLevel(ou.LOG_WARN)
         try:
@@ -363,7 +363,7 @@ class RRTStar(Planner):
             ou.setLogLevel(level)
 
     def _search(self, problem: Problem, rng: np.random.Generator, deadline: float
-                ) -> tuple[str, np.ndarray | None, dict]:
+                ) -> tuple[Status, np.ndarray | None, dict]:
         arm = ValidityChecker(problem.world, problem.robot, PLANNING)
         _seed_ompl(rng)
         start, goals = problem.start, problem.goals
@@ -371,7 +371,7 @@ class RRTStar(Planner):
         details: dict = {"legs": len(goals), "tree_sizes": [], "raw_length_mm": None, "smoothed_length_mm": None,
                          "repairs": 0, "plan_margin_mm": None, "shortcut_margin_mm": None}
         if not (arm.segment_free(start[None], lead[None])[0] and np.all(arm.tip_free(goals, arm.tip_radius))):
-            return "failed", None, details
+            return Status.FAILED, None, details
         search_deadline = deadline - POST_RESERVE_FRACTION * problem.time_limit_s
         for plan_margin in (0.0, *REPAIR_PLAN_MARGINS_MM):
             radius = arm.tip_radius + plan_margin
@@ -384,19 +384,19 @@ class RRTStar(Planner):
                                       now + (search_deadline - now) / (len(goals) - k))
                 details["tree_sizes"].append(tree)
                 if pts is None:  # the leg's time share ran out; a raised clearance only makes it harder
-                    return ("timeout" if plan_margin == 0.0 else "failed"), None, details
+                    return (Status.TIMEOUT if plan_margin == 0.0 else Status.FAILED), None, details
                 legs.append(pts)
             details["raw_length_mm"] = LEAD_MM + sum(path_length(leg) for leg in legs)
             for margin in SHORTCUT_MARGINS_MM:
                 if time.perf_counter() >= deadline:
-                    return "timeout", None, details
+                    return Status.TIMEOUT, None, details
                 margin = max(margin, plan_margin)
                 path = _smooth(arm, start, legs, goals, margin)
                 if _crawls(arm, path):
                     details.update(smoothed_length_mm=path_length(path), plan_margin_mm=plan_margin,
                                    shortcut_margin_mm=margin)
-                    return "found", path, details
+                    return Status.FOUND, path, details
                 details["repairs"] += 1
             if time.perf_counter() >= search_deadline:
-                return "timeout", None, details
-        return "failed", None, details
+                return Status.TIMEOUT, None, details
+        return Status.FAILED, None, details

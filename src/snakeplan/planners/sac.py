@@ -17,9 +17,10 @@ This module holds everything a roll-out needs, so planning never imports the tra
 
 The planners roll the policy out from the entrance (a roll-out takes milliseconds) until every target is reached;
 the smoothest of the roll-out and its Gaussian smoothings (``SMOOTHING_SIGMAS_MM``) that passes the planning-time
-crawl check (the ``PLANNING`` profile of :class:`~snakeplan.world.ValidityChecker`) is planned; when none passes, the policy is rolled out again with seeded action
-noise, up to ``PLAN_ATTEMPTS`` times within the budget; the path goes to the judge. Policy files ship in
-``snakeplan/rl/data`` as ``{scene}-{algorithm}.npz`` (with ``.curve.json``, the learning curve that made them).
+crawl check (the ``PLANNING`` profile of :class:`~snakeplan.world.ValidityChecker`) is planned; when none passes,
+the policy is rolled out again with seeded action noise, up to ``PLAN_ATTEMPTS`` times within the budget; the path
+goes to the judge. Policy files ship in ``snakeplan/rl/data`` as ``{scene}-{algorithm}.npz`` (with ``.curve.json``,
+the learning curve that made them).
 """
 
 from __future__ import annotations
@@ -37,7 +38,7 @@ from numba import njit
 
 from snakeplan.evaluation.metrics import path_smoothness
 from snakeplan.geometry import polyline
-from snakeplan.planners.base import Planner, Problem
+from snakeplan.planners.base import Planner, Problem, Status
 from snakeplan.planners.registry import register_planner
 from snakeplan.robots import Chain
 from snakeplan.scenes import Scene
@@ -591,10 +592,12 @@ SMOOTHING_SIGMAS_MM = (480.0, 320.0, 240.0, 160.0, 120.0, 80.0)
 class SacPlanner(Planner):
     """`sac`: a plain-SAC policy rolled out deterministically; ``policy=`` a file, else the shipped one for the
     scene. A roll-out that reaches every target is planned as the smoothest of itself and its ``smoothing``
-    scales (:data:`SMOOTHING_SIGMAS_MM`) that passes the planning-time crawl check (the ``PLANNING`` profile of :class:`~snakeplan.world.ValidityChecker`); when none
-    passes, it is rolled out again with seeded action noise, up to ``attempts`` roll-outs within the budget. It
-    plans with ``knowledge="sensed"`` too: its rays and every crawl check then see only what the tip sensor has
-    revealed along its roll-outs (``problem.world``), so a retry re-plans within what has been sensed."""
+    scales (:data:`SMOOTHING_SIGMAS_MM`) that passes the planning-time crawl check (the ``PLANNING`` profile of
+    :class:`~snakeplan.world.ValidityChecker`); when none passes, it is rolled out again with seeded action noise,
+    up to ``attempts`` roll-outs within the budget; when none passes, the plan is ``approximate``: the reaching
+    roll-out whose crawl failed deepest, else the first roll-out. It plans with ``knowledge="sensed"`` too: its
+    rays and every crawl check then see only what the tip sensor has revealed along its roll-outs
+    (``problem.world``), so a retry re-plans within what has been sensed."""
 
     name = "sac"
     needs_full_scene = False
@@ -632,7 +635,7 @@ class SacPlanner(Planner):
         return None, 0.0, raw_failure
 
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float
-               ) -> tuple[str, np.ndarray | None, dict]:
+               ) -> tuple[Status, np.ndarray | None, dict]:
         policy = self._policy(problem.scene)
         model = ValidityChecker(problem.world, problem.robot, PLANNING)
         details = {"policy": policy.meta.get("name", str(self.policy_file or self.name))}
@@ -648,13 +651,17 @@ class SacPlanner(Planner):
                 chosen, sigma, failure = self._smoothest(path, problem, model)
                 if chosen is not None:
                     details["smoothing_sigma_mm"] = sigma
-                    return "found", chosen, details
+                    return Status.FOUND, chosen, details
                 if failure > best_reach:
                     best, best_reach = path, failure
             elif best is None:
                 best = path
-        status = "timeout" if details["outcome"] == "timeout" else "failed"
-        return status, best if best is not None else path, details
+        stopped = Status.TIMEOUT if details["outcome"] == "timeout" else Status.FAILED
+        best = best if best is not None else path
+        if len(best) < 2:
+            return stopped, None, details
+        details["stopped"] = stopped
+        return Status.APPROXIMATE, best, details
 
 
 @register_planner

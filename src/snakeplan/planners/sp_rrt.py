@@ -12,10 +12,10 @@ from the entrance, may be shorter).
 
 Choices (every number is a module-level default below):
 
-* **Bend limits.** The tree allows ``TREE_BEND_FRACTION`` of each section's limit; the crawl check
-  (the ``PLANNING`` profile of :class:`~snakeplan.world.ValidityChecker`) and the judge (the full limit) keep
-  the rest. Between node depths the follow-the-leader links are chords across the node polyline's corners; their bends were measured to exceed the
-  node bends by well under a degree, which this margin absorbs.
+* **Bend limits.** The tree allows ``TREE_BEND_FRACTION`` of each section's limit; the crawl check (the
+  ``PLANNING`` profile of :class:`~snakeplan.world.ValidityChecker`) and the judge (the full limit) keep the rest.
+  Between node depths the follow-the-leader links are chords across the node polyline's corners; their bends were
+  measured to exceed the node bends by well under a degree, which this margin absorbs.
 * **Collision.** A link is a capsule of the largest body radius plus the ``PLANNING`` margin, and a node must lie in
   the bounds. Chords cut corners (by up to l sin(theta/2) / 2, about 34 mm at 45 degrees), so the chord from the
   middle of a new link to the middle of its parent link is checked as well. The candidates of an iteration go to
@@ -62,8 +62,9 @@ Choices (every number is a module-level default below):
   The legs join inside one chain, so the bend limit holds at every junction; many chains pass a target in
   different directions and all keep growing, which is the backtracking between legs. A sample's stage is the
   most advanced one present with ``ADVANCE_BIAS``, else one drawn uniformly among those present.
-* **Check and repair.** Each solution is crawled with :meth:`ValidityChecker.first_failure` (every intermediate depth, the
-  planning bend safety and margin). A failing bend at joint j or colliding link j depends only on the path from
+
+* **Check and repair.** Each solution is crawled with :meth:`ValidityChecker.first_failure` (every intermediate
+  depth, the planning bend safety and margin). A failing bend at joint j or colliding link j depends only on the path from
   joint j-1 (or j) to the tip, so the last node behind that joint and its whole subtree are closed; the tree
   then grows on to the next solution, until the budget runs out.
 
@@ -83,7 +84,7 @@ from numba import njit
 
 from snakeplan import ftl
 from snakeplan.geometry.polyline import cumulative_length
-from snakeplan.planners.base import Planner, Problem
+from snakeplan.planners.base import Planner, Problem, Status
 from snakeplan.planners.registry import register_planner
 from snakeplan.world import PLANNING, Failure, ValidityChecker
 from snakeplan.scenes.reach import (
@@ -261,7 +262,7 @@ class SpRRT(Planner):
         self.field_cell_mm = field_cell_mm
 
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float
-               ) -> tuple[str, np.ndarray | None, dict]:
+               ) -> tuple[Status, np.ndarray | None, dict]:
         return _Search(self, problem, rng, deadline).run()
 
 
@@ -612,13 +613,13 @@ class _Search:
             "search_s": round(time.perf_counter() - t_start, 4),
         }
 
-    def run(self) -> tuple[str, np.ndarray | None, dict]:
+    def run(self) -> tuple[Status, np.ndarray | None, dict]:
         """Grow until a solution passes the crawl check, the budget runs out or the tree cannot grow."""
         t_start = time.perf_counter()
         root = self.targets[-1][None]
         stage = np.array([len(self.targets) - 2])
         if not self._admissible(root, np.array([0]), stage, self._geo(root))[0]:
-            return "failed", None, {**self._details(t_start), "reason": "target beyond the arm's geodesic reach"}
+            return Status.FAILED, None, {**self._details(t_start), "reason": "target beyond the arm's geodesic reach"}
         queue = list(self._add(root, np.array([-1]), np.array([0]), stage))
         while True:
             while queue and time.perf_counter() < self.deadline:
@@ -626,12 +627,12 @@ class _Search:
                 if self.tree.stage[i] < 0:
                     path = self._try_solution(i)
                     if path is not None:
-                        return "found", path, self._details(t_start)
+                        return Status.FOUND, path, self._details(t_start)
                 else:
                     queue.extend(self._through(i))
             if time.perf_counter() >= self.deadline:
-                return "timeout", None, self._details(t_start)
+                return Status.TIMEOUT, None, self._details(t_start)
             if self.tree.n >= MAX_NODES or not self.open_count.any():
-                return "failed", None, self._details(t_start)
+                return Status.FAILED, None, self._details(t_start)
             queue = list(self._extend())
             self.iterations += 1

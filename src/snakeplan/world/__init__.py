@@ -9,9 +9,16 @@ from snakeplan.world.knowledge import (
     guarded,
     view_for,
 )
-from snakeplan.world.tolerances import JUDGE, PLANNING, REACH_TOLERANCE_MM, ROLLOUT, Tolerances
+from snakeplan.world.tolerances import (
+    ENTRANCE_TOLERANCE_MM,
+    JUDGE,
+    PLANNING,
+    REACH_TOLERANCE_MM,
+    ROLLOUT,
+    Tolerances,
+)
 from snakeplan.world.validity import CrawlCheck, Failure, ValidityChecker, min_turn_radius, targets_reached
 
-__all__ = ["DEFAULT_SENSOR_RANGE_MM", "JUDGE", "PLANNING", "REACH_TOLERANCE_MM", "ROLLOUT", "CrawlCheck", "Failure",
-           "FullView", "KnowledgeView", "SensedView", "Tolerances", "UnsensedObstacleError", "ValidityChecker",
-           "guarded", "min_turn_radius", "targets_reached"]
+__all__ = ["DEFAULT_SENSOR_RANGE_MM", "ENTRANCE_TOLERANCE_MM", "JUDGE", "PLANNING", "REACH_TOLERANCE_MM", "ROLLOUT",
+           "CrawlCheck", "Failure", "FullView", "KnowledgeView", "SensedView", "Tolerances", "UnsensedObstacleError",
+           "ValidityChecker", "guarded", "min_turn_radius", "targets_reached", "view_for"]

@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from snakeplan.ftl import ENTRANCE_TOL as ENTRANCE_TOLERANCE_MM  # a path starts this close (mm) to the entrance
 from snakeplan.geometry.distance import CONTACT_RESOLUTION_MM
 
 #: The tip within this distance (mm) of a target reaches it: the one reach tolerance of the library.
@@ -18,8 +19,8 @@ REACH_TOLERANCE_MM = 10.0
 #: Allowance (rad) on bend limits for round-off.
 BEND_TOLERANCE_RAD = 1e-9
 
-__all__ = ["BEND_TOLERANCE_RAD", "CONTACT_RESOLUTION_MM", "JUDGE", "PLANNING", "REACH_TOLERANCE_MM", "ROLLOUT",
-           "Tolerances"]
+__all__ = ["BEND_TOLERANCE_RAD", "CONTACT_RESOLUTION_MM", "ENTRANCE_TOLERANCE_MM", "JUDGE", "PLANNING",
+           "REACH_TOLERANCE_MM", "ROLLOUT", "Tolerances"]
 
 
 @dataclass(frozen=True)

@@ -94,7 +94,8 @@ def targets_reached(path, targets, tolerance: float = REACH_TOLERANCE_MM) -> int
         # the first point of that segment within tolerance: the smaller root of |a + t d - target| = tolerance
         w = a[j] - target
         qa, qb, qc = dd[j], 2.0 * float(w @ d[j]), float(w @ w) - tolerance ** 2
-        first = 0.0 if qc <= 0.0 or qa == 0.0 else max((-qb - math.sqrt(max(qb * qb - 4 * qa * qc, 0.0))) / (2 * qa), 0.0)
+        root = math.sqrt(max(qb * qb - 4.0 * qa * qc, 0.0))
+        first = 0.0 if qc <= 0.0 or qa == 0.0 else max((-qb - root) / (2.0 * qa), 0.0)
         base = t0 if j == 0 else 0.0
         seg, t0 = seg + j, base + first * (1.0 - base)
         count += 1

@@ -22,7 +22,7 @@ import time
 
 import numpy as np
 
-from snakeplan.planners.base import Plan, Planner, Problem
+from snakeplan.planners.base import Plan, Planner, Problem, Status
 from snakeplan.planners.registry import register_planner
 from snakeplan.planners.sscc.agent import SwingAgent, shipped_agent_path, train_agent
 from snakeplan.planners.sscc.crawling import Crawl, Directive, arm_base, crawl, joint_angles
@@ -96,9 +96,9 @@ class SSCCPlanner(Planner):
         return plan
 
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float
-               ) -> tuple[str, np.ndarray | None, dict]:
+               ) -> tuple[Status, np.ndarray | None, dict]:
         if len(problem.goals) != 1:
-            return "failed", None, {"reason": f"sscc plans to one target, the scene has {len(problem.goals)}"}
+            return Status.FAILED, None, {"reason": f"sscc plans to one target, the scene has {len(problem.goals)}"}
         used, policy = self._policy(problem.robot.name)
         learner = policy if isinstance(policy, SwingAgent) and self.learning else None
         out = swinging_search(problem, policy, rng, deadline, self.settings, record=learner is not None)
@@ -106,7 +106,7 @@ class SSCCPlanner(Planner):
             self._pending = (learner, out.transitions)
         details: dict = {"search": used, "episodes": out.episodes, "swing_steps": out.steps}
         if out.motion is None:
-            return ("timeout" if out.timed_out else "failed"), None, details
+            return (Status.TIMEOUT if out.timed_out else Status.FAILED), None, details
         d = out.motion.directive
         robot = problem.robot
         q = robot.joint_angles_from_directions(
@@ -114,4 +114,4 @@ class SSCCPlanner(Planner):
             feed=float((d.joints[0] - d.entrance) @ d.direction) + robot.total_length)
         details.update(n_inner=d.n_inner, critical_module=d.critical, overhang_mm=d.overhang_mm,
                        max_deviation_D_mm=out.motion.D, directive_joints=d.joints, directive_q=q)
-        return "found", d.tip_path(), details
+        return Status.FOUND, d.tip_path(), details

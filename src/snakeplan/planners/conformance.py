@@ -1,0 +1,232 @@
+"""The planner conformance suite: :func:`check_planner` runs a planner on a few problems and checks the contract of
+:class:`~snakeplan.planners.base.Planner`, in the spirit of Gymnasium's ``check_env``. It is public so that the
+author of an outside planner can run it: ``check_planner(MyPlanner())``.
+
+Rules (a :class:`ConformanceError` names the first one broken):
+
+* ``runs``: ``plan`` returns a :class:`Plan`, named after the planner, for a well-formed problem in a scene the
+  planner supports (``scenes``).
+* ``entrance``: a path starts at the scene's entrance, within the judge's ``ENTRANCE_TOLERANCE_MM``.
+* ``status-path``: the status is a :class:`Status` and agrees with the path as :class:`Plan` says, checked here
+  afresh (a planner may override ``plan``): ``found`` and ``approximate`` carry a finite ``(m, 3)`` path, m >= 2,
+  ``approximate`` with ``details["stopped"]`` ``"timeout"`` or ``"failed"``; ``timeout`` and ``failed`` carry none.
+  A ``found`` path passes every target in order within the judge's ``REACH_TOLERANCE_MM`` (what the checker can
+  see of "the planner's own checks accept it").
+* ``deadline``: ``plan`` returns, on the checker's wall clock, within ``time_limit_s`` plus
+  ``max(DEADLINE_SLACK_S, DEADLINE_SLACK_FRACTION * time_limit_s)``: for each problem after a first, warm-up plan
+  (loading and compiling are not planning), and on a hard version of it (its last target walled in, so no plan
+  exists) with ``TINY_TIME_LIMIT_S``.
+* ``determinism``: the same problem and seed, planned twice by the same planner, give the same status and a path
+  equal to the bit. Skipped (and said so in the report) when a run stopped on the clock, since where a search is
+  cut off depends on the machine.
+* ``malformed``: a malformed problem raises ValueError whose message starts with the field's name: a non-positive,
+  NaN, infinite or non-numeric ``time_limit_s``, an unknown ``knowledge``, a non-positive ``sensor_range_mm``, a
+  ``scene`` with no targets or that is not a Scene, a ``robot`` that is not a Chain, and, for a planner that
+  ``needs_full_scene``, a ``knowledge="sensed"`` problem.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from snakeplan.geometry.primitives import Box
+from snakeplan.planners.base import STOPPED, Plan, Planner, Problem, Status
+from snakeplan.planners.registry import get_planner
+from snakeplan.robots import get_robot
+from snakeplan.scenes import Scene, make_scene
+from snakeplan.world import ENTRANCE_TOLERANCE_MM, REACH_TOLERANCE_MM, targets_reached
+
+#: The problems used when none are given: these scene families (seed ``scene_seed``) with this robot.
+DEFAULT_SCENES = ("fuel-tank", "oil-tank")
+DEFAULT_ROBOT = "sjtu-snake-iii"
+#: Time limit (s) of the default problems.
+DEFAULT_TIME_LIMIT_S = 5.0
+#: Time limit (s) of the hard problems of the deadline rule.
+TINY_TIME_LIMIT_S = 0.05
+#: Allowed overrun of the time limit: the larger of this (s) and this fraction of the limit.
+DEADLINE_SLACK_S = 0.5
+DEADLINE_SLACK_FRACTION = 0.2
+#: Hard problem: free space (mm) from the last target to each wall of the closed box around it, and wall thickness.
+ENCLOSURE_HALF_MM = 80.0
+ENCLOSURE_WALL_MM = 10.0
+
+RULES = ("runs", "entrance", "status-path", "deadline", "determinism", "malformed")
+
+
+class ConformanceError(AssertionError):
+    """A planner broke a rule of the contract; ``rule`` is one of :data:`RULES`."""
+
+    def __init__(self, rule: str, message: str):
+        super().__init__(f"[{rule}] {message}")
+        self.rule = rule
+
+
+@dataclass(frozen=True)
+class ConformanceReport:
+    """What :func:`check_planner` ran: one line per plan it checked, and the checks it skipped with the reason."""
+
+    planner: str
+    plans: tuple[str, ...]
+    skipped: tuple[str, ...]
+
+
+def deadline_slack_s(time_limit_s: float) -> float:
+    """Allowed overrun (s) of ``time_limit_s``."""
+    return max(DEADLINE_SLACK_S, DEADLINE_SLACK_FRACTION * time_limit_s)
+
+
+def default_problems(scenes: Sequence[str] = DEFAULT_SCENES, robot: str = DEFAULT_ROBOT, scene_seed: int = 1,
+                     time_limit_s: float = DEFAULT_TIME_LIMIT_S) -> list[Problem]:
+    """One full-knowledge problem per scene family: ``make_scene(name, scene_seed)`` with ``get_robot(robot)``."""
+    chain = get_robot(robot)
+    return [Problem(make_scene(name, scene_seed), chain, time_limit_s) for name in scenes]
+
+
+def check_planner(planner: Planner | str, problems: Sequence[Problem] | None = None, *,
+                  scenes: Sequence[str] = DEFAULT_SCENES, robot: str = DEFAULT_ROBOT, scene_seed: int = 1,
+                  time_limit_s: float = DEFAULT_TIME_LIMIT_S, seed: int = 0) -> ConformanceReport:
+    """Check ``planner`` (an instance, or a registered name) against the contract (module docstring) on
+    ``problems``, by default :func:`default_problems` of ``scenes`` (the families the planner supports), ``robot``,
+    ``scene_seed`` and ``time_limit_s``; plans with planner seed ``seed``. Raises :class:`ConformanceError` naming
+    the first rule broken; returns what it ran."""
+    if isinstance(planner, str):
+        planner = get_planner(planner)
+    if problems is None:
+        problems = default_problems(scenes, robot, scene_seed, time_limit_s)
+    if not problems:
+        raise ValueError("problems: at least one problem is needed")
+    plans, skipped = [], []
+    for problem in problems:
+        where = _describe(problem)
+        first = _plan(planner, problem, seed, where, timed=False)
+        again = _plan(planner, problem, seed, where, timed=True)
+        if _stopped_on_clock(first) or _stopped_on_clock(again):
+            skipped.append(f"determinism on {where}: a run stopped on the clock ({first.status}, {again.status})")
+        else:
+            _check_same(first, again, where)
+        hard = dataclasses.replace(problem, scene=_enclose_last_target(problem.scene), time_limit_s=TINY_TIME_LIMIT_S)
+        tiny = _plan(planner, hard, seed, f"{where} with its last target walled in", timed=True)
+        plans += [f"{where}: {first.status}", f"{where}, last target walled in, {TINY_TIME_LIMIT_S} s: {tiny.status}"]
+    _check_malformed(planner, problems[0], seed)
+    return ConformanceReport(planner.name, tuple(plans), tuple(skipped))
+
+
+def _describe(problem: Problem) -> str:
+    return (f"{problem.scene.name} seed {problem.scene.seed} ({problem.robot.name}, {problem.knowledge}, "
+            f"{problem.time_limit_s:g} s)")
+
+
+def _plan(planner: Planner, problem: Problem, seed: int, where: str, timed: bool) -> Plan:
+    """Plan once and check the rules every plan must meet (runs, entrance, status-path; deadline when ``timed``)."""
+    t0 = time.perf_counter()
+    try:
+        plan = planner.plan(problem, seed=seed)
+    except Exception as exc:
+        raise ConformanceError("runs", f"{planner.name} on {where} raised {type(exc).__name__}: {exc}") from exc
+    wall = time.perf_counter() - t0
+    if not isinstance(plan, Plan):
+        raise ConformanceError("runs", f"{planner.name} on {where} returned {type(plan).__name__}, not a Plan")
+    if plan.planner != planner.name:
+        raise ConformanceError("runs", f"{planner.name} on {where} returned a plan named {plan.planner!r}")
+    limit = problem.time_limit_s
+    if timed and wall > limit + deadline_slack_s(limit):
+        raise ConformanceError("deadline", f"{planner.name} on {where} took {wall:.3f} s, more than the time limit "
+                                           f"{limit:g} s + {deadline_slack_s(limit):g} s slack")
+    _check_status_path(plan, problem, f"{planner.name} on {where}")
+    return plan
+
+
+def _check_status_path(plan: Plan, problem: Problem, where: str) -> None:
+    if not isinstance(plan.status, Status):
+        raise ConformanceError("status-path", f"{where}: status {plan.status!r} is not a Status")
+    path = plan.path
+    if plan.status in (Status.TIMEOUT, Status.FAILED):
+        if path is not None:
+            raise ConformanceError("status-path", f"{where}: a {plan.status} plan carries a path")
+        return
+    if path is None:
+        raise ConformanceError("status-path", f"{where}: a {plan.status} plan has no path")
+    if not (isinstance(path, np.ndarray) and path.ndim == 2 and path.shape[1] == 3 and len(path) >= 2
+            and np.all(np.isfinite(path))):
+        raise ConformanceError("status-path", f"{where}: the path is not a finite (m, 3) array with m >= 2")
+    gap = float(np.linalg.norm(path[0] - problem.start))
+    if gap > ENTRANCE_TOLERANCE_MM:
+        raise ConformanceError("entrance", f"{where}: the path starts {gap:.3g} mm from the entrance")
+    if plan.status is Status.APPROXIMATE and plan.details.get("stopped") not in STOPPED:
+        raise ConformanceError("status-path", f"{where}: an approximate plan has details['stopped'] = "
+                                              f"{plan.details.get('stopped')!r}, not 'timeout' or 'failed'")
+    if plan.status is Status.FOUND:
+        reached = targets_reached(path, problem.goals)
+        if reached < len(problem.goals):
+            raise ConformanceError("status-path", f"{where}: a found path passes only {reached} of the "
+                                                  f"{len(problem.goals)} targets in order within "
+                                                  f"{REACH_TOLERANCE_MM} mm")
+
+
+def _stopped_on_clock(plan: Plan) -> bool:
+    return plan.status is Status.TIMEOUT or plan.details.get("stopped") == Status.TIMEOUT
+
+
+def _check_same(first: Plan, again: Plan, where: str) -> None:
+    name = first.planner
+    if first.status != again.status:
+        raise ConformanceError("determinism", f"{name} on {where}: the same seed ended {first.status}, then "
+                                              f"{again.status}")
+    if (first.path is None) != (again.path is None) or (
+            first.path is not None and (first.path.shape != again.path.shape
+                                        or first.path.tobytes() != again.path.tobytes())):
+        raise ConformanceError("determinism", f"{name} on {where}: the same seed gave two different paths")
+
+
+def _enclose_last_target(scene: Scene) -> Scene:
+    """``scene`` with a closed box of walls around its last target: no plan exists, the planner stops on the clock."""
+    target, inner = scene.targets[-1], ENCLOSURE_HALF_MM
+    outer = inner + ENCLOSURE_WALL_MM
+    walls = []
+    for axis in range(3):
+        for sign in (-1.0, 1.0):
+            centre = target.copy()
+            centre[axis] += sign * (inner + ENCLOSURE_WALL_MM / 2)
+            size = np.full(3, 2 * outer)
+            size[axis] = ENCLOSURE_WALL_MM
+            walls.append(Box(centre, size))
+    return dataclasses.replace(scene, obstacles=[*scene.obstacles, *walls])
+
+
+def _malformed(problem: Problem, needs_full_scene: bool) -> list[tuple[str, object, Callable[[], Problem]]]:
+    """(field, value, builder) for each malformed problem derived from ``problem``."""
+    scene = problem.scene
+    fields = {"scene": scene, "robot": problem.robot, "time_limit_s": problem.time_limit_s,
+              "knowledge": problem.knowledge, "sensor_range_mm": problem.sensor_range_mm}
+    cases: list[tuple[str, object]] = [
+        ("time_limit_s", 0.0), ("time_limit_s", -1.0), ("time_limit_s", math.nan), ("time_limit_s", math.inf),
+        ("time_limit_s", "1"), ("knowledge", "psychic"), ("sensor_range_mm", 0.0), ("sensor_range_mm", math.nan),
+        ("scene", dataclasses.replace(scene, targets=np.zeros((0, 3)))), ("scene", scene.name),
+        ("robot", problem.robot.name)]
+    if needs_full_scene:
+        cases.append(("knowledge", "sensed"))
+    return [(name, value, lambda name=name, value=value: Problem(**{**fields, name: value}))
+            for name, value in cases]
+
+
+def _check_malformed(planner: Planner, problem: Problem, seed: int) -> None:
+    for name, value, build in _malformed(problem, planner.needs_full_scene):
+        shown = f"{value.name} with no targets" if isinstance(value, Scene) else repr(value)
+        what = f"{planner.name} given {name} = {shown}"
+        try:
+            planner.plan(build(), seed=seed)
+        except ValueError as exc:
+            if not re.match(rf"{re.escape(name)}\b", str(exc)):
+                raise ConformanceError("malformed", f"{what}: the ValueError does not start with the field name: "
+                                                    f"{exc}") from exc
+            continue
+        except Exception as exc:
+            raise ConformanceError("malformed", f"{what} raised {type(exc).__name__}, not ValueError: {exc}") from exc
+        raise ConformanceError("malformed", f"{what} planned without a ValueError")
