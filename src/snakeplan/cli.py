@@ -1,7 +1,7 @@
 """The ``snakeplan`` command: scenes, robots, judging tip paths, pictures, benchmarks.
 
 Exit status: 0 success, 1 when a judged plan is infeasible, 2 for bad input (one line on stderr naming the
-field and the problem; never a traceback for a user's mistake). JSON output follows DESIGN.md's schemas.
+field and the problem; never a traceback for a user's mistake). JSON output: docs/ARCHITECTURE.md, "JSON schemas".
 """
 
 from __future__ import annotations

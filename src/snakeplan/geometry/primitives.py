@@ -1,7 +1,7 @@
 """Obstacle primitives with exact signed distances (mm): box, sphere, cylinder, plate with a hole, pipe, mesh.
 
 Each primitive is a small frozen dataclass that round-trips through the ``snakeplan.scene/1`` JSON of
-DESIGN.md (``to_dict`` / :func:`obstacle_from_dict`) and packs itself into a fixed-width float row
+docs/ARCHITECTURE.md (``to_dict`` / :func:`obstacle_from_dict`) and packs itself into a fixed-width float row
 (:meth:`Obstacle.pack`) so that the numba kernels in :mod:`snakeplan.geometry.distance` can evaluate whole
 scenes without Python in the loop. Signed distance is negative inside the material.
 """

@@ -1,6 +1,6 @@
 """`Scene`: workspace bounds, obstacles, the entrance the arm is fed through, targets, and metadata.
 
-A scene is plain data with a lossless JSON round-trip (schema ``snakeplan.scene/1``, DESIGN.md) and the
+A scene is plain data with a lossless JSON round-trip (schema ``snakeplan.scene/1``, docs/ARCHITECTURE.md) and the
 spatial queries every planner and the judge share: signed distance, chain clearance, line of sight.
 Lengths in mm.
 """

@@ -12,8 +12,8 @@ from every task, as in the paper: each search's transitions train it right after
 arm crawls, so the update is not in ``compute_time_s``; its cost is in the details as ``learning_time_s``);
 ``agent_path`` (an ``.npz`` from :func:`.agent.train_agent` instead of the shipped agent).
 
-Learning is off by default so that a plan depends only on its problem and seed (DESIGN.md), not on the tasks a
-planner saw before; ``snakeplan bench sscc`` runs the paper's learning mode beside it.
+Learning is off by default so that a plan depends only on its problem and seed (docs/ARCHITECTURE.md, "Units and
+conventions"), not on the tasks a planner saw before; ``snakeplan bench sscc`` runs the paper's learning mode beside it.
 """
 
 from __future__ import annotations

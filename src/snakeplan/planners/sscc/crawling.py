@@ -5,7 +5,7 @@ modules*; the one that crosses the pipe entrance is the *critical module*; the m
 modules*. While crawling, the base modules are fed along the critical module's direction and every inner module
 follows the inner directive modules one module behind, until the tip reaches the target.
 
-Our mapping onto snakeplan's follow-the-leader model (DESIGN.md):
+Our mapping onto snakeplan's follow-the-leader model (docs/ARCHITECTURE.md, "Follow-the-leader"):
 
 - The feed stage pushes the arm along the scene's entrance direction ``u``, and the part of the arm not yet
   inserted lies straight on that feed axis. So a directive configuration here has its base modules *and* its
