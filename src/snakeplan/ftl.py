@@ -35,8 +35,8 @@ INSERTION_TOL = 1e-9
 
 
 @njit(cache=True)
-def _fit_into(p, cum, lengths, u, s, joints, arc):
-    """Fit one configuration at depth ``s`` into ``joints (n+1, 3)`` and their arc parameters ``arc (n+1,)``."""
+def fit_into(p, cum, lengths, u, s, joints, arc):
+    """(jitted; for kernels of higher layers) Fit one configuration at depth ``s`` into ``joints (n+1, 3)`` and their arc parameters ``arc (n+1,)``."""
     m = p.shape[0]
     n = lengths.shape[0]
     # tip: segment i with cum[i] <= s < cum[i+1] (last segment at s = L)
@@ -106,7 +106,23 @@ def _fit_into(p, cum, lengths, u, s, joints, arc):
 def _fit_many(p, cum, lengths, u, s_values, joints, arc):
     """Fit every depth in ``s_values (B,)`` into ``joints (B, n+1, 3)`` and ``arc (B, n+1)``."""
     for b in range(s_values.shape[0]):
-        _fit_into(p, cum, lengths, u, s_values[b], joints[b], arc[b])
+        fit_into(p, cum, lengths, u, s_values[b], joints[b], arc[b])
+
+
+@njit(cache=True)
+def bends_into(u, joints, bends):
+    """(jitted) Bend angles (rad) of one configuration ``joints (n+1, 3)`` into ``bends (n,)``: feed direction ``u`` against
+    link 0, then each link against the next."""
+    px, py, pz = u[0], u[1], u[2]
+    for k in range(joints.shape[0] - 1):
+        ex = joints[k + 1, 0] - joints[k, 0]
+        ey = joints[k + 1, 1] - joints[k, 1]
+        ez = joints[k + 1, 2] - joints[k, 2]
+        cx = py * ez - pz * ey
+        cy = pz * ex - px * ez
+        cz = px * ey - py * ex
+        bends[k] = np.arctan2(np.sqrt(cx * cx + cy * cy + cz * cz), px * ex + py * ey + pz * ez)
+        px, py, pz = ex, ey, ez
 
 
 @njit(cache=True)
@@ -115,17 +131,12 @@ def _bends_and_deviation(p, cum, u, joints, arc, bends, dev):
     nb = joints.shape[0]
     n = joints.shape[1] - 1
     for b in range(nb):
-        px, py, pz = u[0], u[1], u[2]
+        bends_into(u, joints[b], bends[b])
         for k in range(n):
             ax, ay, az = joints[b, k, 0], joints[b, k, 1], joints[b, k, 2]
             ex = joints[b, k + 1, 0] - ax
             ey = joints[b, k + 1, 1] - ay
             ez = joints[b, k + 1, 2] - az
-            cx = py * ez - pz * ey
-            cy = pz * ex - px * ez
-            cz = px * ey - py * ex
-            bends[b, k] = np.arctan2(np.sqrt(cx * cx + cy * cy + cz * cz), px * ex + py * ey + pz * ez)
-            px, py, pz = ex, ey, ez
             # path vertices strictly between the two joints; the path between is straight between vertices, and
             # distance to the chord is convex along a straight piece, so the maximum sits on a vertex
             lo = np.searchsorted(cum, arc[b, k], side="right")

@@ -372,8 +372,8 @@ def _chains_clearance(rows, boxes, tris, ranges, joints, radii, tol, stats):
 
 
 @njit(cache=True)
-def _chain_hit(rows, boxes, tris, ranges, joints, radii, cand, stack, stats):
-    """Index of a link of one chain ``(n+1, 3)`` that touches an obstacle (tip first), or -1."""
+def chain_hit(rows, boxes, tris, ranges, joints, radii, cand, stack, stats):
+    """(jitted; for kernels of higher layers, with :attr:`ObstacleSet.packed`) Index of a link of one chain ``(n+1, 3)`` that touches an obstacle (tip first), or -1."""
     # Tip first: in follow-the-leader motion the leading links meet obstacles first, so exits come early.
     for k in range(radii.shape[0] - 1, -1, -1):
         if _segment_hits(rows, boxes, tris, ranges, joints[k], joints[k + 1], radii[k], cand, stack, stats):
@@ -388,7 +388,7 @@ def _chains_collide(rows, boxes, tris, ranges, joints, radii, stats):
     cand = np.empty(rows.shape[0], dtype=np.int64)
     stack = np.empty((256, 2))
     for i in range(B):
-        out[i] = _chain_hit(rows, boxes, tris, ranges, joints[i], radii, cand, stack, stats) >= 0
+        out[i] = chain_hit(rows, boxes, tris, ranges, joints[i], radii, cand, stack, stats) >= 0
     return out
 
 
@@ -398,7 +398,7 @@ def _first_hit(rows, boxes, tris, ranges, joints, radii, stats):
     cand = np.empty(rows.shape[0], dtype=np.int64)
     stack = np.empty((256, 2))
     for i in range(joints.shape[0]):
-        k = _chain_hit(rows, boxes, tris, ranges, joints[i], radii, cand, stack, stats)
+        k = chain_hit(rows, boxes, tris, ranges, joints[i], radii, cand, stack, stats)
         if k >= 0:
             return i, k
     return -1, -1
@@ -477,6 +477,11 @@ class ObstacleSet:
 
     def __len__(self) -> int:
         return len(self.obstacles)
+
+    @property
+    def packed(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(rows, boxes, triangles, mesh ranges): the packed arrays jitted kernels take, as :func:`chain_hit`."""
+        return self._rows, self._boxes, self._tris, self._ranges
 
     def signed_distance(self, points) -> np.ndarray:
         """Signed distance (mm) from points ``(..., 3)`` to the nearest obstacle (+inf with no obstacles)."""

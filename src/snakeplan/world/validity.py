@@ -24,9 +24,10 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
+from numba import njit
 
 from snakeplan import ftl
-from snakeplan.geometry.distance import CONTACT_RESOLUTION_MM, ObstacleSet
+from snakeplan.geometry.distance import CONTACT_RESOLUTION_MM, ObstacleSet, chain_hit
 from snakeplan.geometry.polyline import arclength_grid, cumulative_length, validate_path
 from snakeplan.robots import Chain
 from snakeplan.world.knowledge import KnowledgeView
@@ -60,6 +61,37 @@ class CrawlCheck:
     insertion_bad: np.ndarray
     in_bounds: bool
     failure: Failure | None
+
+
+#: Failure kind codes of :func:`_scan` (indices into FAILURE_KINDS).
+_COLLISION, _BEND, _INSERTION = 0, 1, 2
+
+
+@njit(cache=True)
+def _scan(p, cum, lengths, u, depths, max_bends, radii, rows, boxes, tris, ranges, stats):
+    """The first failing depth of a crawl, scanned in order: (depth index, kind code, link) or (-1, -1, -1).
+
+    Each depth is fitted, then its bends, insertion and links are checked; nothing past the first failure is
+    fitted or checked. A collision wins a tie at one depth, then a bend (the tip-most joint), then insertion.
+    """
+    n = lengths.shape[0]
+    joints = np.empty((n + 1, 3))
+    arc = np.empty(n + 1)
+    bends = np.empty(n)
+    cand = np.empty(rows.shape[0], dtype=np.int64)
+    stack = np.empty((256, 2))
+    for i in range(depths.shape[0]):
+        ftl.fit_into(p, cum, lengths, u, depths[i], joints, arc)
+        link = chain_hit(rows, boxes, tris, ranges, joints, radii, cand, stack, stats)
+        if link >= 0:
+            return i, _COLLISION, link
+        ftl.bends_into(u, joints, bends)
+        for k in range(n - 1, -1, -1):
+            if bends[k] > max_bends[k] + BEND_TOLERANCE_RAD:
+                return i, _BEND, k
+        if arc[0] > ftl.INSERTION_TOL:
+            return i, _INSERTION, -1
+    return -1, -1, -1
 
 
 def _last(flags: np.ndarray) -> int:
@@ -146,13 +178,12 @@ class ValidityChecker:
 
     def _bounds_failure(self, p: np.ndarray, cum: np.ndarray, start: float, stop: float) -> Failure | None:
         """The depth at which the tip path first leaves the bounds within [start, stop], exactly."""
-        inside = self.world.in_bounds(p)
-        lo_vertex = int(np.searchsorted(cum, start, side="right")) - 1
+        lo_vertex = max(int(np.searchsorted(cum, start, side="right")) - 1, 0)
         hi_vertex = int(np.searchsorted(cum, stop, side="left"))
-        out = np.flatnonzero(~inside[max(lo_vertex, 0):hi_vertex + 1])
+        out = np.flatnonzero(~self.world.in_bounds(p[lo_vertex:hi_vertex + 1]))
         if out.size == 0:
             return None
-        i = max(lo_vertex, 0) + int(out[0])
+        i = lo_vertex + int(out[0])
         if i == 0:
             return Failure(0.0, "out_of_bounds", 0)
         a, d = p[i - 1], p[i] - p[i - 1]
@@ -165,32 +196,20 @@ class ValidityChecker:
     def first_failure(self, path, from_depth: float = 0.0, to_depth: float | None = None) -> Failure | None:
         """The first failure of the crawl at depths in (``from_depth``, ``to_depth``] (mm; depth 0 included when
         ``from_depth`` is 0; default: to the path's end), or None. Stops at the first failing depth."""
-        p = np.asarray(path, dtype=float)
+        p = np.ascontiguousarray(path, dtype=float)
         cum = cumulative_length(p)
         stop = float(cum[-1]) if to_depth is None else min(max(float(to_depth), 0.0), float(cum[-1]))
         start = min(max(float(from_depth), 0.0), stop)
-        found = [self._bounds_failure(p, cum, start, stop)]
-        depths = self._grid(cum, start, stop)
-        if depths.size:
-            states = ftl.fit_states(p, self.lengths, depths, self.direction)
-            bends = states.bend_angles > self.max_bends + BEND_TOLERANCE_RAD
-            bend_rows = np.flatnonzero(bends.any(axis=1))
-            ins_rows = np.flatnonzero(~states.insertion_ok)
-            if bend_rows.size:
-                i = int(bend_rows[0])
-                found.append(Failure(float(depths[i]), "bend_limit", _last(bends[i])))
-            if ins_rows.size:
-                found.append(Failure(float(depths[ins_rows[0]]), "insertion"))
-            stop_row = min([int(r[0]) for r in (bend_rows, ins_rows) if r.size] + [len(depths) - 1])
-            if found[0] is not None:
-                stop_row = min(stop_row, int(np.searchsorted(depths, found[0].depth_mm, side="right")))
-            hit = self.obstacles.first_hit(states.joints[:stop_row + 1], self.radii)
-            if hit is not None:
-                found.append(Failure(float(depths[hit[0]]), "collision", hit[1]))
-        found = [f for f in found if f is not None]
-        if not found:
-            return None
-        return min(found, key=lambda f: (f.depth_mm, FAILURE_KINDS.index(f.kind)))
+        out = self._bounds_failure(p, cum, start, stop)
+        depths = self._grid(cum, start, stop if out is None else out.depth_mm)
+        if depths.size == 0:
+            return out
+        obstacles = self.obstacles
+        i, code, link = _scan(p, cum, self.lengths, self.direction, depths, self.max_bends, self.radii,
+                              *obstacles.packed, obstacles.evaluations)
+        if i < 0 or (out is not None and out.depth_mm < depths[i]):
+            return out
+        return Failure(float(depths[i]), FAILURE_KINDS[code], None if link < 0 else int(link))
 
     def crawl(self, path) -> CrawlCheck:
         """Every state of the crawl from depth 0 to the path's end (or to where insertion must have failed), with
