@@ -36,7 +36,8 @@ INSERTION_TOL = 1e-9
 
 @njit(cache=True)
 def fit_into(p, cum, lengths, u, s, joints, arc):
-    """(jitted; for kernels of higher layers) Fit one configuration at depth ``s`` into ``joints (n+1, 3)`` and their arc parameters ``arc (n+1,)``."""
+    """Fit one configuration at depth ``s`` into ``joints (n+1, 3)`` and their arc parameters ``arc (n+1,)``
+    (jitted; higher layers' kernels call it)."""
     m = p.shape[0]
     n = lengths.shape[0]
     # tip: segment i with cum[i] <= s < cum[i+1] (last segment at s = L)
@@ -111,8 +112,8 @@ def _fit_many(p, cum, lengths, u, s_values, joints, arc):
 
 @njit(cache=True)
 def bends_into(u, joints, bends):
-    """(jitted) Bend angles (rad) of one configuration ``joints (n+1, 3)`` into ``bends (n,)``: feed direction ``u`` against
-    link 0, then each link against the next."""
+    """Bend angles (rad) of one configuration ``joints (n+1, 3)`` into ``bends (n,)``: feed direction ``u`` against
+    link 0, then each link against the next (jitted)."""
     px, py, pz = u[0], u[1], u[2]
     for k in range(joints.shape[0] - 1):
         ex = joints[k + 1, 0] - joints[k, 0]

@@ -373,7 +373,8 @@ def _chains_clearance(rows, boxes, tris, ranges, joints, radii, tol, stats):
 
 @njit(cache=True)
 def chain_hit(rows, boxes, tris, ranges, joints, radii, cand, stack, stats):
-    """(jitted; for kernels of higher layers, with :attr:`ObstacleSet.packed`) Index of a link of one chain ``(n+1, 3)`` that touches an obstacle (tip first), or -1."""
+    """Index of a link of one chain ``(n+1, 3)`` that touches an obstacle (tip first), or -1 (jitted; higher layers'
+    kernels call it with :attr:`ObstacleSet.packed`)."""
     # Tip first: in follow-the-leader motion the leading links meet obstacles first, so exits come early.
     for k in range(radii.shape[0] - 1, -1, -1):
         if _segment_hits(rows, boxes, tris, ranges, joints[k], joints[k + 1], radii[k], cand, stack, stats):
