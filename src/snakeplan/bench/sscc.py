@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from snakeplan.evaluation import evaluate
+from snakeplan.episode import run_episode
 from snakeplan.geometry.primitives import Pipe
 from snakeplan.planners import Problem
 from snakeplan.planners.sscc import SSCCPlanner, crawl, joint_angles
@@ -82,18 +82,16 @@ def _run_setting(setting: Setting, variants: Sequence[str], targets: int, progre
     for variant in variants:
         planner = SSCCPlanner(**VARIANTS[variant])
         for seed, scene in enumerate(scenes):
-            plan = planner.plan(Problem(scene, robot, setting.time_limit_s), seed=seed)
+            episode = run_episode(Problem(scene, robot, setting.time_limit_s), planner, seed=seed)
+            plan, report = episode.plan, episode.report
             row = {"setting": setting.key, "scene": setting.scene, "robot": setting.robot, "seed": seed,
-                   "variant": variant, "status": plan.status, "compute_time_s": plan.compute_time_s,
+                   "variant": variant, "status": str(plan.status), "compute_time_s": plan.compute_time_s,
                    **{k: plan.details.get(k, "") for k in ("n_inner", "episodes", "swing_steps", "learning_steps",
                                                            "learning_time_s")},
                    "D_mm": plan.details.get("max_deviation_D_mm", "")}
-            if plan.path is not None:
-                report = evaluate(scene, robot, plan.path)
-                row.update(success=report.success, reason=report.reason,
-                           judge_max_deviation_mm=report.max_deviation_mm, min_clearance_mm=report.min_clearance_mm)
-            else:
-                row.update(success=False, reason=plan.status)
+            row.update(success=episode.success, reason=episode.reason)
+            if report is not None:
+                row.update(judge_max_deviation_mm=report.max_deviation_mm, min_clearance_mm=report.min_clearance_mm)
             rows.append(row)
             progress(f"{setting.key} {variant} seed {seed}")
     return rows

@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from snakeplan.bench.statistics import games_howell, levene_p, shapiro_p, welch_anova
-from snakeplan.evaluation import evaluate
-from snakeplan.planners import Problem, get_planner
+from snakeplan.episode import run_episode
+from snakeplan.planners import Problem
 from snakeplan.robots import get_robot
 from snakeplan.scenes import make_scene
 
@@ -76,19 +76,15 @@ class Table2Config:
 
 def run_one(scene_name: str, seed: int, planner_name: str, time_limit_s: float, robot_name: str = ROBOT):
     """Plan and judge one episode; returns (run row, plan, report or None)."""
-    scene = make_scene(scene_name, seed)
-    robot = get_robot(robot_name)
-    plan = get_planner(planner_name).plan(Problem(scene, robot, time_limit_s), seed=seed)
+    episode = run_episode(Problem(make_scene(scene_name, seed), get_robot(robot_name), time_limit_s), planner_name,
+                          seed=seed)
+    plan, report = episode.plan, episode.report
     row = {"scene": scene_name, "seed": seed, "planner": planner_name, "time_limit_s": time_limit_s,
-           "status": plan.status, "compute_time_s": plan.compute_time_s}
-    report = None
-    if plan.path is not None:
-        report = evaluate(scene, robot, plan.path)
+           "status": str(plan.status), "compute_time_s": plan.compute_time_s, "success": episode.success,
+           "reason": episode.reason}
+    if report is not None:
         m = report.metrics()
-        row.update(success=report.success, reason=report.reason,
-                   **{k: m[k] for k in RUN_FIELDS if k in m and k not in row})
-    else:
-        row.update(success=False, reason=plan.status)
+        row.update({k: m[k] for k in RUN_FIELDS if k in m and k not in row})
     return row, plan, report
 
 

@@ -65,10 +65,13 @@ class Report:
     crawl_steps: int
     curvature_s: np.ndarray = field(repr=False)
     curvature: np.ndarray = field(repr=False)
+    #: The body at the last judged depth: joints ``(n+1, 3)`` (mm), base first.
+    body_mm: np.ndarray = field(repr=False)
 
     def metrics(self) -> dict:
         """JSON-ready metrics (finite floats, or None where undefined)."""
-        out = {k: v for k, v in asdict(self).items() if k not in ("curvature_s", "curvature", "success", "reason")}
+        skip = ("curvature_s", "curvature", "body_mm", "success", "reason")
+        out = {k: v for k, v in asdict(self).items() if k not in skip}
         for k, v in out.items():
             if isinstance(v, float) and not np.isfinite(v):
                 out[k] = None
@@ -116,4 +119,5 @@ def evaluate(scene: Scene, robot: Chain, path, settings: JudgeSettings = JudgeSe
         crawl_steps=len(states),
         curvature_s=s_k,
         curvature=kappa,
+        body_mm=states.joints[-1],
     )

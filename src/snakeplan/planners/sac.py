@@ -602,16 +602,18 @@ class SacPlanner(Planner):
     name = "sac"
     needs_full_scene = False
 
-    def __init__(self, policy: str | Path | None = None, attempts: int = PLAN_ATTEMPTS,
+    def __init__(self, policy: str | Path | NumpyPolicy | None = None, attempts: int = PLAN_ATTEMPTS,
                  retry_noise: tuple[float, float] = RETRY_NOISE,
                  smoothing: tuple[float, ...] = SMOOTHING_SIGMAS_MM):
-        self.policy_file = policy
+        self.policy = policy
         self.attempts = int(attempts)
         self.smoothing = tuple(float(s) for s in smoothing)
         self.noise_levels = np.linspace(retry_noise[0], retry_noise[1], RETRY_LEVELS)
 
     def _policy(self, scene: Scene) -> NumpyPolicy:
-        path = Path(self.policy_file) if self.policy_file else policy_path(scene.name, self.name)
+        if isinstance(self.policy, NumpyPolicy):
+            return self.policy
+        path = Path(self.policy) if self.policy else policy_path(scene.name, self.name)
         if not path.is_file():
             raise ValueError(f"policy: no policy file {path} for planner {self.name} in scene {scene.name}")
         return load_policy(path)
@@ -638,7 +640,7 @@ class SacPlanner(Planner):
                ) -> tuple[Status, np.ndarray | None, dict]:
         policy = self._policy(problem.scene)
         model = ValidityChecker(problem.world, problem.robot, PLANNING)
-        details = {"policy": policy.meta.get("name", str(self.policy_file or self.name))}
+        details = {"policy": policy.meta.get("name", str(self.policy or self.name))}
         best, best_reach = None, -1.0
         for attempt in range(self.attempts):
             noise = self.noise_levels[(attempt - 1) % RETRY_LEVELS] if attempt else 0.0

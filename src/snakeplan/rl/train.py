@@ -38,8 +38,9 @@ from stable_baselines3.common.buffers import DictReplayBuffer
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import DummyVecEnv
 
-from snakeplan.evaluation import evaluate
-from snakeplan.planners.sac import CAPTURE_STEPS, TURN_RADIUS_MM, NumpyPolicy, RoomGraph, rollout
+from snakeplan.episode import run_episode
+from snakeplan.planners import Problem
+from snakeplan.planners.sac import CAPTURE_STEPS, TURN_RADIUS_MM, NumpyPolicy, RoomGraph, SacPlanner
 from snakeplan.rl.agents import EPSILON_DECAY, EPSILON_MIN, EPSILON_START, EpsilonGreedySAC
 from snakeplan.rl.envs import TRAIN_SCENES, TRAIN_SEED, VALIDATION_SEED, SnakeEnv
 from snakeplan.rl.extractor import GoalRouteExtractor
@@ -110,19 +111,19 @@ class TrainResult:
 
 
 def judge_policy(policy: NumpyPolicy, scene_name: str, seeds, robot_name: str = ROBOT) -> dict:
-    """Roll ``policy`` out on the scenes ``seeds`` and judge each path: success rate, median plan time (s),
-    mean smoothness index of the successes, and the per-seed verdicts."""
+    """Plan with ``policy``'s deterministic roll-out alone (one attempt, no smoothing) on the scenes ``seeds`` and
+    judge each path: success rate, median plan time (s), mean smoothness index of the successes, and the per-seed
+    verdicts."""
     robot = get_robot(robot_name)
+    planner = SacPlanner(policy=policy, attempts=1, smoothing=())
     runs = []
     for seed in seeds:
-        scene = make_scene(scene_name, int(seed))
-        t0 = time.perf_counter()
-        path, outcome = rollout(policy, scene, robot)
-        dt = time.perf_counter() - t0
-        report = evaluate(scene, robot, path)
-        runs.append({"seed": int(seed), "success": report.success, "reason": report.reason, "outcome": outcome,
-                     "time_s": dt, "smoothness_index": report.smoothness_index,
-                     "path_length_mm": report.path_length_mm})
+        episode = run_episode(Problem(make_scene(scene_name, int(seed)), robot), planner)
+        report = episode.report
+        runs.append({"seed": int(seed), "success": episode.success, "reason": episode.reason,
+                     "outcome": episode.plan.details.get("outcome"), "time_s": episode.plan.compute_time_s,
+                     "smoothness_index": report.smoothness_index if report else math.nan,
+                     "path_length_mm": report.path_length_mm if report else math.nan})
     ok = [r for r in runs if r["success"]]
     return {"success_rate": len(ok) / max(len(runs), 1),
             "median_time_s": float(np.median([r["time_s"] for r in runs])) if runs else math.nan,
