@@ -27,7 +27,7 @@ import numpy as np
 from snakeplan.extras import require_training
 from snakeplan.planners.base import Plan, Planner, Problem, Status
 from snakeplan.planners.registry import register_planner
-from snakeplan.planners.sscc.agent import SwingAgent, shipped_agent_path
+from snakeplan.planners.sscc.agent import SwingAgent, load_agent, shipped_agent_path
 from snakeplan.planners.sscc.crawling import Crawl, Directive, arm_base, crawl, joint_angles
 from snakeplan.planners.sscc.swinging import (
     GradientSwing,
@@ -70,11 +70,14 @@ class SSCCPlanner(Planner):
             require_training("sscc learning")  # and loaded here, before any timed planning
 
     def agent(self, robot: str) -> SwingAgent | None:
-        """The agent this planner swings ``robot`` with (loaded once, then kept: it learns), or None."""
+        """The agent this planner swings ``robot`` with, or None: a learning agent is loaded once and kept (it
+        learns); otherwise the file's current content (:func:`.agent.load_agent`)."""
+        if self.agent_path is None and not shipped_agent_path(robot).exists():
+            return None
+        if not self.learning:
+            return load_agent(robot, self.agent_path)
         if robot not in self._agents:
-            if self.agent_path is None and not shipped_agent_path(robot).exists():
-                return None
-            self._agents[robot] = SwingAgent.load(robot, self.agent_path, learning=self.learning)
+            self._agents[robot] = SwingAgent.load(robot, self.agent_path, learning=True)
         return self._agents[robot]
 
     def _policy(self, robot: str) -> tuple[str, SwingPolicy]:

@@ -19,6 +19,8 @@ thousand updates and then drifts (see :func:`.training.train_agent`'s history).
 
 from __future__ import annotations
 
+import hashlib
+import io
 from importlib.resources import files
 from pathlib import Path
 from typing import Any
@@ -95,12 +97,7 @@ class SwingAgent:
     @classmethod
     def load(cls, robot: str, path: str | Path | None = None, **options: Any) -> SwingAgent:
         """The agent stored at ``path`` (default: the shipped one for ``robot``)."""
-        source = Path(path) if path is not None else shipped_agent_path(robot)
-        if not source.exists():
-            raise FileNotFoundError(f"no SSCC agent for {robot} at {source}; train one with 'snakeplan train sscc'")
-        with np.load(source, allow_pickle=False) as data:
-            weights = {k: data[k] for k in data.files}
-        return cls(robot, weights, **options)
+        return cls(robot, _weights(_agent_bytes(robot, path)), **options)
 
     def save(self, path: str | Path) -> Path:
         """Write the weights as a plain ``.npz``."""
@@ -160,3 +157,29 @@ class SwingAgent:
         self._layers = self._actor_layers()
         return steps
 
+
+def _agent_bytes(robot: str, path: str | Path | None) -> bytes:
+    source = Path(path) if path is not None else shipped_agent_path(robot)
+    if not source.exists():
+        raise FileNotFoundError(f"no SSCC agent for {robot} at {source}; train one with 'snakeplan train sscc'")
+    return source.read_bytes()
+
+
+def _weights(data: bytes) -> dict[str, np.ndarray]:
+    with np.load(io.BytesIO(data), allow_pickle=False) as z:
+        return {k: z[k] for k in z.files}
+
+
+#: Planning (not learning) agents by robot and the sha256 of their file's bytes.
+_AGENTS: dict[tuple[str, str], SwingAgent] = {}
+
+
+def load_agent(robot: str, path: str | Path | None = None) -> SwingAgent:
+    """The planning agent (not learning) for ``robot`` stored at ``path`` (default: the shipped one), parsed once
+    per content: keyed by the hash of the file's bytes, not its path, so a file that training rewrites in place
+    is read again."""
+    data = _agent_bytes(robot, path)
+    key = (robot, hashlib.sha256(data).hexdigest())
+    if key not in _AGENTS:
+        _AGENTS[key] = SwingAgent(robot, _weights(data))
+    return _AGENTS[key]
