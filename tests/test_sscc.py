@@ -10,7 +10,7 @@ from snakeplan.evaluation import evaluate
 from snakeplan.geometry.transforms import rot_y
 from snakeplan.planners import Problem, get_planner
 from snakeplan.planners.sscc import SSCCPlanner
-from snakeplan.planners.sscc.agent import ONLINE_MIN_BUFFER, SwingAgent, SwingEnv, shipped_agent_path
+from snakeplan.planners.sscc.agent import ONLINE_MIN_BUFFER, SwingAgent, shipped_agent_path
 from snakeplan.planners.sscc.crawling import Directive, arm_base, crawl, joint_angles
 from snakeplan.planners.sscc.swinging import (
     InnerArm,
@@ -18,6 +18,7 @@ from snakeplan.planners.sscc.swinging import (
     inner_module_counts,
     observation_size,
 )
+from snakeplan.planners.sscc.training import SwingEnv
 from snakeplan.robots import get_robot
 from snakeplan.scenes import Entrance, Scene, make_scene
 from snakeplan.world import FullView
@@ -98,7 +99,7 @@ def test_shipped_agent_is_plain_data_and_its_numpy_actor_matches_torch(robot):
     with np.load(shipped_agent_path(robot), allow_pickle=False) as data:
         assert all(data[k].dtype == np.float32 for k in data.files)
     agent = SwingAgent.load(robot)
-    from snakeplan.planners.sscc.agent import _ddpg, _Spaces
+    from snakeplan.planners.sscc.training import _ddpg, _Spaces
 
     model = _ddpg(_Spaces(get_robot(robot).n_sections), seed=0)
     model.policy.load_state_dict({k: torch.as_tensor(v) for k, v in agent.weights.items()})

@@ -15,6 +15,8 @@ from typing import Any, NoReturn
 
 import numpy as np
 
+from snakeplan.extras import MissingExtra, require_training
+
 EXIT_OK, EXIT_INFEASIBLE, EXIT_USAGE = 0, 1, 2
 DEFAULT_ROBOT = "sjtu-snake-iii"
 DEFAULT_SCENE = "fuel-tank"
@@ -346,6 +348,7 @@ def cmd_bench_kernels(args: argparse.Namespace) -> int:
 
 
 def cmd_bench_rl(args: argparse.Namespace) -> int:
+    require_training("bench rl")
     from snakeplan.bench.rl import rl_markdown, run_rl_bench
 
     if args.repeats < 1:
@@ -367,6 +370,7 @@ def _name_list(text: str, known: list[str], field: str) -> tuple[str, ...]:
 
 
 def cmd_bench_ablation(args: argparse.Namespace) -> int:
+    require_training("bench ablation")
     from dataclasses import replace
 
     from snakeplan.rl.ablation import CONVERGENCE_SUCCESS, run_ablation
@@ -413,6 +417,8 @@ def cmd_bench_sscc(args: argparse.Namespace) -> int:
     if args.targets is not None and args.targets < 1:
         raise UsageError(f"--targets: expected a positive integer, got {args.targets}")
     variants = _name_list(args.variants, ["agent", "agent-learning", "gradient", "random"], "--variants")
+    if "agent-learning" in variants:
+        require_training("bench sscc --variants agent-learning")
     summary = run_sscc_bench(out_dir=args.out, variants=variants, targets=args.targets, progress=not args.json)
     if args.json:
         _print_json(_jsonable(summary))
@@ -422,7 +428,8 @@ def cmd_bench_sscc(args: argparse.Namespace) -> int:
 
 
 def cmd_train(args: argparse.Namespace) -> int:
-    from snakeplan.planners.sscc import train_agent
+    require_training("train sscc")
+    from snakeplan.planners.sscc.training import train_agent
 
     if args.steps < 1:
         raise UsageError(f"--steps: expected a positive integer, got {args.steps}")
@@ -434,6 +441,7 @@ def cmd_train(args: argparse.Namespace) -> int:
 
 
 def cmd_train_rl(args: argparse.Namespace) -> int:
+    require_training("train rl")
     from snakeplan.rl.train import parse_config, train
 
     if args.steps < 1:
@@ -659,7 +667,7 @@ def main(argv: list[str] | None = None) -> int:
             raise UsageError(f"unrecognized arguments: {' '.join(extra)}")
         args.extra = extra
         return int(args.func(args))
-    except UsageError as exc:
+    except (UsageError, MissingExtra) as exc:
         return _fail(str(exc))
     except (ValueError, KeyError) as exc:
         return _fail(str(exc.args[0]) if exc.args else exc.__class__.__name__)

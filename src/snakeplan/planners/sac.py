@@ -25,6 +25,8 @@ the learning curve that made them).
 
 from __future__ import annotations
 
+import hashlib
+import io
 import json
 import math
 import time
@@ -501,7 +503,7 @@ class NumpyPolicy:
         self.mode = meta["observation"]
 
     @classmethod
-    def load(cls, path: str | Path) -> NumpyPolicy:
+    def load(cls, path: str | Path | io.BytesIO) -> NumpyPolicy:
         with np.load(path, allow_pickle=False) as z:
             meta = json.loads(str(z["meta"]))
             layers = [(z[f"w{i}"].astype(float), z[f"b{i}"].astype(float)) for i in range(meta["hidden_layers"])]
@@ -563,14 +565,17 @@ def policy_path(scene_name: str, algorithm: str) -> Path:
     return Path(str(files("snakeplan").joinpath(*POLICY_DIR, f"{scene_name}-{algorithm}.npz")))
 
 
+#: Parsed policies by the sha256 of their file's bytes.
 _POLICIES: dict[str, NumpyPolicy] = {}
 
 
 def load_policy(path: str | Path) -> NumpyPolicy:
-    """A policy file, loaded once per process."""
-    key = str(Path(path).resolve())
+    """A policy file, parsed once per content: keyed by the hash of its bytes, not its path, so a file that
+    training rewrites in place (``--out DIR/policy.npz``) is read again."""
+    data = Path(path).read_bytes()
+    key = hashlib.sha256(data).hexdigest()
     if key not in _POLICIES:
-        _POLICIES[key] = NumpyPolicy.load(key)
+        _POLICIES[key] = NumpyPolicy.load(io.BytesIO(data))
     return _POLICIES[key]
 
 

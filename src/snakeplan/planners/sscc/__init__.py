@@ -10,7 +10,9 @@ Options: ``search`` = ``"agent"`` (the shipped DDPG agent of the problem's robot
 ``"gradient"``, said in the plan's details), ``"random"`` or ``"gradient"``; ``learning`` (the agent keeps learning
 from every task, as in the paper: each search's transitions train it right after the plan is returned, while the
 arm crawls, so the update is not in ``compute_time_s``; its cost is in the details as ``learning_time_s``);
-``agent_path`` (an ``.npz`` from :func:`.agent.train_agent` instead of the shipped agent).
+``agent_path`` (an ``.npz`` from :func:`.training.train_agent` instead of the shipped agent).
+
+Planning with the agent needs no torch (its actor runs in NumPy); learning needs the ``train`` extra.
 
 Learning is off by default so that a plan depends only on its problem and seed (docs/ARCHITECTURE.md, "Units and
 conventions"), not on the tasks a planner saw before; ``snakeplan bench sscc`` runs the paper's learning mode beside it.
@@ -22,9 +24,10 @@ import time
 
 import numpy as np
 
+from snakeplan.extras import require_training
 from snakeplan.planners.base import Plan, Planner, Problem, Status
 from snakeplan.planners.registry import register_planner
-from snakeplan.planners.sscc.agent import SwingAgent, shipped_agent_path, train_agent
+from snakeplan.planners.sscc.agent import SwingAgent, load_agent, shipped_agent_path
 from snakeplan.planners.sscc.crawling import Crawl, Directive, arm_base, crawl, joint_angles
 from snakeplan.planners.sscc.swinging import (
     GradientSwing,
@@ -47,7 +50,6 @@ __all__ = [
     "crawl",
     "joint_angles",
     "swinging_search",
-    "train_agent",
 ]
 
 
@@ -65,14 +67,17 @@ class SSCCPlanner(Planner):
         self._agents: dict[str, SwingAgent] = {}
         self._pending: tuple[SwingAgent, list] | None = None
         if self.learning and search == "agent":
-            import stable_baselines3  # noqa: F401  (loaded here, before any timed planning)
+            require_training("sscc learning")  # and loaded here, before any timed planning
 
     def agent(self, robot: str) -> SwingAgent | None:
-        """The agent this planner swings ``robot`` with (loaded once, then kept: it learns), or None."""
+        """The agent this planner swings ``robot`` with, or None: a learning agent is loaded once and kept (it
+        learns); otherwise the file's current content (:func:`.agent.load_agent`)."""
+        if self.agent_path is None and not shipped_agent_path(robot).exists():
+            return None
+        if not self.learning:
+            return load_agent(robot, self.agent_path)
         if robot not in self._agents:
-            if self.agent_path is None and not shipped_agent_path(robot).exists():
-                return None
-            self._agents[robot] = SwingAgent.load(robot, self.agent_path, learning=self.learning)
+            self._agents[robot] = SwingAgent.load(robot, self.agent_path, learning=True)
         return self._agents[robot]
 
     def _policy(self, robot: str) -> tuple[str, SwingPolicy]:

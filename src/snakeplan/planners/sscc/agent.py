@@ -1,44 +1,34 @@
-"""The Swinging Search's DDPG agent (paper 001): environment, training, shipped weights, online learning.
+"""The Swinging Search's DDPG agent (paper 001): shipped weights, the NumPy actor that plans, online learning.
 
-The agent is Stable-Baselines3's DDPG (actor-critic, target networks, Gaussian exploration noise) on
-:class:`SwingEnv`, whose state, action and reward are those of :mod:`snakeplan.planners.sscc.swinging`. One agent
-per arm (``sscc-16``, ``sscc-24``), trained on targets of both pipe scenes drawn from seeds ``TRAIN_SEED_OFFSET``
-onwards, disjoint from the benchmark's and the tests' seeds. Episodes whose inverse-kinematics start is already
-a solution are redrawn: they teach nothing.
+The agent is Stable-Baselines3's DDPG (actor-critic, target networks, Gaussian exploration noise) on the
+Swinging Search as an environment (:class:`.training.SwingEnv`), whose state, action and reward are those of
+:mod:`snakeplan.planners.sscc.swinging`. One agent per arm (``sscc-16``, ``sscc-24``), trained on targets of both
+pipe scenes drawn from seeds ``TRAIN_SEED_OFFSET`` onwards, disjoint from the benchmark's and the tests' seeds.
+Episodes whose inverse-kinematics start is already a solution are redrawn: they teach nothing. This module holds
+the settings; :mod:`.training` trains with them.
 
 Shipped weights are the policy's ``state_dict`` as a plain ``.npz`` (``data/<robot>.npz``, read with
-``allow_pickle=False``). Planning runs the actor in NumPy (a two-layer MLP; no torch needed); only learning needs
-torch and Stable-Baselines3. As in the paper, the agent can keep learning from every task: with ``learning`` on,
-each search's transitions go to its replay buffer and up to ``ONLINE_GRADIENT_STEPS`` updates follow.
+``allow_pickle=False``). Planning runs the actor in NumPy (a two-layer MLP), so this module imports neither
+torch, Stable-Baselines3 nor Gymnasium; learning (the ``train`` extra) does. As in the paper, the agent can keep
+learning from every task: with ``learning`` on, each search's transitions go to its replay buffer and up to
+``ONLINE_GRADIENT_STEPS`` updates follow.
 
 Training keeps the best checkpoint on held-out targets, not the last: on this task DDPG's actor peaks after a few
-thousand updates and then drifts (see :func:`train_agent`'s history).
+thousand updates and then drifts (see :func:`.training.train_agent`'s history).
 """
 
 from __future__ import annotations
 
-import math
-import time
-from dataclasses import dataclass
+import hashlib
+import io
 from importlib.resources import files
 from pathlib import Path
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 
-from snakeplan.planners.sscc.swinging import (
-    InnerArm,
-    SwingEpisode,
-    SwingSettings,
-    Transition,
-    action_size,
-    inner_module_counts,
-    observation_size,
-)
-from snakeplan.robots import Chain, get_robot
-from snakeplan.scenes import Scene, make_scene
-from snakeplan.world import FullView
+from snakeplan.planners.sscc.swinging import SwingEpisode, Transition, action_size, observation_size
+from snakeplan.robots import get_robot
 
 #: Training targets: scenes and their seeds (``TRAIN_TARGETS`` per scene from ``TRAIN_SEED_OFFSET``).
 TRAIN_SCENES = ("pipe", "concentric-pipe")
@@ -79,90 +69,8 @@ def shipped_agent_path(robot: str) -> Path:
     return Path(str(files(DATA_PACKAGE).joinpath("data", f"{robot}.npz")))
 
 
-class _Spaces(gym.Env):
-    """Just the state and action spaces of an arm, for building a DDPG model without an environment to run."""
-
-    def __init__(self, n_sections: int):
-        self.observation_space = gym.spaces.Box(-np.inf, np.inf, (observation_size(n_sections),), np.float32)
-        self.action_space = gym.spaces.Box(-1.0, 1.0, (action_size(n_sections),), np.float32)
-
-    def reset(self, *, seed: int | None = None, options: dict | None = None):
-        raise NotImplementedError("a spaces-only environment cannot run")
-
-    def step(self, action):
-        raise NotImplementedError("a spaces-only environment cannot run")
-
-
-class SwingEnv(_Spaces):
-    """The Swinging Search as a Gymnasium environment: one episode swings one inner arm about one target.
-
-    Each reset draws a training scene (uniformly among ``scenes`` and their ``targets`` seeds), a number of inner
-    modules and an inverse-kinematics start that is not already a solution. Terminates on a clear crawl,
-    truncates after ``settings.episode_steps``.
-    """
-
-    def __init__(self, robot: str = "sscc-24", scenes: tuple[str, ...] = TRAIN_SCENES,
-                 targets: int = TRAIN_TARGETS, seed_offset: int = TRAIN_SEED_OFFSET,
-                 settings: SwingSettings = SwingSettings()):
-        self.chain: Chain = get_robot(robot)
-        super().__init__(self.chain.n_sections)
-        self.settings = settings
-        self._keys = [(name, seed_offset + i) for name in scenes for i in range(targets)]
-        self._scenes: dict[tuple[str, int], Scene] = {}
-        self._arms: dict[tuple[str, int, int], InnerArm] = {}
-        self.episode: SwingEpisode | None = None
-        self.episodes = 0
-        self.successes = 0
-
-    def _scene(self, key: tuple[str, int]) -> Scene:
-        if key not in self._scenes:
-            self._scenes[key] = make_scene(*key)
-        return self._scenes[key]
-
-    def reset(self, *, seed: int | None = None, options: dict | None = None):
-        super(_Spaces, self).reset(seed=seed)
-        rng = self.np_random
-        self.episode = None
-        for _ in range(RESET_TRIES):
-            key = self._keys[int(rng.integers(len(self._keys)))]
-            scene = self._scene(key)
-            target = scene.targets[0]
-            counts = inner_module_counts(self.chain, scene.entrance.position, target,
-                                         self.settings.inner_module_schedule)
-            k = counts[int(rng.integers(len(counts)))]
-            if (*key, k) not in self._arms:
-                self._arms[(*key, k)] = InnerArm(self.chain, FullView(scene), target, k, self.settings)
-            q0 = self._arms[(*key, k)].initial(rng)
-            if q0 is None:
-                continue
-            self.episode = SwingEpisode(self._arms[(*key, k)], q0)
-            if not self.episode.status.feasible:
-                break
-        if self.episode is None:
-            raise RuntimeError(f"no inverse-kinematics start in {RESET_TRIES} draws")
-        self.episodes += 1
-        return self.episode.observation(), {}
-
-    def step(self, action):
-        status = self.episode.advance(self.episode.forces(action))
-        self.successes += int(status.feasible)
-        truncated = self.episode.steps >= self.settings.episode_steps and not status.feasible
-        return self.episode.observation(), float(status.reward), status.feasible, truncated, {}
-
-
-def _ddpg(env: gym.Env, seed: int, learning_rate: float = LEARNING_RATE, buffer_size: int = BUFFER_SIZE):
-    """A fresh Stable-Baselines3 DDPG model with this module's settings."""
-    from stable_baselines3 import DDPG
-    from stable_baselines3.common.noise import NormalActionNoise
-
-    n_act = env.action_space.shape[0]
-    noise = NormalActionNoise(np.zeros(n_act), ACTION_NOISE * np.ones(n_act))
-    return DDPG("MlpPolicy", env, learning_rate=learning_rate, buffer_size=buffer_size,
-                learning_starts=LEARNING_STARTS, batch_size=BATCH_SIZE, tau=TAU, gamma=GAMMA,
-                action_noise=noise, policy_kwargs={"net_arch": list(NET_ARCH)}, seed=seed, device="cpu")
-
-
-def _arrays(model) -> dict[str, np.ndarray]:
+def model_weights(model) -> dict[str, np.ndarray]:
+    """The policy weights of a Stable-Baselines3 model as NumPy arrays (its ``state_dict``)."""
     return {k: v.detach().cpu().numpy().copy() for k, v in model.policy.state_dict().items()}
 
 
@@ -189,12 +97,7 @@ class SwingAgent:
     @classmethod
     def load(cls, robot: str, path: str | Path | None = None, **options: Any) -> SwingAgent:
         """The agent stored at ``path`` (default: the shipped one for ``robot``)."""
-        source = Path(path) if path is not None else shipped_agent_path(robot)
-        if not source.exists():
-            raise FileNotFoundError(f"no SSCC agent for {robot} at {source}; train one with train_agent()")
-        with np.load(source, allow_pickle=False) as data:
-            weights = {k: data[k] for k in data.files}
-        return cls(robot, weights, **options)
+        return cls(robot, _weights(_agent_bytes(robot, path)), **options)
 
     def save(self, path: str | Path) -> Path:
         """Write the weights as a plain ``.npz``."""
@@ -235,11 +138,9 @@ class SwingAgent:
         import torch
 
         if self._model is None:
-            from stable_baselines3.common.logger import Logger
+            from snakeplan.planners.sscc.training import online_model
 
-            self._model = _ddpg(_Spaces(self.n_sections), self.seed, ONLINE_LEARNING_RATE, ONLINE_BUFFER_SIZE)
-            self._model.policy.load_state_dict({k: torch.as_tensor(v) for k, v in self.weights.items()})
-            self._model.set_logger(Logger(None, []))
+            self._model = online_model(self.n_sections, self.seed, self.weights)
         buffer = self._model.replay_buffer
         for obs, action, reward, next_obs, done in transitions:
             buffer.add(obs[None], next_obs[None], action[None], np.array([reward]), np.array([done]), [{}])
@@ -252,76 +153,33 @@ class SwingAgent:
             self._model.train(gradient_steps=steps, batch_size=BATCH_SIZE)
         finally:
             torch.set_num_threads(threads)
-        self.weights = _arrays(self._model)
+        self.weights = model_weights(self._model)
         self._layers = self._actor_layers()
         return steps
 
 
-def evaluate_agent(agent: SwingAgent, env: SwingEnv, episodes: int = EVAL_EPISODES) -> tuple[float, float]:
-    """(share solved, mean swing steps) of ``agent`` over ``episodes`` fixed starts of ``env`` (reset seeds
-    0 .. episodes-1, policy noise seeded the same way), each run to a clear crawl or the episode's end."""
-    solved = steps = 0
-    for i in range(episodes):
-        env.reset(seed=i)
-        episode, rng = env.episode, np.random.default_rng(i)
-        while not episode.status.feasible and episode.steps < env.settings.episode_steps:
-            episode.advance(agent(episode, rng))
-        solved += int(episode.status.feasible)
-        steps += episode.steps
-    return solved / episodes, steps / episodes
+def _agent_bytes(robot: str, path: str | Path | None) -> bytes:
+    source = Path(path) if path is not None else shipped_agent_path(robot)
+    if not source.exists():
+        raise FileNotFoundError(f"no SSCC agent for {robot} at {source}; train one with 'snakeplan train sscc'")
+    return source.read_bytes()
 
 
-@dataclass(frozen=True)
-class TrainingResult:
-    """What :func:`train_agent` did: robot, steps, seed, seconds, training episodes, the checkpoint kept (step)
-    with its held-out share solved and mean steps, the evaluation history ``(step, solved, mean steps)``, file."""
-
-    robot: str
-    steps: int
-    seed: int
-    seconds: float
-    episodes: int
-    best_step: int
-    best_solved: float
-    best_mean_steps: float
-    history: list[tuple[int, float, float]]
-    out: str
+def _weights(data: bytes) -> dict[str, np.ndarray]:
+    with np.load(io.BytesIO(data), allow_pickle=False) as z:
+        return {k: z[k] for k in z.files}
 
 
-def train_agent(robot: str, out: str | Path, steps: int = TRAIN_STEPS, seed: int = 0,
-                scenes: tuple[str, ...] = TRAIN_SCENES, targets: int = TRAIN_TARGETS,
-                threads: int = 1) -> TrainingResult:
-    """Train the DDPG swing agent for ``robot`` from scratch for ``steps`` environment steps and write it to
-    ``out`` (``.npz``). Every ``EVAL_EVERY`` steps the actor is scored on ``EVAL_EPISODES`` starts drawn from
-    ``EVAL_TARGETS`` held-out targets (seeds after the training ones); the best checkpoint (most solved, then
-    fewest steps) is kept, since DDPG's return is not monotone in training time. Seeded: the same seed and
-    settings give the same file on the same software stack. ``threads`` caps torch's CPU threads (the networks
-    are small; more threads rarely help)."""
-    import torch
-    from stable_baselines3.common.callbacks import BaseCallback
+#: Planning (not learning) agents by robot and the sha256 of their file's bytes.
+_AGENTS: dict[tuple[str, str], SwingAgent] = {}
 
-    torch.set_num_threads(threads)
-    env = SwingEnv(robot, scenes, targets)
-    held_out = SwingEnv(robot, scenes, EVAL_TARGETS, seed_offset=TRAIN_SEED_OFFSET + targets)
-    model = _ddpg(env, seed)
-    history: list[tuple[int, float, float]] = []
-    best: dict = {"key": (-1.0, 0.0)}
 
-    class _KeepBest(BaseCallback):
-        def _on_step(self) -> bool:
-            if self.num_timesteps % EVAL_EVERY == 0:
-                agent = SwingAgent(robot, _arrays(model))
-                solved, mean_steps = evaluate_agent(agent, held_out)
-                history.append((self.num_timesteps, solved, mean_steps))
-                if (solved, -mean_steps) > best["key"]:
-                    best.update(key=(solved, -mean_steps), agent=agent, step=self.num_timesteps)
-            return True
-
-    t0 = time.perf_counter()
-    model.learn(total_timesteps=steps, callback=_KeepBest())
-    seconds = time.perf_counter() - t0
-    if "agent" not in best:
-        best.update(key=(math.nan, math.nan), agent=SwingAgent(robot, _arrays(model)), step=steps)
-    path = best["agent"].save(out)
-    return TrainingResult(robot, steps, seed, seconds, env.episodes, best["step"], best["key"][0],
-                          -best["key"][1], history, str(path))
+def load_agent(robot: str, path: str | Path | None = None) -> SwingAgent:
+    """The planning agent (not learning) for ``robot`` stored at ``path`` (default: the shipped one), parsed once
+    per content: keyed by the hash of the file's bytes, not its path, so a file that training rewrites in place
+    is read again."""
+    data = _agent_bytes(robot, path)
+    key = (robot, hashlib.sha256(data).hexdigest())
+    if key not in _AGENTS:
+        _AGENTS[key] = SwingAgent(robot, _weights(data))
+    return _AGENTS[key]

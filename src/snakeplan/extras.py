@@ -1,0 +1,30 @@
+"""Optional dependencies, and the one check that says a missing one is needed.
+
+Planning, judging and running the shipped policies need only the core dependencies: every shipped actor runs
+in NumPy. Training needs PyTorch, Stable-Baselines3 and Gymnasium, which ``pip install "snakeplan[train]"``
+adds. Every command and module that trains calls :func:`require_training` before it imports them, so a missing
+extra reads as one line saying how to install it, not a traceback from deep inside an import. This module
+imports nothing from snakeplan, so any layer may use it.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+#: What the ``train`` extra installs, by import name.
+TRAINING_MODULES = ("torch", "stable_baselines3", "gymnasium")
+TRAINING_INSTALL = 'pip install "snakeplan[train]"'
+
+
+class MissingExtra(ImportError):
+    """An optional dependency is not installed; the message is one line that says how to install it."""
+
+
+def require_training(what: str) -> None:
+    """Import the training modules, or raise :class:`MissingExtra` saying that ``what`` (a command or module)
+    needs the training extra."""
+    for name in TRAINING_MODULES:
+        try:
+            importlib.import_module(name)
+        except ImportError:
+            raise MissingExtra(f"{what}: needs the training extra: {TRAINING_INSTALL}", name=name) from None
