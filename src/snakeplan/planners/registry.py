@@ -2,7 +2,8 @@
 
 Built-in planners are lazy ``"module:attr"`` entries (:mod:`snakeplan.registry`): a planner's module, and what it
 imports (OMPL, numba kernels, ...), is imported only when that planner is asked for. Plugins add theirs with
-``planner.<name>`` entry points; ``@register_planner`` adds a class in code.
+``planner.<name>`` entry points; ``@register_planner`` adds a class in code. Which planner a scene uses when none
+is named is the scene's spec (:func:`snakeplan.scenes.scene_spec`).
 """
 
 from __future__ import annotations
@@ -37,13 +38,3 @@ def planner_names() -> list[str]:
 def get_planner(name: str, **options) -> Planner:
     """A new planner instance; KeyError lists the known names for an unknown one."""
     return PLANNERS.get(name)(**options)
-
-
-#: The planner per scene used when none is named: the learned planner with its shipped policy where one ships
-#: (milliseconds, smoothest paths in Table 2; see README), SSCC in pipes.
-DEFAULT_PLANNER_BY_SCENE = {"fuel-tank": "sac-her", "oil-tank": "sac-per", "pipe": "sscc", "concentric-pipe": "sscc"}
-
-
-def default_planner(scene_name: str) -> str:
-    """The planner `snakeplan plan` uses for ``scene_name`` when none is named."""
-    return DEFAULT_PLANNER_BY_SCENE.get(scene_name, "as-rrt")
