@@ -169,6 +169,13 @@ def test_plan_in_a_pipe_uses_sscc_and_the_sized_robot(capsys):
     assert code == 0 and data["planner"] == "sscc" and data["robot"] == "sscc-24" and data["success"]
 
 
+def test_plan_and_scene_name_the_same_robot_for_the_pipe(capsys):
+    code, out, _ = run(capsys, "plan", "--scene", "pipe", "--json")
+    planned = json.loads(out)["robot"]
+    _, out, _ = run(capsys, "scene", "pipe", "--json")
+    assert code == 0 and planned == json.loads(out)["metadata"]["robot"]
+
+
 def test_bench_sscc_smoke_and_train_input_errors(capsys, tmp_path):
     code, out, _ = run(capsys, "bench", "sscc", "--targets", "1", "--variants", "agent", "--out", str(tmp_path),
                        "--json")
@@ -207,6 +214,13 @@ def test_train_rl_for_your_robot_and_scene_then_plan_with_the_policy(capsys, tmp
     assert data["status"] in ("found", "approximate")  # a roll-out that fails its own checks is approximate
     code, _, err = run(capsys, "plan", "--scene", "pipe", "--planner", "sscc", "--policy", str(out / "last.npz"))
     assert code == 2 and "--policy" in err
+
+
+@pytest.mark.parametrize("scene, fragment", [("moon-base", "--scene: unknown scene"),
+                                             ("pipe", "scene: pipe is planned by sscc")])
+def test_bench_ablation_needs_a_scene_planned_by_a_learned_planner(capsys, tmp_path, scene, fragment):
+    code, _, err = run(capsys, "bench", "ablation", "--scene", scene, "--out", str(tmp_path / "out"))
+    assert code == 2 and fragment in err and err.count("\n") == 1 and not (tmp_path / "out").exists()
 
 
 def test_bench_ablation_trains_both_variants_and_reports(capsys, tmp_path):

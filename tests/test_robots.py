@@ -350,9 +350,14 @@ def test_register_robot():
     register_robot("tiny", lambda: small_chain())
     try:
         assert get_robot("tiny").total_length == 600
+        assert "tiny" in robot_names()
+        with pytest.raises(ValueError, match="robot 'tiny' is registered twice"):
+            register_robot("tiny", lambda: small_chain())
     finally:
-        presets.ROBOTS.pop("tiny")
-        presets._CACHE.pop("tiny", None)
+        presets.ROBOTS.unregister("tiny")
+    assert "tiny" not in robot_names()
+    with pytest.raises(KeyError):
+        get_robot("tiny")
 
 
 # ---------------------------------------------------------------- DH tables

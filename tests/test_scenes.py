@@ -11,7 +11,10 @@ import trimesh
 
 from snakeplan.geometry.distance import ObstacleSet
 from snakeplan.geometry.primitives import Box, Plate
-from snakeplan.scenes import Entrance, Scene, make_scene
+from snakeplan.planners import planner_names
+from snakeplan.planners.inspection import inspection_planner_names
+from snakeplan.robots import get_robot, robot_names
+from snakeplan.scenes import Entrance, Scene, SceneSpec, make_scene, scene_spec, spec_for
 from snakeplan.scenes.reach import Grid, geodesic_field
 from snakeplan.scenes.station import STATION_HEIGHT_MM, STATION_RADIUS_MM
 
@@ -241,3 +244,47 @@ def test_fuel_tank_target_is_outside_the_turning_region(seed):
     assert outside_turning_region(s.entrance, (e + 3 * TURN_RADIUS_MM * d)[None])[0]
     steps = chamber_steps(s.metadata["holes"], s.metadata["entrance_chamber"])
     assert steps[s.metadata["target_chamber"]] == s.metadata["target_holes"]
+
+
+# ---------------------------------------------------------------- specs
+@pytest.mark.parametrize("name", ALL)
+def test_spec_fits_its_scenes(name):
+    spec, s = scene_spec(name), scene(name, 0)
+    assert s.metadata["robot"] == spec.robot and spec.robot in robot_names()
+    # The robot is the arm the generator sized the scene for.
+    robot = get_robot(spec.robot)
+    assert robot.total_length == pytest.approx(s.metadata["arm_length_mm"])
+    assert float(robot.radii.max()) == pytest.approx(s.metadata["arm_radius_mm"])
+    # The task follows from what the scene holds: targets to reach, or a surface field and no targets.
+    assert spec.task == ("inspect" if len(s.targets) == 0 and "field" in s.metadata else "reach")
+    known = planner_names() if spec.task == "reach" else inspection_planner_names()
+    assert spec.planner in known and set(spec.policies) <= set(known)
+
+
+def test_shipped_policies_are_the_files_the_planners_load():
+    from snakeplan.planners.sac import policy_path
+    from snakeplan.planners.sscc.agent import shipped_agent_path
+
+    shipped = {(n, p) for n in ALL for p in scene_spec(n).policies}
+    assert {p for _, p in shipped} == {"sac-her", "sac-per", "sscc"}
+    for name, planner in shipped:
+        spec = scene_spec(name)
+        loaded = shipped_agent_path(spec.robot) if planner == "sscc" else policy_path(name, planner)
+        assert spec.policy_path(planner) == loaded and loaded.is_file()
+    assert scene_spec("station").policy_path("informative") is None
+
+
+def test_a_scene_file_of_an_unregistered_family_gets_the_default_spec():
+    from dataclasses import replace
+
+    assert spec_for(scene("pipe", 0)) is scene_spec("pipe")
+    spec = spec_for(replace(scene("pipe", 0), name="my-pipe"))
+    assert spec == SceneSpec("my-pipe") and spec.generator is None and spec.task == "reach"
+
+
+def test_spec_validation_names_the_field():
+    with pytest.raises(ValueError, match="task"):
+        SceneSpec("x", task="fly")
+    with pytest.raises(ValueError, match=r"policies\['sac'\]"):
+        SceneSpec("x", policies={"sac": "policy.npz"})
+

@@ -18,12 +18,9 @@ import numpy as np
 from snakeplan.extras import MissingExtra, require_training
 
 EXIT_OK, EXIT_INFEASIBLE, EXIT_USAGE = 0, 1, 2
-DEFAULT_ROBOT = "sjtu-snake-iii"
 DEFAULT_SCENE = "fuel-tank"
 #: Planning budget (s) of `snakeplan demo`, per call.
 DEMO_TIME_LIMIT_S = 30.0
-#: The robot each scene was sized for, used when --robot is not given.
-ROBOT_BY_SCENE = {"pipe": "sscc-24", "concentric-pipe": "sscc-24", "station": "hsr-10"}
 #: The planners that roll out a trained policy (``--policy``) and the algorithms ``train rl`` trains for them.
 LEARNED_PLANNERS = ("sac-her", "sac-per", "sac")
 INSPECTION_SCHEMA = "snakeplan.inspection/1"
@@ -66,8 +63,10 @@ def _load_scene(args: argparse.Namespace):
 
 
 def _robot_for(args: argparse.Namespace, scene):
-    """The robot named by --robot, else the one the scene was sized for."""
-    return _load_robot(args.robot or ROBOT_BY_SCENE.get(scene.name, DEFAULT_ROBOT))
+    """The robot named by --robot, else the one the scene's spec says it is sized for."""
+    from snakeplan.scenes import spec_for
+
+    return _load_robot(args.robot or spec_for(scene).robot)
 
 
 def _load_robot(name: str):
@@ -225,12 +224,11 @@ def cmd_show(args: argparse.Namespace) -> int:
 def cmd_demo(args: argparse.Namespace) -> int:
     from snakeplan.evaluation import evaluate
     from snakeplan.planners import Problem
-    from snakeplan.planners.registry import default_planner
-    from snakeplan.scenes import make_scene
+    from snakeplan.scenes import make_scene, scene_spec
 
-    scene = make_scene(DEFAULT_SCENE, args.seed)
-    robot = _load_robot(DEFAULT_ROBOT)
-    name = default_planner(scene.name)
+    scene, spec = make_scene(DEFAULT_SCENE, args.seed), scene_spec(DEFAULT_SCENE)
+    robot = _load_robot(spec.robot)
+    name = spec.planner
     planner = _load_planner(name)
     problem = Problem(scene, robot, time_limit_s=DEMO_TIME_LIMIT_S)
     first = planner.plan(problem, seed=0)  # on a fresh install this compiles the jitted kernels (cached on disk)
@@ -265,14 +263,15 @@ def _load_planner(name: str, **options):
 def cmd_plan(args: argparse.Namespace) -> int:
     from snakeplan.evaluation import evaluate
     from snakeplan.planners import Problem
-    from snakeplan.planners.registry import default_planner
+    from snakeplan.scenes import spec_for
 
     scene = _load_scene(args)
     robot = _robot_for(args, scene)
-    if len(scene.targets) == 0 and "field" in scene.metadata:
-        return _plan_inspection(args, scene, robot)
+    spec = spec_for(scene)
+    if spec.task == "inspect":
+        return _plan_inspection(args, scene, robot, spec.planner)
     problem = Problem(scene, robot, time_limit_s=args.time_limit, knowledge=args.knowledge)
-    name = args.planner or default_planner(scene.name)
+    name = args.planner or spec.planner
     options = {}
     if args.policy is not None:
         if name not in LEARNED_PLANNERS:
@@ -301,11 +300,12 @@ def cmd_plan(args: argparse.Namespace) -> int:
     return EXIT_OK if success else EXIT_INFEASIBLE
 
 
-def _plan_inspection(args: argparse.Namespace, scene, robot) -> int:
-    """Fly an inspection mission (a scene with a surface field and no targets, e.g. station)."""
+def _plan_inspection(args: argparse.Namespace, scene, robot, default: str) -> int:
+    """Fly an inspection mission (a scene whose task is to inspect a surface, e.g. station) with --planner, else
+    ``default``."""
     from snakeplan.planners.inspection import InspectionProblem, get_inspection_planner
 
-    name = args.planner or "informative"
+    name = args.planner or default
     try:
         planner = get_inspection_planner(name)
     except KeyError as exc:
@@ -373,7 +373,7 @@ def cmd_bench_ablation(args: argparse.Namespace) -> int:
     require_training("bench ablation")
     from dataclasses import replace
 
-    from snakeplan.rl.ablation import CONVERGENCE_SUCCESS, run_ablation
+    from snakeplan.rl.ablation import CONVERGENCE_SUCCESS, run_ablation, variants
     from snakeplan.rl.train import parse_config
 
     for field in ("seeds", "steps", "eval_every", "eval_episodes"):
@@ -381,6 +381,10 @@ def cmd_bench_ablation(args: argparse.Namespace) -> int:
             raise UsageError(f"--{field.replace('_', '-')}: expected a positive integer, got {getattr(args, field)}")
     if args.threshold is not None and not 0.0 < args.threshold <= 1.0:
         raise UsageError(f"--threshold: expected a success rate in (0, 1], got {args.threshold}")
+    try:
+        variants(args.scene, args.compare)  # a scene that is not planned by a learned planner: ValueError
+    except KeyError as exc:
+        raise UsageError(f"--scene: {exc.args[0]}") from None
     config = replace(parse_config(args.extra), eval_every=args.eval_every, eval_episodes=args.eval_episodes)
     seeds = list(range(args.seed, args.seed + args.seeds))
     threshold = CONVERGENCE_SUCCESS if args.threshold is None else args.threshold
@@ -463,6 +467,9 @@ def cmd_bench_table2(args: argparse.Namespace) -> int:
                           scenes=_name_list(args.scenes, list(SCENES), "--scenes"),
                           seeds=tuple(range(args.seed, args.seed + args.runs)),
                           time_limit_s=args.time_limit)
+    if not any(config.planners_in(s) for s in config.scenes):
+        raise UsageError(f"--planners: none is compared in {', '.join(config.scenes)} (a planner whose policy ships "
+                         f"for some scene families is compared only in those)")
     summary = run_table2(config, args.out, fresh=args.fresh, progress=not args.json)
     if args.json:
         _print_json(_jsonable(summary))
@@ -498,7 +505,7 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--scene-file", help="a scene JSON file (snakeplan.scene/1) instead of --scene/--seed")
 
     p = sub.add_parser("scene", help="generate a scene and print it", description="Generate a scene from a seed.")
-    p.add_argument("name", nargs="?", help="fuel-tank, oil-tank, pipe, concentric-pipe or station")
+    p.add_argument("name", nargs="?", help="scene name; omit (or --list) to list them")
     p.add_argument("--seed", type=_seed, default=0, help="scene seed (default 0)")
     p.add_argument("--json", action="store_true", help="print snakeplan.scene/1 JSON")
     p.add_argument("--list", action="store_true", help="list the scene names")
@@ -601,7 +608,8 @@ def build_parser() -> argparse.ArgumentParser:
                                     "seeds; learning curves, steps to convergence and the speed-up. Each run "
                                     "resumes from its folder. Further options set the training configuration, "
                                     "as for 'snakeplan train rl'.")
-    p.add_argument("--scene", choices=("fuel-tank", "oil-tank"), default="fuel-tank")
+    p.add_argument("--scene", default="fuel-tank",
+                   help="a scene family planned by a learned planner (default fuel-tank)")
     p.add_argument("--compare", choices=("replay", "observation"), default="replay",
                    help="what to ablate (default replay)")
     p.add_argument("--seeds", type=int, default=3, help="training seeds per variant (default 3)")

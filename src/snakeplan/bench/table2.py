@@ -21,13 +21,10 @@ from snakeplan.bench.statistics import games_howell, levene_p, shapiro_p, welch_
 from snakeplan.episode import run_episode
 from snakeplan.planners import Problem
 from snakeplan.robots import get_robot
-from snakeplan.scenes import make_scene
+from snakeplan.scenes import make_scene, scene_names, scene_spec
 
-ROBOT = "sjtu-snake-iii"
 SCENES = ("fuel-tank", "oil-tank")
 DEFAULT_PLANNERS = ("rrt-star", "sp-rrt", "as-rrt", "sac-her", "sac-per")
-#: Paper 000 pairs each learned planner with one scene (its policy is trained there); elsewhere it has no row.
-LEARNED_SCENE = {"sac-her": "fuel-tank", "sac-per": "oil-tank"}
 #: Runs per scene and planner in the paper.
 DEFAULT_RUNS = 10
 #: The same planning budget (s) for every planner.
@@ -67,17 +64,29 @@ class Table2Config:
     scenes: tuple[str, ...] = SCENES
     seeds: tuple[int, ...] = tuple(range(DEFAULT_RUNS))
     time_limit_s: float = DEFAULT_TIME_LIMIT_S
-    robot: str = ROBOT
+    #: One robot for every scene; empty: each scene's own (its spec; sjtu-snake-iii in both tanks, as the paper).
+    robot: str = ""
 
     def planners_in(self, scene: str) -> tuple[str, ...]:
-        """The planners compared in ``scene``: all but the learned ones paired with another scene."""
-        return tuple(p for p in self.planners if LEARNED_SCENE.get(p, scene) == scene)
+        """The planners compared in ``scene``: all but those whose trained policy ships only for other scene
+        families (paper 000 pairs each learned planner with the scene it was trained in; elsewhere no row)."""
+        return tuple(p for p in self.planners if scene in policy_scenes(p) or not policy_scenes(p))
+
+    def robot_in(self, scene: str) -> str:
+        """The robot planned in ``scene``."""
+        return self.robot or scene_spec(scene).robot
 
 
-def run_one(scene_name: str, seed: int, planner_name: str, time_limit_s: float, robot_name: str = ROBOT):
-    """Plan and judge one episode; returns (run row, plan, report or None)."""
-    episode = run_episode(Problem(make_scene(scene_name, seed), get_robot(robot_name), time_limit_s), planner_name,
-                          seed=seed)
+def policy_scenes(planner: str) -> tuple[str, ...]:
+    """The scene families whose spec ships a policy for ``planner``."""
+    return tuple(s for s in scene_names() if planner in scene_spec(s).policies)
+
+
+def run_one(scene_name: str, seed: int, planner_name: str, time_limit_s: float, robot_name: str = ""):
+    """Plan and judge one episode (with the scene's own robot unless ``robot_name``); returns (run row, plan,
+    report or None)."""
+    robot = get_robot(robot_name or scene_spec(scene_name).robot)
+    episode = run_episode(Problem(make_scene(scene_name, seed), robot, time_limit_s), planner_name, seed=seed)
     plan, report = episode.plan, episode.report
     row = {"scene": scene_name, "seed": seed, "planner": planner_name, "time_limit_s": time_limit_s,
            "status": str(plan.status), "compute_time_s": plan.compute_time_s, "success": episode.success,
@@ -110,14 +119,14 @@ def run_table2(config: Table2Config, out_dir: str | Path, fresh: bool = False, p
     for s, _, p in todo:
         warm.setdefault(p, s)
     for p, s in sorted(warm.items()):
-        run_one(s, WARMUP_SEED, p, min(config.time_limit_s, 2.0), config.robot)
+        run_one(s, WARMUP_SEED, p, min(config.time_limit_s, 2.0), config.robot_in(s))
     new_file = not runs_file.exists()
     with runs_file.open("a", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=RUN_FIELDS, extrasaction="ignore")
         if new_file:
             writer.writeheader()
         for s, seed, p in _progress(todo, progress):
-            row, _, _ = run_one(s, seed, p, config.time_limit_s, config.robot)
+            row, _, _ = run_one(s, seed, p, config.time_limit_s, config.robot_in(s))
             writer.writerow(row)
             fh.flush()
     rows = [r for r in _read_runs(runs_file) if float(r["time_limit_s"]) == config.time_limit_s
@@ -183,7 +192,8 @@ def summary_markdown(summary: dict, config: Table2Config) -> str:
     contiguous = len(seeds) > 2 and seeds == list(range(seeds[0], seeds[-1] + 1))
     shown = f"{seeds[0]}-{seeds[-1]}" if contiguous else ", ".join(map(str, seeds))
     lines = [f"Table 2 on seeds {shown} with a {config.time_limit_s:g} s budget per plan "
-             f"({config.robot}); length and smoothness over successful runs, time over all runs.", "", head]
+             f"({', '.join(dict.fromkeys(map(config.robot_in, config.scenes)))}); length and smoothness over "
+             f"successful runs, time over all runs.", "", head]
     for key, e in summary.items():
         s, p = key.split("/")
         paper = e["paper"] or {}
@@ -201,7 +211,9 @@ def statistics_markdown(rows: list[dict], config: Table2Config) -> str:
     lines = ["## Statistics (Appendix A)", ""]
     for s in config.scenes:
         compared = config.planners_in(s)
-        ref = next((p for p in compared if p in LEARNED_SCENE), compared[0])
+        if not compared:
+            continue
+        ref = next((p for p in compared if p in scene_spec(s).policies), compared[0])
         for metric in METRICS:
             groups = {p: _values([r for r in rows if r["scene"] == s and r["planner"] == p], metric,
                                  metric != "compute_time_s") for p in config.planners_in(s)}
@@ -247,7 +259,7 @@ def figure_7(config: Table2Config, out: Path) -> list[Path]:
         ax2 = fig.add_subplot(1, 2, 2)
         draw_scene(ax, scene)
         for i, p in enumerate(config.planners_in(s)):
-            _, plan, report = run_one(s, seed, p, config.time_limit_s, config.robot)
+            _, plan, report = run_one(s, seed, p, config.time_limit_s, config.robot_in(s))
             if plan.path is None:
                 continue
             color = f"C{i}"
@@ -256,7 +268,7 @@ def figure_7(config: Table2Config, out: Path) -> list[Path]:
                      label=f"{p}: S = {report.smoothness_index:.3f} ({report.reason})")
         ax.legend(fontsize=7)
         ax.set_title(f"{s} seed {seed}: paths")
-        ax2.axhline(get_robot(config.robot).k_ul, color="k", ls="--", label="k_UL")
+        ax2.axhline(get_robot(config.robot_in(s)).k_ul, color="k", ls="--", label="k_UL")
         ax2.set_xlabel("arc length (mm)")
         ax2.set_ylabel("curvature (1/mm)")
         ax2.legend(fontsize=8)

@@ -49,6 +49,7 @@ from snakeplan.geometry.distance import ObstacleSet
 from snakeplan.geometry.primitives import Mesh
 from snakeplan.mapping import CameraModel, GaussianMap, SurfaceCamera, surface_prior
 from snakeplan.mapping.gp import DEFAULT_LENGTH_SCALE_MM, DEFAULT_SIGMA_F, SurfacePrior
+from snakeplan.registry import Registry, named_subclass
 from snakeplan.robots import Chain
 from snakeplan.scenes import Scene
 
@@ -593,33 +594,27 @@ class InspectionPlanner(ABC):
 
 
 # ---------------------------------------------------------------------------------------------- registry
-_INSPECTION_PLANNERS: dict[str, type[InspectionPlanner]] = {}
+#: Inspection planners by name (:mod:`snakeplan.registry`; plugins add theirs with ``inspection-planner.<name>``
+#: entry points). The built-ins are imported when first asked for.
+INSPECTION_PLANNERS: Registry[type[InspectionPlanner]] = Registry("inspection planner", {
+    "coverage": "snakeplan.planners.coverage:CoveragePlanner",
+    "informative": "snakeplan.planners.informative:InformativePlanner",
+    "random": "snakeplan.planners.random_views:RandomPlanner",
+}, load=named_subclass(InspectionPlanner))
 
 
 def register_inspection_planner(cls: type[InspectionPlanner]) -> type[InspectionPlanner]:
-    """Class decorator: register an inspection planner under its ``name``."""
+    """Class decorator: register an inspection planner under its ``name`` (a taken name raises ValueError)."""
     if not cls.name:
         raise ValueError(f"{cls.__name__} has no name")
-    if cls.name in _INSPECTION_PLANNERS:
-        raise ValueError(f"inspection planner {cls.name!r} is registered twice")
-    _INSPECTION_PLANNERS[cls.name] = cls
-    return cls
+    return INSPECTION_PLANNERS.register(cls.name, cls)
 
 
 def inspection_planner_names() -> list[str]:
     """Names of the registered inspection planners."""
-    _load_builtin()
-    return sorted(_INSPECTION_PLANNERS)
+    return INSPECTION_PLANNERS.names()
 
 
 def get_inspection_planner(name: str, **options) -> InspectionPlanner:
     """A new inspection planner by name; KeyError lists the known names for an unknown one."""
-    _load_builtin()
-    if name not in _INSPECTION_PLANNERS:
-        raise KeyError(f"unknown inspection planner {name!r} (known: {', '.join(sorted(_INSPECTION_PLANNERS))})")
-    return _INSPECTION_PLANNERS[name](**options)
-
-
-def _load_builtin() -> None:
-    """Import the built-in inspection planners (they register themselves on import)."""
-    from snakeplan.planners import coverage, informative, random_views  # noqa: F401
+    return INSPECTION_PLANNERS.get(name)(**options)

@@ -48,12 +48,9 @@ from snakeplan.rl.her import FastHerReplayBuffer
 from snakeplan.rl.per import ALPHA, BETA_START, PerSAC, PrioritizedDictReplayBuffer
 from snakeplan.rl.policy import from_sb3
 from snakeplan.robots import get_robot
-from snakeplan.scenes import make_scene, scene_names
+from snakeplan.scenes import make_scene, scene_names, scene_spec
 
 ALGORITHMS = ("sac-her", "sac-per", "sac")
-#: The paper's pairing (Algorithm 1).
-PAPER_ALGORITHM = {"fuel-tank": "sac-her", "oil-tank": "sac-per"}
-ROBOT = "sjtu-snake-iii"
 #: Episodes in the rolling training success rate shown on the progress bar and the curve.
 ROLLING_EPISODES = 100
 
@@ -63,8 +60,9 @@ class TrainConfig:
     """Hyper-parameters and bookkeeping of one training run (steps are environment steps summed over envs)."""
 
     observation: str = "local"
-    #: The robot preset trained (any name :func:`snakeplan.robots.get_robot` knows).
-    robot: str = ROBOT
+    #: The robot preset trained (any name :func:`snakeplan.robots.get_robot` knows); empty: the one the scene
+    #: family's spec names.
+    robot: str = ""
     net_arch: tuple[int, ...] = (128, 128)
     learning_rate: float = 3e-4
     tau: float = 5e-3
@@ -110,11 +108,16 @@ class TrainResult:
     history: list[dict] = field(default_factory=list)
 
 
-def judge_policy(policy: NumpyPolicy, scene_name: str, seeds, robot_name: str = ROBOT) -> dict:
+def robot_for(scene: str, config: TrainConfig) -> str:
+    """The robot ``config`` trains in scene family ``scene``: its own, else the family's (its spec)."""
+    return config.robot or scene_spec(scene).robot
+
+
+def judge_policy(policy: NumpyPolicy, scene_name: str, seeds, robot_name: str = "") -> dict:
     """Plan with ``policy``'s deterministic roll-out alone (one attempt, no smoothing) on the scenes ``seeds`` and
     judge each path: success rate, median plan time (s), mean smoothness index of the successes, and the per-seed
-    verdicts."""
-    robot = get_robot(robot_name)
+    verdicts. ``robot_name``: default the family's (its spec)."""
+    robot = get_robot(robot_name or scene_spec(scene_name).robot)
     planner = SacPlanner(policy=policy, attempts=1, smoothing=())
     runs = []
     for seed in seeds:
@@ -134,7 +137,7 @@ def judge_policy(policy: NumpyPolicy, scene_name: str, seeds, robot_name: str = 
 def make_env(scene: str, config: TrainConfig):
     """A factory of training environments for ``scene`` with ``config``'s crawl and observation settings."""
     seeds = (TRAIN_SEED, TRAIN_SEED + config.train_scenes)
-    return lambda: SnakeEnv(scene, observation=config.observation, robot=config.robot, seeds=seeds,
+    return lambda: SnakeEnv(scene, observation=config.observation, robot=robot_for(scene, config), seeds=seeds,
                             turn_radius_mm=config.turn_radius_mm,
                             capture_steps=config.capture_steps, lookahead=config.lookahead)
 
@@ -300,8 +303,9 @@ def train(scene: str, algorithm: str, steps: int, seed: int, out_dir: str | Path
         raise ValueError(f"steps: must be positive, got {steps}")
     if scene not in scene_names():
         raise ValueError(f"scene: unknown scene family {scene!r} (known: {', '.join(scene_names())})")
-    if len(make_scene(scene, TRAIN_SEED).targets) == 0:
-        raise ValueError(f"scene: {scene} has no targets to learn to reach")
+    if scene_spec(scene).task != "reach":
+        raise ValueError(f"scene: {scene} has no targets to learn to reach (its task: {scene_spec(scene).task})")
+    config = replace(config, robot=robot_for(scene, config))
     get_robot(config.robot)
     th.set_num_threads(config.torch_threads)
     out = Path(out_dir)

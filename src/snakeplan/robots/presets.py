@@ -10,7 +10,7 @@
   gives no sizes, so 10 units of 800 mm, radius 60 mm, 30 deg per section, feed 0..2000 mm along the paper's
   base y axis (turned onto snakeplan's +z); k_UL by the same three-joint rule.
 
-``register_robot`` adds a user's own factory to the registry.
+``register_robot`` adds a user's own factory to the registry (a taken name raises).
 """
 
 from __future__ import annotations
@@ -19,6 +19,7 @@ import math
 from collections.abc import Callable
 from importlib.resources import files
 
+from snakeplan.registry import Registry
 from snakeplan.robots.chain import Chain, Section
 
 SJTU_SECTIONS = 12
@@ -73,30 +74,43 @@ def hsr_10() -> Chain:
     return Chain.from_dh(str(files("snakeplan.robots").joinpath("data", HSR_DH_FILE)))
 
 
-ROBOTS: dict[str, Callable[[], Chain]] = {
-    "sjtu-snake-iii": sjtu_snake_iii,
-    "sscc-16": lambda: sscc(8),
-    "sscc-24": lambda: sscc(12),
-    "hsr-10": hsr_10,
-}
-_CACHE: dict[str, Chain] = {}
+def sscc_16() -> Chain:
+    """SSCC-16: 8 universal joints."""
+    return sscc(8)
+
+
+def sscc_24() -> Chain:
+    """SSCC-24: 12 universal joints."""
+    return sscc(12)
+
+
+#: Robot factories by name (:mod:`snakeplan.registry`; plugins add theirs with ``robot.<name>`` entry points).
+ROBOTS: Registry[Callable[[], Chain]] = Registry("robot", {
+    "sjtu-snake-iii": f"{__name__}:sjtu_snake_iii",
+    "sscc-16": f"{__name__}:sscc_16",
+    "sscc-24": f"{__name__}:sscc_24",
+    "hsr-10": f"{__name__}:hsr_10",
+})
+#: Chains built so far, by factory (a name registered again with another factory builds anew).
+_CACHE: dict[Callable[[], Chain], Chain] = {}
 
 
 def robot_names() -> list[str]:
     """Registered robot names, sorted."""
-    return sorted(ROBOTS)
+    return ROBOTS.names()
 
 
 def get_robot(name: str) -> Chain:
-    """The preset chain called ``name``; KeyError listing the valid names otherwise."""
-    if name not in ROBOTS:
-        raise KeyError(f"unknown robot {name!r}; valid names: {', '.join(robot_names())}")
-    if name not in _CACHE:
-        _CACHE[name] = ROBOTS[name]()
-    return _CACHE[name]
+    """The preset chain called ``name`` (built once); KeyError listing the known names otherwise."""
+    factory = ROBOTS.get(name)
+    if factory not in _CACHE:
+        chain = factory()
+        if not isinstance(chain, Chain):
+            raise ValueError(f"robot {name!r}: its factory returned {type(chain).__name__}, not a Chain")
+        _CACHE[factory] = chain
+    return _CACHE[factory]
 
 
 def register_robot(name: str, factory: Callable[[], Chain]) -> None:
-    """Add (or replace) a robot factory under ``name``."""
-    ROBOTS[name] = factory
-    _CACHE.pop(name, None)
+    """Add a robot factory under ``name``; ValueError if the name is taken."""
+    ROBOTS.register(name, factory)

@@ -101,7 +101,9 @@ def _entrance_faces() -> list[tuple[str, Entrance]]:
     return faces
 
 
-@register_scene("oil-tank")
+# Planned by default with the learned planner whose policy ships for it, as fuel-tank.
+@register_scene("oil-tank", robot=ROBOT, planner="sac-per",
+                policies={"sac-per": "snakeplan:rl/data/oil-tank-sac-per.npz"})
 def oil_tank(seed: int, *, arm_length_mm: float = ARM_LENGTH_MM, reach_fraction: float = DEFAULT_REACH_FRACTION,
              inflate_mm: float = DEFAULT_INFLATE_MM, cell_mm: float = REACH_CELL_MM,
              n_targets: int = TARGET_COUNT, target_clearance_mm: float = TARGET_CLEARANCE_MM) -> Scene:
@@ -143,7 +145,6 @@ def oil_tank(seed: int, *, arm_length_mm: float = ARM_LENGTH_MM, reach_fraction:
             continue
         meta = {
             "generator": "oil-tank",
-            "robot": ROBOT,
             "arm_length_mm": arm_length_mm,
             "arm_radius_mm": ARM_RADIUS_MM,
             "cells": [{"index": cell_index(i, j, k),

@@ -28,8 +28,10 @@ from snakeplan.scenes.reach import (
 from snakeplan.scenes.registry import register_scene
 from snakeplan.scenes.scene import Entrance, Scene
 
-#: The robot the pipe scenes are sized for: name, arm length (mm), body radius (mm).
-ROBOT = "sscc-16"
+#: The robot the pipe scenes are sized for: name, arm length (mm), body radius (mm). Paper 001's two arms share
+#: the length and radius; sscc-24 plans here by default, and `snakeplan bench sscc` also runs sscc-16 in the pipe
+#: (the paper's first setting).
+ROBOT = "sscc-24"
 ARM_LENGTH_MM = 1200.0
 ARM_RADIUS_MM = 15.0
 #: Hollow pipe: inner radius, wall thickness, length (mm).
@@ -88,7 +90,7 @@ def _finish(name: str, seed: int, obstacles: list[Pipe], bounds: tuple[np.ndarra
         target = draw(rng)
         geo = float(field.distance_at(target))
         if probe.signed_distance(target) >= params["target_clearance_mm"] and geo <= limit:
-            meta = {"generator": name, "robot": ROBOT, "arm_length_mm": params["arm_length_mm"],
+            meta = {"generator": name, "arm_length_mm": params["arm_length_mm"],
                     "arm_radius_mm": ARM_RADIUS_MM, **facts, "target_geodesic_mm": round(geo, 1),
                     "reach_limit_mm": limit, "attempts": attempt, "parameters": params}
             return Scene(name, seed, bounds[0], bounds[1], entrance, target[None], obstacles, meta)
@@ -103,7 +105,11 @@ def _params(arm_length_mm, reach_fraction, inflate_mm, cell_mm, target_clearance
             "target_clearance_mm": check_range("target_clearance_mm", target_clearance_mm, 0.0, 45.0)}
 
 
-@register_scene("pipe")
+#: Planned by default with SSCC and the swinging-search agent that ships for the robot.
+SSCC_AGENT = {"sscc": f"snakeplan:planners/sscc/data/{ROBOT}.npz"}
+
+
+@register_scene("pipe", robot=ROBOT, planner="sscc", policies=SSCC_AGENT)
 def pipe(seed: int, *, arm_length_mm: float = ARM_LENGTH_MM, reach_fraction: float = DEFAULT_REACH_FRACTION,
          inflate_mm: float = REACH_INFLATE_MM, cell_mm: float = REACH_CELL_MM,
          target_clearance_mm: float = TARGET_CLEARANCE_MM) -> Scene:
@@ -120,7 +126,7 @@ def pipe(seed: int, *, arm_length_mm: float = ARM_LENGTH_MM, reach_fraction: flo
                    params["reach_fraction"] * params["arm_length_mm"], facts, params)
 
 
-@register_scene("concentric-pipe")
+@register_scene("concentric-pipe", robot=ROBOT, planner="sscc", policies=SSCC_AGENT)
 def concentric_pipe(seed: int, *, arm_length_mm: float = ARM_LENGTH_MM,
                     reach_fraction: float = DEFAULT_REACH_FRACTION, inflate_mm: float = REACH_INFLATE_MM,
                     cell_mm: float = REACH_CELL_MM, target_clearance_mm: float = TARGET_CLEARANCE_MM) -> Scene:

@@ -1,26 +1,99 @@
-"""Scene generators registered by name: ``make_scene("fuel-tank", seed=3)``.
+"""Scene families registered by name with their specs: ``make_scene("fuel-tank", seed=3)``, ``scene_spec("pipe")``.
 
 A generator is a function ``(seed: int, **params) -> Scene`` that is deterministic in its seed on any machine
-(it draws only from ``numpy.random.default_rng(seed)``).
+(it draws only from ``numpy.random.default_rng(seed)``). Its module registers it with ``@register_scene(name,
+robot=..., planner=..., task=..., policies=...)``: the :class:`SceneSpec` is the one place that says which robot
+the family is sized for, which planner plans in it by default, what the task is and which trained policies ship
+for it. The command line, the benchmarks and training read these from the spec only.
+
+A new scene family is its generator module: a plugin package names it by an entry point
+(``scene.my-scene = my_pkg.scenes:my_scene``, see :mod:`snakeplan.registry`); a built-in one is listed in
+``BUILTIN_SCENES`` so that it is imported only when asked for.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, replace
+from importlib.resources import files
+from pathlib import Path
+from types import MappingProxyType
 
+from snakeplan.registry import Registry, describe
 from snakeplan.scenes.scene import Scene
 
 SceneGenerator = Callable[..., Scene]
-_GENERATORS: dict[str, SceneGenerator] = {}
+
+#: The task kinds: reach the targets in order, or inspect a surface (the scene has a field and no targets).
+TASKS = ("reach", "inspect")
+#: A spec's defaults where its family names none: the robot and, per task, the planner.
+DEFAULT_ROBOT = "sjtu-snake-iii"
+DEFAULT_PLANNER = {"reach": "as-rrt", "inspect": "informative"}
+
+BUILTIN_SCENES = {
+    "fuel-tank": "snakeplan.scenes.fuel_tank:fuel_tank",
+    "oil-tank": "snakeplan.scenes.oil_tank:oil_tank",
+    "pipe": "snakeplan.scenes.pipe:pipe",
+    "concentric-pipe": "snakeplan.scenes.pipe:concentric_pipe",
+    "station": "snakeplan.scenes.station:station",
+}
 
 
-def register_scene(name: str) -> Callable[[SceneGenerator], SceneGenerator]:
-    """Decorator that registers a generator under ``name`` (names are unique)."""
+@dataclass(frozen=True)
+class SceneSpec:
+    """What goes with a scene family.
+
+    ``robot``: the robot preset it is sized for (used when none is named). ``planner``: the planner used when
+    none is named (an inspection planner for ``task="inspect"``). ``task``: one of :data:`TASKS`.
+    ``policies``: planner name -> the trained policy file that ships for this family, as ``"package:path"``
+    (a path inside an installed package, e.g. ``"snakeplan:rl/data/fuel-tank-sac-her.npz"``).
+    ``generator`` is None for a scene read from a file whose family is not registered.
+    """
+
+    name: str
+    generator: SceneGenerator | None = None
+    robot: str = DEFAULT_ROBOT
+    planner: str = ""
+    task: str = "reach"
+    policies: Mapping[str, str] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.task not in TASKS:
+            raise ValueError(f"task: must be one of {', '.join(TASKS)}, got {self.task!r}")
+        for planner, ref in self.policies.items():
+            if ":" not in ref:
+                raise ValueError(f"policies[{planner!r}]: expected 'package:path', got {ref!r}")
+        object.__setattr__(self, "planner", self.planner or DEFAULT_PLANNER[self.task])
+        object.__setattr__(self, "policies", MappingProxyType(dict(self.policies)))
+
+    def policy_path(self, planner: str) -> Path | None:
+        """The file of the policy that ships for ``planner`` in this family, or None when none ships."""
+        ref = self.policies.get(planner)
+        if ref is None:
+            return None
+        package, _, path = ref.partition(":")
+        return Path(str(files(package).joinpath(*path.split("/"))))
+
+
+def _as_spec(name: str, obj) -> SceneSpec:
+    """An entry-point object its module did not register: a spec, or a bare generator with the default spec."""
+    if isinstance(obj, SceneSpec):
+        return obj
+    if not callable(obj):
+        raise ValueError(f"{describe(obj)} is neither a generator nor a SceneSpec")
+    return SceneSpec(name, obj)
+
+
+SCENES: Registry[SceneSpec] = Registry("scene", BUILTIN_SCENES, load=_as_spec)
+
+
+def register_scene(name: str, *, robot: str = DEFAULT_ROBOT, planner: str = "", task: str = "reach",
+                   policies: Mapping[str, str] | None = None) -> Callable[[SceneGenerator], SceneGenerator]:
+    """Decorator that registers a generator under ``name`` with its spec (see :class:`SceneSpec`; names are
+    unique)."""
 
     def wrap(fn: SceneGenerator) -> SceneGenerator:
-        if name in _GENERATORS:
-            raise ValueError(f"scene {name!r} is registered twice")
-        _GENERATORS[name] = fn
+        SCENES.register(name, SceneSpec(name, fn, robot, planner, task, policies or {}), describe(fn))
         return fn
 
     return wrap
@@ -28,20 +101,24 @@ def register_scene(name: str) -> Callable[[SceneGenerator], SceneGenerator]:
 
 def scene_names() -> list[str]:
     """Names of all registered scenes."""
-    _load_builtin()
-    return sorted(_GENERATORS)
+    return SCENES.names()
+
+
+def scene_spec(name: str) -> SceneSpec:
+    """The spec of scene family ``name``; KeyError lists the known names for an unknown one."""
+    return SCENES.get(name)
+
+
+def spec_for(scene: Scene) -> SceneSpec:
+    """The spec of ``scene``'s family; the default spec when the family is not registered (a scene file)."""
+    return scene_spec(scene.name) if scene.name in SCENES else SceneSpec(scene.name)
 
 
 def make_scene(name: str, seed: int = 0, **params) -> Scene:
-    """Generate scene ``name`` from ``seed``; KeyError lists the known names for an unknown one."""
-    _load_builtin()
-    if name not in _GENERATORS:
-        raise KeyError(f"unknown scene {name!r} (known: {', '.join(sorted(_GENERATORS))})")
+    """Generate scene ``name`` from ``seed``, its spec's robot in ``metadata["robot"]``; KeyError lists the
+    known names for an unknown one."""
+    spec = scene_spec(name)
     if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
         raise ValueError(f"seed: expected a non-negative integer, got {seed!r}")
-    return _GENERATORS[name](seed, **params)
-
-
-def _load_builtin() -> None:
-    """Import the built-in generators (they register themselves on import)."""
-    from snakeplan.scenes import fuel_tank, oil_tank, pipe, station  # noqa: F401
+    scene = spec.generator(seed, **params)
+    return replace(scene, metadata={**scene.metadata, "robot": spec.robot})

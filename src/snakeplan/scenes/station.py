@@ -189,7 +189,7 @@ def _surface_points(rng: np.random.Generator, n: int, radius: float, height: flo
     return np.round(pts, DECIMALS)
 
 
-@register_scene("station")
+@register_scene("station", robot=ROBOT, planner="informative", task="inspect")
 def station(seed: int, *, n_sources: int = HEAT_SOURCES, base_temperature_k: float = BASE_TEMPERATURE_K) -> Scene:
     """The station module for ``seed``: fixed mesh and arm base, seeded temperature field on the nodes."""
     n_sources = int(check_range("n_sources", n_sources, 0, 100, integer=True))
@@ -208,7 +208,6 @@ def station(seed: int, *, n_sources: int = HEAT_SOURCES, base_temperature_k: flo
     margin = BOUNDS_MARGIN_MM
     meta = {
         "generator": "station",
-        "robot": ROBOT,
         "arm_length_mm": ARM_UNITS * ARM_UNIT_MM,
         "arm_radius_mm": ARM_RADIUS_MM,
         "arm_feed_mm": list(ARM_FEED_MM),
