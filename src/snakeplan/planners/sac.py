@@ -32,7 +32,6 @@ import math
 import time
 from collections import deque
 from dataclasses import dataclass
-from importlib.resources import files
 from pathlib import Path
 
 import numpy as np
@@ -43,7 +42,7 @@ from snakeplan.geometry import polyline
 from snakeplan.planners.base import Planner, Problem, Status
 from snakeplan.planners.registry import register_planner
 from snakeplan.robots import Chain
-from snakeplan.scenes import Scene
+from snakeplan.scenes import Scene, scene_spec, spec_for
 from snakeplan.world import PLANNING, REACH_TOLERANCE_MM, ROLLOUT, FullView, KnowledgeView, ValidityChecker
 
 #: Tip advance per step (mm).
@@ -72,8 +71,6 @@ FEATURE_CLIP = 4.0
 VERTICAL_COS = 0.9
 #: Observation designs.
 OBSERVATIONS = ("local", "paper")
-#: Where shipped policy files live (package data of snakeplan.rl).
-POLICY_DIR = ("rl", "data")
 
 
 
@@ -560,12 +557,11 @@ def rollout(policy: NumpyPolicy, scene: Scene, robot: Chain, deadline: float = m
     return crawler.tip_path(), "steps"
 
 
-def policy_path(scene_name: str, algorithm: str) -> Path:
-    """Where the shipped policy for a scene family and algorithm lives."""
-    return Path(str(files("snakeplan").joinpath(*POLICY_DIR, f"{scene_name}-{algorithm}.npz")))
+def policy_path(scene_name: str, planner: str) -> Path | None:
+    """The policy that ships for ``planner`` in a registered scene family (its spec says which), or None."""
+    return scene_spec(scene_name).policy_path(planner)
 
 
-#: Parsed policies by the sha256 of their file's bytes.
 _POLICIES: dict[str, NumpyPolicy] = {}
 
 
@@ -618,9 +614,12 @@ class SacPlanner(Planner):
     def _policy(self, scene: Scene) -> NumpyPolicy:
         if isinstance(self.policy, NumpyPolicy):
             return self.policy
-        path = Path(self.policy) if self.policy else policy_path(scene.name, self.name)
+        path = Path(self.policy) if self.policy else spec_for(scene).policy_path(self.name)
+        if path is None:
+            raise ValueError(f"policy: no {self.name} policy ships for scene family {scene.name}; train one "
+                             f"('snakeplan train rl') and pass its policy.npz")
         if not path.is_file():
-            raise ValueError(f"policy: no policy file {path} for planner {self.name} in scene {scene.name}")
+            raise ValueError(f"policy: no policy file {path}")
         return load_policy(path)
 
     def _smoothest(self, path: np.ndarray, problem: Problem, model: ValidityChecker
