@@ -16,15 +16,12 @@ from typing import Any, NoReturn
 import numpy as np
 
 from snakeplan.extras import MissingExtra, require_training
+from snakeplan.jsonable import jsonable
 
 EXIT_OK, EXIT_INFEASIBLE, EXIT_USAGE = 0, 1, 2
 DEFAULT_SCENE = "fuel-tank"
 #: Planning budget (s) of `snakeplan demo`, per call.
 DEMO_TIME_LIMIT_S = 30.0
-#: The planners that roll out a trained policy (``--policy``) and the algorithms ``train rl`` trains for them.
-LEARNED_PLANNERS = ("sac-her", "sac-per", "sac")
-INSPECTION_SCHEMA = "snakeplan.inspection/1"
-PLAN_SCHEMA = "snakeplan.plan/1"
 
 
 class UsageError(Exception):
@@ -47,7 +44,7 @@ def _seed(text: str) -> int:
 
 
 def _print_json(obj: Any) -> None:
-    sys.stdout.write(json.dumps(obj, indent=2, allow_nan=False) + "\n")
+    sys.stdout.write(json.dumps(jsonable(obj), indent=2, allow_nan=False) + "\n")
 
 
 # --- loading inputs ----------------------------------------------------------------------------------------
@@ -174,6 +171,7 @@ def _report_lines(report) -> list[str]:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
+    from snakeplan.episode import check_document
     from snakeplan.evaluation import evaluate
 
     scene = _load_scene(args)
@@ -183,28 +181,16 @@ def cmd_check(args: argparse.Namespace) -> int:
     if args.plot:
         _write_plot(args.plot, scene, robot, path, report)
     if args.json:
-        _print_json({"schema": "snakeplan.check/1", "scene": {"name": scene.name, "seed": scene.seed},
-                     "robot": robot.name, "success": report.success, "reason": report.reason,
-                     "metrics": report.metrics()})
+        _print_json(check_document(scene, robot, report))
     else:
         sys.stdout.write("\n".join(_report_lines(report)) + "\n")
     return EXIT_OK if report.success else EXIT_INFEASIBLE
 
 
-def _write_plot(filename: str, scene, robot, path, report) -> None:
-    from snakeplan import ftl
-    from snakeplan.geometry.polyline import path_length
-    from snakeplan.viz.figures import plan_figure, save_figure
+def _write_plot(filename: str, scene, robot, path, report, planner: str = "") -> None:
+    from snakeplan.viz.figures import save_plan_figure
 
-    body = None
-    if path is not None:
-        body = ftl.fit(path, robot.lengths, path_length(path), scene.entrance.direction).joints
-    curvature = (report.curvature_s, report.curvature) if report is not None else None
-    title = f"{scene.name} seed {scene.seed}, {robot.name}"
-    if report is not None:
-        title += f": {report.reason}, S = {report.smoothness_index:.3f}"
-    fig = plan_figure(scene, path, body, curvature=curvature, k_ul=robot.k_ul, title=title)
-    save_figure(fig, filename)
+    save_plan_figure(filename, scene, robot, path, report, planner)
 
 
 def cmd_show(args: argparse.Namespace) -> int:
@@ -222,27 +208,26 @@ def cmd_show(args: argparse.Namespace) -> int:
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
-    from snakeplan.evaluation import evaluate
+    from snakeplan.episode import run_episode
     from snakeplan.planners import Problem
     from snakeplan.scenes import make_scene, scene_spec
 
     scene, spec = make_scene(DEFAULT_SCENE, args.seed), scene_spec(DEFAULT_SCENE)
     robot = _load_robot(spec.robot)
-    name = spec.planner
-    planner = _load_planner(name)
+    planner = _load_planner(spec.planner)
     problem = Problem(scene, robot, time_limit_s=DEMO_TIME_LIMIT_S)
     first = planner.plan(problem, seed=0)  # on a fresh install this compiles the jitted kernels (cached on disk)
-    plan = planner.plan(problem, seed=0)
-    sys.stdout.write(f"{robot.name} in {scene.name} (seed {scene.seed}), planned by {name}: {_status(plan)} "
+    episode = run_episode(problem, planner)
+    plan = episode.plan
+    sys.stdout.write(f"{robot.name} in {scene.name} (seed {scene.seed}), planned by {plan.planner}: {_status(plan)} "
                      f"in {plan.compute_time_s:.3f} s (first call, with kernel compilation: "
                      f"{first.compute_time_s:.3f} s)\n")
-    if plan.path is None:
+    if episode.report is None:
         return EXIT_INFEASIBLE
-    report = evaluate(scene, robot, plan.path)
-    sys.stdout.write("\n".join(_report_lines(report)) + "\n")
-    _write_plot(args.out, scene, robot, plan.path, report)
+    sys.stdout.write("\n".join(_report_lines(episode.report)) + "\n")
+    _write_plot(args.out, scene, robot, plan.path, episode.report, plan.planner)
     sys.stdout.write(f"wrote {args.out}\n")
-    return EXIT_OK if report.success else EXIT_INFEASIBLE
+    return EXIT_OK if episode.success else EXIT_INFEASIBLE
 
 
 def _status(plan) -> str:
@@ -252,16 +237,19 @@ def _status(plan) -> str:
 
 
 def _load_planner(name: str, **options):
-    from snakeplan.planners import get_planner
+    from snakeplan.planners.registry import PLANNERS
 
     try:
-        return get_planner(name, **options)
+        cls = PLANNERS.get(name)
     except KeyError as exc:
         raise UsageError(f"--planner: {exc.args[0]}") from None
+    if "policy" in options and not cls.takes_policy:
+        raise UsageError(f"--policy: planner {name} rolls out no trained policy")
+    return cls(**options)
 
 
 def cmd_plan(args: argparse.Namespace) -> int:
-    from snakeplan.evaluation import evaluate
+    from snakeplan.episode import run_episode
     from snakeplan.planners import Problem
     from snakeplan.scenes import spec_for
 
@@ -270,70 +258,46 @@ def cmd_plan(args: argparse.Namespace) -> int:
     spec = spec_for(scene)
     if spec.task == "inspect":
         return _plan_inspection(args, scene, robot, spec.planner)
-    problem = Problem(scene, robot, time_limit_s=args.time_limit, knowledge=args.knowledge)
-    name = args.planner or spec.planner
     options = {}
     if args.policy is not None:
-        if name not in LEARNED_PLANNERS:
-            raise UsageError(f"--policy: only the learned planners ({', '.join(LEARNED_PLANNERS)}) take a policy "
-                             f"file, not {name}")
         if not Path(args.policy).is_file():
             raise UsageError(f"--policy: no such file {args.policy}")
         options["policy"] = args.policy
-    plan = _load_planner(name, **options).plan(problem, seed=args.planner_seed)
-    report = evaluate(scene, robot, plan.path) if plan.path is not None else None
-    success = report is not None and report.success
-    out = {"schema": PLAN_SCHEMA, "scene": {"name": scene.name, "seed": scene.seed}, "robot": robot.name,
-           "planner": name, "success": success, "reason": report.reason if report else plan.status,
-           "status": plan.status, "compute_time_s": plan.compute_time_s,
-           "path": plan.path.tolist() if plan.path is not None else [],
-           "metrics": report.metrics() if report else None, "details": _jsonable(plan.details)}
+    planner = _load_planner(args.planner or spec.planner, **options)
+    problem = Problem(scene, robot, time_limit_s=args.time_limit, knowledge=args.knowledge)
+    episode = run_episode(problem, planner, seed=args.planner_seed)
+    plan = episode.plan
     if args.plot:
-        _write_plot(args.plot, scene, robot, plan.path, report)
+        _write_plot(args.plot, scene, robot, plan.path, episode.report, plan.planner)
     if args.json:
-        _print_json(out)
+        _print_json(episode.to_dict())
     else:
-        sys.stdout.write(f"{name} on {scene.name} (seed {scene.seed}): {_status(plan)} "
+        sys.stdout.write(f"{plan.planner} on {scene.name} (seed {scene.seed}): {_status(plan)} "
                          f"in {plan.compute_time_s:.3f} s\n")
-        if report is not None:
-            sys.stdout.write("\n".join(_report_lines(report)) + "\n")
-    return EXIT_OK if success else EXIT_INFEASIBLE
+        if episode.report is not None:
+            sys.stdout.write("\n".join(_report_lines(episode.report)) + "\n")
+    return EXIT_OK if episode.success else EXIT_INFEASIBLE
 
 
 def _plan_inspection(args: argparse.Namespace, scene, robot, default: str) -> int:
     """Fly an inspection mission (a scene whose task is to inspect a surface, e.g. station) with --planner, else
     ``default``."""
-    from snakeplan.planners.inspection import InspectionProblem, get_inspection_planner
+    from snakeplan.episode import run_mission
+    from snakeplan.planners.inspection import INSPECTION_PLANNERS, InspectionProblem
 
     name = args.planner or default
-    try:
-        planner = get_inspection_planner(name)
-    except KeyError as exc:
-        raise UsageError(f"--planner: {exc.args[0]}") from None
-    result = planner.plan(InspectionProblem(scene, robot), seed=args.planner_seed)
+    if name not in INSPECTION_PLANNERS:
+        raise UsageError(f"--planner: unknown inspection planner {name!r} (known: "
+                         f"{', '.join(INSPECTION_PLANNERS.names())})")
+    mission = run_mission(InspectionProblem(scene, robot), name, seed=args.planner_seed)
+    result = mission.result
     if args.json:
-        _print_json(_jsonable({"schema": INSPECTION_SCHEMA, "scene": {"name": scene.name, "seed": scene.seed},
-                               "robot": robot.name, **result.to_dict()}))
+        _print_json(mission.to_dict())
     else:
         sys.stdout.write(f"{name} on {scene.name} (seed {scene.seed}) with {robot.name}: final RMSE "
                          f"{result.rmse[-1]:.3f} K, covariance trace {result.trace[-1]:.1f} K^2, "
                          f"{len(result.times)} measurements, planning {result.compute_time_s:.2f} s\n")
     return EXIT_OK
-
-
-def _jsonable(obj: Any) -> Any:
-    """Planner details as plain JSON (arrays to lists, non-finite floats to None)."""
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return _jsonable(obj.tolist())
-    if isinstance(obj, (np.floating, float)):
-        return float(obj) if math.isfinite(obj) else None
-    if isinstance(obj, np.integer):
-        return int(obj)
-    return obj
 
 
 def cmd_bench_kernels(args: argparse.Namespace) -> int:
@@ -411,7 +375,7 @@ def cmd_bench_station(args: argparse.Namespace) -> int:
         raise UsageError(f"--seeds: expected a positive integer, got {args.seeds}")
     result = run_station_bench(seeds=args.seeds, seed0=args.seed, out_dir=args.out, as_json=args.json)
     if args.json:
-        _print_json(_jsonable(result))
+        _print_json(result)
     return EXIT_OK
 
 
@@ -425,7 +389,7 @@ def cmd_bench_sscc(args: argparse.Namespace) -> int:
         require_training("bench sscc --variants agent-learning")
     summary = run_sscc_bench(out_dir=args.out, variants=variants, targets=args.targets, progress=not args.json)
     if args.json:
-        _print_json(_jsonable(summary))
+        _print_json(summary)
     else:
         sys.stdout.write(summary_markdown(summary["settings"]) + f"\n\nwrote {args.out}\n")
     return EXIT_OK
@@ -472,7 +436,7 @@ def cmd_bench_table2(args: argparse.Namespace) -> int:
                          f"for some scene families is compared only in those)")
     summary = run_table2(config, args.out, fresh=args.fresh, progress=not args.json)
     if args.json:
-        _print_json(_jsonable(summary))
+        _print_json(summary)
     else:
         sys.stdout.write(summary_markdown(summary, config) + f"\n\nwrote {args.out}/table2.md, table2.csv, runs.csv, "
                          f"fig7_*.png\n")
@@ -648,7 +612,7 @@ def build_parser() -> argparse.ArgumentParser:
                                     "(--paper, --turn-radius-mm 215, --capture-steps 4, --eval-episodes 50, ...; "
                                     "the list: 'python -m snakeplan.rl.train --help').")
     t.add_argument("scene", help="a scene family with targets (fuel-tank, oil-tank, pipe, or one you registered)")
-    t.add_argument("algorithm", choices=LEARNED_PLANNERS)
+    t.add_argument("algorithm", choices=("sac-her", "sac-per", "sac"))
     t.add_argument("--steps", type=int, required=True, help="environment steps")
     t.add_argument("--seed", type=_seed, default=0, help="training seed (default 0)")
     t.add_argument("--out", required=True, help="output folder (policy.npz, curve.png, checkpoints)")

@@ -1,4 +1,5 @@
-"""Episodes: plan a problem, judge the plan, and say it as a ``snakeplan.plan/1`` document, in one place.
+"""Episodes: plan a problem, judge the plan, and say it as a ``snakeplan.plan/1`` document, in one place (and
+inspection missions as ``snakeplan.inspection/1``).
 
 The command line, the benchmarks and training validation all run planning through :func:`run_episode`, so a plan
 is judged the same way everywhere and its document is written once. A planner never judges itself: the episode
@@ -7,34 +8,21 @@ hands the plan to :func:`snakeplan.evaluation.evaluate` with the whole scene, wh
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
-from typing import Any
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from snakeplan.evaluation import Report, evaluate
+from snakeplan.jsonable import jsonable
 from snakeplan.planners import Plan, Planner, Problem, get_planner
 from snakeplan.robots import Chain
 from snakeplan.scenes import Scene
 
+if TYPE_CHECKING:
+    from snakeplan.planners.inspection import InspectionProblem, InspectionResult
+
 PLAN_SCHEMA = "snakeplan.plan/1"
 CHECK_SCHEMA = "snakeplan.check/1"
-
-
-def jsonable(obj: Any) -> Any:
-    """Plain JSON of planner details and results: arrays to lists, non-finite floats to None."""
-    if isinstance(obj, dict):
-        return {str(k): jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return jsonable(obj.tolist())
-    if isinstance(obj, (np.floating, float)):
-        return float(obj) if math.isfinite(obj) else None
-    if isinstance(obj, np.integer):
-        return int(obj)
-    return obj
+INSPECTION_SCHEMA = "snakeplan.inspection/1"
 
 
 @dataclass(frozen=True)
@@ -81,3 +69,24 @@ def check_document(scene: Scene, robot: Chain, report: Report) -> dict:
     """The ``snakeplan.check/1`` document: the judge's verdict on a path made elsewhere."""
     return {"schema": CHECK_SCHEMA, "scene": {"name": scene.name, "seed": scene.seed}, "robot": robot.name,
             "success": report.success, "reason": report.reason, "metrics": report.metrics()}
+
+
+@dataclass(frozen=True)
+class Mission:
+    """A flown inspection mission: the problem and what the inspection planner made of it."""
+
+    problem: InspectionProblem
+    result: InspectionResult
+
+    def to_dict(self) -> dict:
+        """The ``snakeplan.inspection/1`` document (docs/ARCHITECTURE.md)."""
+        scene = self.problem.scene
+        return jsonable({"schema": INSPECTION_SCHEMA, "scene": {"name": scene.name, "seed": scene.seed},
+                         "robot": self.problem.robot.name, **self.result.to_dict()})
+
+
+def run_mission(problem: InspectionProblem, planner: str, seed: int = 0) -> Mission:
+    """Fly the inspection mission ``problem`` with the registered inspection planner ``planner`` from ``seed``."""
+    from snakeplan.planners.inspection import get_inspection_planner
+
+    return Mission(problem, get_inspection_planner(planner).plan(problem, seed=seed))

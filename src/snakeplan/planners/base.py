@@ -150,6 +150,8 @@ class Planner(ABC):
     name: ClassVar[str] = ""
     #: Whether the planner needs the whole scene (it then refuses ``knowledge="sensed"`` problems).
     needs_full_scene: ClassVar[bool] = True
+    #: Whether the planner rolls out a trained policy, given as ``policy=`` (a file; ``snakeplan plan --policy``).
+    takes_policy: ClassVar[bool] = False
 
     def plan(self, problem: Problem, seed: int = 0) -> Plan:
         """Plan within ``problem.time_limit_s``; the wall time is measured here, the same way for all planners."""

@@ -19,8 +19,8 @@ The planners roll the policy out from the entrance (a roll-out takes millisecond
 the smoothest of the roll-out and its Gaussian smoothings (``SMOOTHING_SIGMAS_MM``) that passes the planning-time
 crawl check (the ``PLANNING`` profile of :class:`~snakeplan.world.ValidityChecker`) is planned; when none passes,
 the policy is rolled out again with seeded action noise, up to ``PLAN_ATTEMPTS`` times within the budget; the path
-goes to the judge. Policy files ship in ``snakeplan/rl/data`` as ``{scene}-{algorithm}.npz`` (with ``.curve.json``,
-the learning curve that made them).
+goes to the judge. Which policy file ships for which scene family is the scene spec's to say (``policies``); the
+files live in ``snakeplan/rl/data`` with the learning curve that made them (``.curve.json``).
 """
 
 from __future__ import annotations
@@ -602,6 +602,7 @@ class SacPlanner(Planner):
 
     name = "sac"
     needs_full_scene = False
+    takes_policy = True
 
     def __init__(self, policy: str | Path | NumpyPolicy | None = None, attempts: int = PLAN_ATTEMPTS,
                  retry_noise: tuple[float, float] = RETRY_NOISE,

@@ -61,3 +61,15 @@ def curvature_figure(s: np.ndarray, kappa: np.ndarray, k_ul: float | None = None
     ax.grid(alpha=0.3)
     fig.tight_layout()
     return fig
+
+
+def save_plan_figure(filename: str | Path, scene: Scene, robot, path=None, report=None, planner: str = "") -> Path:
+    """The scene with a tip path and the body at the judge's last depth, titled with the planner and the verdict,
+    beside the path's curvature profile (when judged); written as PNG."""
+    title = f"{scene.name} seed {scene.seed}, {robot.name}" + (f", {planner}" if planner else "")
+    if report is not None:
+        title += f": {report.reason}, S = {report.smoothness_index:.3f}"
+    fig = plan_figure(scene, path, report.body_mm if report is not None else None,
+                      curvature=(report.curvature_s, report.curvature) if report is not None else None,
+                      k_ul=robot.k_ul, title=title)
+    return save_figure(fig, filename)
