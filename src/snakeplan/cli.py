@@ -1,7 +1,8 @@
 """The ``snakeplan`` command: scenes, robots, judging tip paths, pictures, benchmarks.
 
 Exit status: 0 success, 1 when a judged plan is infeasible, 2 for bad input (one line on stderr naming the
-field and the problem; never a traceback for a user's mistake). JSON output: docs/ARCHITECTURE.md, "JSON schemas".
+field and the problem; never a traceback for a user's mistake), 130 when interrupted (Ctrl-C). Output paths are
+checked before any work starts. JSON output: docs/ARCHITECTURE.md, "JSON schemas".
 """
 
 from __future__ import annotations
@@ -16,9 +17,10 @@ from typing import Any, NoReturn
 import numpy as np
 
 from snakeplan.extras import MissingExtra, require_training
+from snakeplan.files import check_output
 from snakeplan.jsonable import jsonable
 
-EXIT_OK, EXIT_INFEASIBLE, EXIT_USAGE = 0, 1, 2
+EXIT_OK, EXIT_INFEASIBLE, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 DEFAULT_SCENE = "fuel-tank"
 #: Planning budget (s) of `snakeplan demo`, per call.
 DEMO_TIME_LIMIT_S = 30.0
@@ -174,6 +176,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     from snakeplan.episode import check_document
     from snakeplan.evaluation import evaluate
 
+    _check_picture(args.plot, "--plot")
     scene = _load_scene(args)
     robot = _robot_for(args, scene)
     path = load_path_file(args.path_file)
@@ -193,7 +196,14 @@ def _write_plot(filename: str, scene, robot, path, report, planner: str = "") ->
     save_plan_figure(filename, scene, robot, path, report, planner)
 
 
+def _check_picture(filename: str | None, field: str) -> None:
+    """Refuse a picture path that could not be written, before any work is done."""
+    if filename is not None:
+        check_output(filename, field, (".png",))
+
+
 def cmd_show(args: argparse.Namespace) -> int:
+    _check_picture(args.out, "--out")
     scene = _load_scene(args)
     robot = _robot_for(args, scene)
     path = load_path_file(args.path) if args.path else None
@@ -212,6 +222,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from snakeplan.planners import Problem
     from snakeplan.scenes import make_scene, scene_spec
 
+    _check_picture(args.out, "--out")
     scene, spec = make_scene(DEFAULT_SCENE, args.seed), scene_spec(DEFAULT_SCENE)
     robot = _load_robot(spec.robot)
     planner = _load_planner(spec.planner)
@@ -253,6 +264,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
     from snakeplan.planners import Problem
     from snakeplan.scenes import spec_for
 
+    _check_picture(args.plot, "--plot")
     scene = _load_scene(args)
     robot = _robot_for(args, scene)
     spec = spec_for(scene)
@@ -643,6 +655,9 @@ def main(argv: list[str] | None = None) -> int:
         return _fail(str(exc))
     except (ValueError, KeyError) as exc:
         return _fail(str(exc.args[0]) if exc.args else exc.__class__.__name__)
+    except KeyboardInterrupt:
+        sys.stderr.write("snakeplan: interrupted\n")
+        return EXIT_INTERRUPTED
     except BrokenPipeError:
         return EXIT_OK
 

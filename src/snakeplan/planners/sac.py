@@ -38,6 +38,7 @@ import numpy as np
 from numba import njit
 
 from snakeplan.evaluation.metrics import path_smoothness
+from snakeplan.files import atomic_path
 from snakeplan.geometry import polyline
 from snakeplan.planners.base import Planner, Problem, Status
 from snakeplan.planners.registry import register_planner
@@ -515,8 +516,8 @@ class NumpyPolicy:
         arrays["mu_w"], arrays["mu_b"] = self.mu[0].astype(np.float32), self.mu[1].astype(np.float32)
         if self.graph is not None:
             arrays.update({f"graph_{k}": v for k, v in self.graph.arrays().items()})
-        Path(path).parent.mkdir(parents=True, exist_ok=True)
-        np.savez_compressed(path, **arrays)
+        with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+            np.savez_compressed(fh, **arrays)
 
     def act(self, obs: dict) -> np.ndarray:
         """tanh(mu(features)) for one observation dict (or a batch)."""

@@ -10,6 +10,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from snakeplan.files import atomic_path  # noqa: E402
 from snakeplan.scenes import Scene  # noqa: E402
 from snakeplan.viz.scene_plot import draw_scene  # noqa: E402
 
@@ -40,12 +41,13 @@ def plan_figure(scene: Scene, path=None, body=None, *, curvature=None, k_ul: flo
 
 
 def save_figure(fig, filename: str | Path) -> Path:
-    """Write ``fig`` as PNG (creating parent folders) and close it."""
-    out = Path(filename)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    """Write ``fig`` as PNG, atomically, into an existing folder, and close it."""
+    try:
+        with atomic_path(filename) as tmp:
+            fig.savefig(tmp, dpi=110, format="png")
+    finally:
+        plt.close(fig)
+    return Path(filename)
 
 
 def curvature_figure(s: np.ndarray, kappa: np.ndarray, k_ul: float | None = None, title: str = ""):

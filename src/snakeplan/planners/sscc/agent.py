@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from snakeplan.files import atomic_path
 from snakeplan.planners.sscc.swinging import SwingEpisode, Transition, action_size, observation_size
 from snakeplan.robots import get_robot
 
@@ -102,8 +103,8 @@ class SwingAgent:
     def save(self, path: str | Path) -> Path:
         """Write the weights as a plain ``.npz``."""
         out = Path(path)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        np.savez(out, **self.weights)
+        with atomic_path(out) as tmp, open(tmp, "wb") as fh:
+            np.savez(fh, **self.weights)
         return out
 
     def _actor_layers(self) -> list[tuple[np.ndarray, np.ndarray]]:

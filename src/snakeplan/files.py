@@ -1,0 +1,50 @@
+"""Output files: checked before the work that fills them starts, and written atomically.
+
+A command checks every output path it was given before it plans, judges or trains, so a mistyped ``--plot`` costs
+nothing; a file appears whole or not at all (written next to its final name, then renamed over it), so an
+interrupted command never leaves half a picture, table or weight file behind. Folders are created only where a
+command's documentation says so (results folders such as ``bench --out``); an output file's folder must exist.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+
+def check_output(path: str | os.PathLike, field: str, suffixes: tuple[str, ...] = ()) -> Path:
+    """``path`` as an output file the command may write: its folder exists and is writable, it is not a folder,
+    and its suffix is one of ``suffixes`` (any when empty); ValueError naming ``field`` otherwise."""
+    out = Path(path)
+    if suffixes and out.suffix.lower() not in suffixes:
+        raise ValueError(f"{field}: expected a {' or '.join(suffixes)} file, got {str(out)!r}")
+    if out.is_dir():
+        raise ValueError(f"{field}: {out} is a folder, not a file")
+    folder = out.parent
+    if not folder.is_dir():
+        raise ValueError(f"{field}: folder {str(folder)!r} does not exist (create it first)")
+    if not os.access(folder, os.W_OK):
+        raise ValueError(f"{field}: folder {str(folder)!r} is not writable")
+    return out
+
+
+@contextmanager
+def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
+    """A temporary path beside ``path`` (same suffix) to write to; renamed over ``path`` when the block ends
+    normally, removed when it raises."""
+    out = Path(path)
+    tmp = out.with_name(f".{out.stem}.{os.getpid()}.tmp{out.suffix}")
+    try:
+        yield tmp
+        os.replace(tmp, out)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def write_text(path: str | os.PathLike, text: str) -> Path:
+    """Write ``text`` to ``path`` atomically."""
+    with atomic_path(path) as tmp:
+        tmp.write_text(text)
+    return Path(path)
