@@ -112,6 +112,12 @@ class Registry(Generic[T]):
         self._entries[name] = entry
         return obj
 
+    def register_class(self, cls: T) -> T:
+        """Class decorator: add ``cls`` under its ``name`` attribute (see :meth:`register`)."""
+        if not getattr(cls, "name", ""):
+            raise ValueError(f"{cls.__name__} has no name")
+        return self.register(cls.name, cls)
+
     def unregister(self, name: str) -> None:
         """Remove ``name`` (KeyError if unknown)."""
         self._find_plugins()

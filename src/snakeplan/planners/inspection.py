@@ -603,11 +603,8 @@ INSPECTION_PLANNERS: Registry[type[InspectionPlanner]] = Registry("inspection pl
 }, load=named_subclass(InspectionPlanner))
 
 
-def register_inspection_planner(cls: type[InspectionPlanner]) -> type[InspectionPlanner]:
-    """Class decorator: register an inspection planner under its ``name`` (a taken name raises ValueError)."""
-    if not cls.name:
-        raise ValueError(f"{cls.__name__} has no name")
-    return INSPECTION_PLANNERS.register(cls.name, cls)
+#: Class decorator: register an inspection planner under its ``name`` (a taken name raises ValueError).
+register_inspection_planner = INSPECTION_PLANNERS.register_class
 
 
 def inspection_planner_names() -> list[str]:

@@ -24,11 +24,8 @@ BUILTIN_PLANNERS = {
 PLANNERS: Registry[type[Planner]] = Registry("planner", BUILTIN_PLANNERS, load=named_subclass(Planner))
 
 
-def register_planner(cls: type[Planner]) -> type[Planner]:
-    """Class decorator: register a planner under its ``name`` (a taken name raises ValueError)."""
-    if not cls.name:
-        raise ValueError(f"{cls.__name__} has no name")
-    return PLANNERS.register(cls.name, cls)
+#: Class decorator: register a planner under its ``name`` (a taken name raises ValueError).
+register_planner = PLANNERS.register_class
 
 
 def planner_names() -> list[str]:
