@@ -162,6 +162,16 @@ class RefusesWithoutField(SkipsKnowledgeCheck):
         return super().plan(problem, seed)
 
 
+class Peeks(Straight):
+    """Declares sensed support, then reads the whole scene's obstacles."""
+
+    needs_full_scene = False
+
+    def path(self, problem, rng):
+        len(problem.scene.obstacles)
+        return super().path(problem, rng)
+
+
 class Crashes(Straight):
     def _solve(self, problem, rng, deadline):
         raise ZeroDivisionError("oops")
@@ -179,6 +189,7 @@ def test_a_conforming_toy_passes():
     (ForgedPlan, "status-path"),
     (Overruns, "deadline"),
     (Unseeded, "determinism"),
+    (Peeks, "honesty"),
     (SkipsKnowledgeCheck, "malformed"),
     (RefusesWithRuntimeError, "malformed"),
     (RefusesWithoutField, "malformed"),

@@ -19,6 +19,9 @@ Rules (a :class:`ConformanceError` names the first one broken):
 * ``determinism``: the same problem and seed, planned twice by the same planner, give the same status and a path
   equal to the bit. Skipped (and said so in the report) when a run stopped on the clock, since where a search is
   cut off depends on the machine.
+* ``honesty``: a planner that plans with sensed knowledge (``needs_full_scene`` False) plans each problem again with
+  ``knowledge="sensed"`` and a scene whose obstacles raise when read (:func:`snakeplan.world.guarded`), so all it
+  knows comes from the sensed view in ``problem.world``.
 * ``malformed``: a malformed problem raises ValueError whose message starts with the field's name: a non-positive,
   NaN, infinite or non-numeric ``time_limit_s``, an unknown ``knowledge``, a non-positive ``sensor_range_mm``, a
   ``scene`` with no targets or that is not a Scene, a ``robot`` that is not a Chain, and, for a planner that
@@ -41,7 +44,14 @@ from snakeplan.planners.base import STOPPED, Plan, Planner, Problem, Status
 from snakeplan.planners.registry import get_planner
 from snakeplan.robots import get_robot
 from snakeplan.scenes import Scene, make_scene
-from snakeplan.world import ENTRANCE_TOLERANCE_MM, REACH_TOLERANCE_MM, targets_reached
+from snakeplan.world import (
+    ENTRANCE_TOLERANCE_MM,
+    REACH_TOLERANCE_MM,
+    SensedView,
+    UnsensedObstacleError,
+    guarded,
+    targets_reached,
+)
 
 #: The problems used when none are given: these scene families (seed ``scene_seed``) with this robot.
 DEFAULT_SCENES = ("fuel-tank", "oil-tank")
@@ -57,7 +67,7 @@ DEADLINE_SLACK_FRACTION = 0.2
 ENCLOSURE_HALF_MM = 80.0
 ENCLOSURE_WALL_MM = 10.0
 
-RULES = ("runs", "entrance", "status-path", "deadline", "determinism", "malformed")
+RULES = ("runs", "entrance", "status-path", "deadline", "determinism", "honesty", "malformed")
 
 
 class ConformanceError(AssertionError):
@@ -114,8 +124,20 @@ def check_planner(planner: Planner | str, problems: Sequence[Problem] | None = N
         hard = dataclasses.replace(problem, scene=_enclose_last_target(problem.scene), time_limit_s=TINY_TIME_LIMIT_S)
         tiny = _plan(planner, hard, seed, f"{where} with its last target walled in", timed=True)
         plans += [f"{where}: {first.status}", f"{where}, last target walled in, {TINY_TIME_LIMIT_S} s: {tiny.status}"]
+        if not planner.needs_full_scene:
+            plans.append(f"{where}, sensed through a guarded scene: {_check_honest(planner, problem, seed).status}")
     _check_malformed(planner, problems[0], seed)
     return ConformanceReport(planner.name, tuple(plans), tuple(skipped))
+
+
+def _check_honest(planner: Planner, problem: Problem, seed: int) -> Plan:
+    """Plan ``problem`` with sensed knowledge through a scene whose obstacles raise when read."""
+    sensed = dataclasses.replace(problem, scene=guarded(problem.scene), knowledge="sensed",
+                                 world=SensedView.of(problem.scene, problem.sensor_range_mm))
+    try:
+        return planner.plan(sensed, seed=seed)
+    except UnsensedObstacleError as exc:
+        raise ConformanceError("honesty", f"{planner.name} on {_describe(problem)}: {exc}") from exc
 
 
 def _describe(problem: Problem) -> str:
