@@ -97,3 +97,25 @@ def test_sensed_planners_plan_honestly(name):
                                               world=view), seed=0)
         successes += plan.path is not None and evaluate(scene, ROBOT, plan.path).success
     assert successes >= 2
+
+
+def test_a_sensed_views_scene_is_structure_only():
+    """The view's own scene is guarded too: no way round the sensor through ``problem.world.scene``."""
+    scene = make_scene("fuel-tank", 1)
+    view = SensedView.of(scene)
+    assert np.array_equal(view.scene.targets, scene.targets)
+    with pytest.raises(UnsensedObstacleError):
+        view.scene.obstacles
+    assert len(view.fresh().obstacle_set) == 0
+
+
+class _PeeksThroughTheView(_Peeking):
+    def _solve(self, problem, rng, deadline):
+        len(problem.world.scene.obstacle_set)
+        return super()._solve(problem, rng, deadline)
+
+
+def test_reading_the_views_scene_is_caught_as_well():
+    scene = make_scene("fuel-tank", 1)
+    with pytest.raises(UnsensedObstacleError):
+        _PeeksThroughTheView().plan(Problem(scene, ROBOT, knowledge="sensed"))

@@ -29,7 +29,7 @@ from snakeplan.world import (
 #: Arc-length step (mm) between judged crawl configurations.
 CRAWL_STEP_MM = JUDGE.step_mm
 
-REASONS = ("reached", "invalid_path", "collision", "bend_limit", "insertion", "out_of_bounds", "not_reached")
+REASONS = ("reached", "collision", "bend_limit", "insertion", "out_of_bounds", "not_reached")
 
 
 @dataclass(frozen=True)

@@ -121,7 +121,8 @@ def check_planner(planner: Planner | str, problems: Sequence[Problem] | None = N
             skipped.append(f"determinism on {where}: a run stopped on the clock ({first.status}, {again.status})")
         else:
             _check_same(first, again, where)
-        hard = dataclasses.replace(problem, scene=_enclose_last_target(problem.scene), time_limit_s=TINY_TIME_LIMIT_S)
+        hard = dataclasses.replace(problem, scene=_enclose_last_target(problem.scene), time_limit_s=TINY_TIME_LIMIT_S,
+                                   world=None)  # a view of the walled scene, not the old one
         tiny = _plan(planner, hard, seed, f"{where} with its last target walled in", timed=True)
         plans += [f"{where}: {first.status}", f"{where}, last target walled in, {TINY_TIME_LIMIT_S} s: {tiny.status}"]
         if not planner.needs_full_scene:

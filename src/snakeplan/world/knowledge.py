@@ -85,14 +85,14 @@ class SensedView(KnowledgeView):
     """Prior obstacles plus those revealed within ``sensor_range_mm`` of the points the tip has visited.
 
     ``truth`` is the scene's obstacle list (read here, never handed to the planner); ``prior`` marks the ones known
-    before the job (default: none).
+    before the job (default: none). The view's ``scene`` is the structure alone (:func:`guarded`).
     """
 
     kind = "sensed"
 
     def __init__(self, scene: Scene, truth: Sequence[Obstacle], sensor_range_mm: float = DEFAULT_SENSOR_RANGE_MM,
                  prior: Sequence[bool] | None = None):
-        super().__init__(scene)
+        super().__init__(scene if isinstance(scene, _GuardedScene) else guarded(scene))  # structure only
         self._truth = tuple(truth)
         self.sensor_range_mm = float(sensor_range_mm)
         self._prior = np.zeros(len(self._truth), dtype=bool) if prior is None else np.array(prior, dtype=bool)
