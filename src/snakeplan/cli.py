@@ -54,7 +54,7 @@ def _load_scene(args: argparse.Namespace):
     from snakeplan.scenes import Scene, make_scene
 
     if getattr(args, "scene_file", None):
-        return Scene.from_json(_read_text(args.scene_file, "--scene-file"))
+        return Scene.from_json(_read_text(args.scene_file, "--scene-file"), "--scene-file")
     try:
         return make_scene(args.scene, args.seed)
     except KeyError as exc:
@@ -78,45 +78,39 @@ def _load_robot(name: str):
 
 
 def _read_text(filename: str, field: str) -> str:
-    if filename == "-":
-        return sys.stdin.read()
+    """The UTF-8 text of ``filename`` ('-': standard input), at most :data:`snakeplan.inputs.MAX_INPUT_BYTES`."""
+    from snakeplan.inputs import MAX_INPUT_BYTES
+
+    where = "standard input" if filename == "-" else filename if filename.isprintable() else repr(filename)
     try:
-        return Path(filename).read_text()
+        if filename == "-":
+            data = sys.stdin.buffer.read(MAX_INPUT_BYTES + 1)
+        else:
+            with open(filename, "rb") as f:
+                data = f.read(MAX_INPUT_BYTES + 1)
     except FileNotFoundError:
-        raise UsageError(f"{field}: file not found: {filename}") from None
-    except (IsADirectoryError, PermissionError, UnicodeDecodeError) as exc:
-        raise UsageError(f"{field}: cannot read {filename}: {exc.__class__.__name__}") from None
-
-
-def _reject_constant(name: str) -> float:
-    raise ValueError(f"{name} is not a valid number")
+        raise UsageError(f"{field}: file not found: {where}") from None
+    except OSError as exc:
+        raise UsageError(f"{field}: cannot read {where}: {exc.__class__.__name__}") from None
+    if len(data) > MAX_INPUT_BYTES:
+        raise UsageError(f"{field}: {where} is larger than the {MAX_INPUT_BYTES // 2**20} MiB limit")
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise UsageError(f"{field}: {where} is not UTF-8 text (byte {exc.start})") from None
 
 
 def load_path_file(filename: str) -> np.ndarray:
-    """Read ``{"path": [[x, y, z], ...]}`` (any plan file will do); UsageError names what is wrong."""
-    text = _read_text(filename, "PATH")
-    try:
-        data = json.loads(text, parse_constant=_reject_constant)
-    except json.JSONDecodeError as exc:
-        raise UsageError(f"PATH: malformed JSON in {filename} at line {exc.lineno} column {exc.colno}: {exc.msg}") from None
-    except ValueError as exc:
-        raise UsageError(f"PATH: {exc}") from None
-    if not isinstance(data, dict) or "path" not in data:
-        raise UsageError(f'PATH: {filename} must hold an object with a "path" list of [x, y, z]')
-    raw = data["path"]
-    if not isinstance(raw, list) or not all(isinstance(p, list) and len(p) == 3 for p in raw):
-        raise UsageError("path: expected a list of [x, y, z] points")
-    try:
-        arr = np.array(raw, dtype=float)
-    except (TypeError, ValueError):
-        raise UsageError("path: coordinates must be numbers") from None
-    bad = np.argwhere(~np.isfinite(arr))
-    if bad.size:
-        i, j = bad[0]
-        raise UsageError(f"path[{i}][{j}]: coordinate must be finite, got {raw[i][j]!r}")
-    if len(arr) < 2:
-        raise UsageError("path: needs at least 2 points")
-    return arr
+    """Read ``{"path": [[x, y, z], ...]}`` (any plan file will do: other fields are ignored); at least 2 points of
+    real numbers. ValueError names the field (``path[3][1]``), or ``PATH`` for the file as a whole."""
+    from snakeplan.inputs import load_json, points, show
+
+    data = load_json(_read_text(filename, "PATH"), "PATH")
+    if not isinstance(data, dict):
+        raise ValueError(f'PATH: expected an object with a "path" list of [x, y, z], got {show(data)}')
+    if "path" not in data:
+        raise ValueError('path: missing; PATH must hold an object with a "path" list of [x, y, z]')
+    return points(data["path"], "path", min_count=2)
 
 
 # --- commands ----------------------------------------------------------------------------------------------

@@ -10,6 +10,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.ndimage import gaussian_filter1d
 
+from snakeplan import inputs
+
 #: Two consecutive points closer than this (mm) count as one point in :func:`drop_duplicates`.
 DUPLICATE_TOL = 1e-9
 
@@ -20,19 +22,10 @@ REMAINDER_TOL = 1e-9
 def validate_path(path: ArrayLike, name: str = "path") -> np.ndarray:
     """Return ``path`` as a C-contiguous float64 ``(m, 3)`` array with m >= 2 finite points.
 
-    Raises ValueError with a one-line message (naming ``name``) on a wrong shape, too few points or NaN/inf.
+    Raises ValueError with a one-line message naming the field (``path[3][1]``) on a wrong shape, too few points,
+    or a coordinate that is not a real number (a string, a boolean, NaN, inf; :func:`snakeplan.inputs.points`).
     """
-    try:
-        arr = np.array(path, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be an (m, 3) array of numbers: {exc}") from None
-    if arr.ndim != 2 or arr.shape[1] != 3:
-        raise ValueError(f"{name} must have shape (m, 3), got {arr.shape}")
-    if arr.shape[0] < 2:
-        raise ValueError(f"{name} needs at least 2 points, got {arr.shape[0]}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} contains NaN or infinite coordinates")
-    return np.ascontiguousarray(arr)
+    return inputs.points(path, name, min_count=2)
 
 
 def _check_step(step: float, name: str = "step") -> float:

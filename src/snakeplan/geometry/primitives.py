@@ -9,48 +9,20 @@ scenes without Python in the loop. Signed distance is negative inside the materi
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import MISSING, dataclass, field, fields
 from typing import Any, ClassVar
 
 import numpy as np
 
-from snakeplan.geometry.transforms import any_perpendicular, normalize
+from snakeplan import inputs
+from snakeplan.geometry.transforms import any_perpendicular
 
 # Packed row layout shared with the numba kernels: [kind, center(3), R row-major(9), params...].
 PACK_WIDTH = 24
 KIND_BOX, KIND_SPHERE, KIND_CYLINDER, KIND_PLATE, KIND_PIPE, KIND_MESH = range(6)
 _P = 13  # first type-specific parameter
-
-
-def vec3(value: Any, name: str) -> np.ndarray:
-    """``value`` as a finite 3-vector; ValueError naming ``name`` otherwise (for input validation)."""
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected [x, y, z] numbers, got {value!r}") from None
-    if arr.shape != (3,):
-        raise ValueError(f"{name}: expected [x, y, z], got {value!r}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}: coordinates must be finite, got {value!r}")
-    return arr
-
-
-def _positive(value: Any, name: str) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected a number, got {value!r}") from None
-    if not math.isfinite(v) or v <= 0:
-        raise ValueError(f"{name}: must be a positive finite number, got {value!r}")
-    return v
-
-
-def _unit(value: Any, name: str) -> np.ndarray:
-    v = vec3(value, name)
-    n = np.linalg.norm(v)
-    if n < 1e-12:
-        raise ValueError(f"{name}: must be a non-zero vector")
-    return v / n
+#: A plate's ``up`` must make an angle with its ``normal`` whose sine is at least this.
+MIN_UP_SINE = 1e-6
 
 
 def _list(a: np.ndarray) -> list:
@@ -114,17 +86,10 @@ class Box(Obstacle):
     kind: ClassVar[int] = KIND_BOX
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "center", vec3(self.center, "box.center"))
-        size = vec3(self.size, "box.size")
-        if np.any(size <= 0):
-            raise ValueError(f"box.size: every edge must be > 0, got {size.tolist()}")
-        object.__setattr__(self, "size", size)
-        R = np.asarray(self.rotation, dtype=float)
-        if R.shape != (3, 3) or not np.all(np.isfinite(R)) or not np.allclose(R.T @ R, np.eye(3), atol=1e-6):
-            raise ValueError("box.rotation: must be a 3x3 rotation matrix")
-        if np.linalg.det(R) < 0:
-            raise ValueError("box.rotation: must be a proper rotation (determinant +1)")
-        object.__setattr__(self, "rotation", R)
+        object.__setattr__(self, "center", inputs.vec3(self.center, "box.center"))
+        size = inputs.vec3(self.size, "box.size")
+        object.__setattr__(self, "size", np.array([inputs.length(v, f"box.size[{i}]") for i, v in enumerate(size)]))
+        object.__setattr__(self, "rotation", inputs.rotation(self.rotation, "box.rotation"))
 
     def frame(self) -> np.ndarray:
         return self.rotation
@@ -152,8 +117,8 @@ class Sphere(Obstacle):
     kind: ClassVar[int] = KIND_SPHERE
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "center", vec3(self.center, "sphere.center"))
-        object.__setattr__(self, "radius", _positive(self.radius, "sphere.radius"))
+        object.__setattr__(self, "center", inputs.vec3(self.center, "sphere.center"))
+        object.__setattr__(self, "radius", inputs.length(self.radius, "sphere.radius"))
 
     def _pack_params(self, row: np.ndarray) -> None:
         row[_P] = self.radius
@@ -177,10 +142,10 @@ class Cylinder(Obstacle):
     kind: ClassVar[int] = KIND_CYLINDER
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "center", vec3(self.center, "cylinder.center"))
-        object.__setattr__(self, "axis", _unit(self.axis, "cylinder.axis"))
-        object.__setattr__(self, "radius", _positive(self.radius, "cylinder.radius"))
-        object.__setattr__(self, "length", _positive(self.length, "cylinder.length"))
+        object.__setattr__(self, "center", inputs.vec3(self.center, "cylinder.center"))
+        object.__setattr__(self, "axis", inputs.unit(self.axis, "cylinder.axis"))
+        object.__setattr__(self, "radius", inputs.length(self.radius, "cylinder.radius"))
+        object.__setattr__(self, "length", inputs.length(self.length, "cylinder.length"))
 
     def frame(self) -> np.ndarray:
         x = any_perpendicular(self.axis)
@@ -214,11 +179,11 @@ class Pipe(Obstacle):
     kind: ClassVar[int] = KIND_PIPE
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "center", vec3(self.center, "pipe.center"))
-        object.__setattr__(self, "axis", _unit(self.axis, "pipe.axis"))
-        object.__setattr__(self, "inner_radius", _positive(self.inner_radius, "pipe.inner_radius"))
-        object.__setattr__(self, "outer_radius", _positive(self.outer_radius, "pipe.outer_radius"))
-        object.__setattr__(self, "length", _positive(self.length, "pipe.length"))
+        object.__setattr__(self, "center", inputs.vec3(self.center, "pipe.center"))
+        object.__setattr__(self, "axis", inputs.unit(self.axis, "pipe.axis"))
+        object.__setattr__(self, "inner_radius", inputs.length(self.inner_radius, "pipe.inner_radius"))
+        object.__setattr__(self, "outer_radius", inputs.length(self.outer_radius, "pipe.outer_radius"))
+        object.__setattr__(self, "length", inputs.length(self.length, "pipe.length"))
         if self.outer_radius <= self.inner_radius:
             raise ValueError(f"pipe.outer_radius: must exceed inner_radius {self.inner_radius}, got {self.outer_radius}")
 
@@ -260,32 +225,28 @@ class Plate(Obstacle):
     kind: ClassVar[int] = KIND_PLATE
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "center", vec3(self.center, "plate.center"))
-        n = _unit(self.normal, "plate.normal")
-        up = vec3(self.up, "plate.up")
+        object.__setattr__(self, "center", inputs.vec3(self.center, "plate.center"))
+        n = inputs.unit(self.normal, "plate.normal")
+        up = inputs.unit(self.up, "plate.up")
         up = up - np.dot(up, n) * n
-        if np.linalg.norm(up) < 1e-9:
-            raise ValueError("plate.up: must not be parallel to plate.normal")
+        if np.linalg.norm(up) < MIN_UP_SINE:
+            raise ValueError(f"plate.up: must not be parallel to plate.normal (sine of their angle < {MIN_UP_SINE:g})")
         object.__setattr__(self, "normal", n)
-        object.__setattr__(self, "up", normalize(up))
-        size = np.asarray(self.size, dtype=float)
-        if size.shape != (2,) or not np.all(np.isfinite(size)) or np.any(size <= 0):
-            raise ValueError(f"plate.size: expected two positive numbers [width, height], got {self.size!r}")
-        object.__setattr__(self, "size", (float(size[0]), float(size[1])))
-        object.__setattr__(self, "thickness", _positive(self.thickness, "plate.thickness"))
+        object.__setattr__(self, "up", up / np.linalg.norm(up))
+        size = inputs.vector(self.size, "plate.size", 2, shape="[width, height]")
+        w, h = (inputs.length(v, f"plate.size[{i}]") for i, v in enumerate(size))
+        object.__setattr__(self, "size", (w, h))
+        object.__setattr__(self, "thickness", inputs.length(self.thickness, "plate.thickness"))
         if self.hole is not None:
-            if not isinstance(self.hole, dict):
-                raise ValueError("plate.hole: expected null or {offset, semi_axes}")
-            off = np.asarray(self.hole.get("offset", [0.0, 0.0]), dtype=float)
-            ax = np.asarray(self.hole.get("semi_axes", None) if self.hole.get("semi_axes") is not None else [np.nan], dtype=float)
-            if off.shape != (2,) or not np.all(np.isfinite(off)):
-                raise ValueError(f"plate.hole.offset: expected two finite numbers, got {self.hole.get('offset')!r}")
-            if ax.shape != (2,) or not np.all(np.isfinite(ax)) or np.any(ax <= 0):
-                raise ValueError(f"plate.hole.semi_axes: expected two positive numbers, got {self.hole.get('semi_axes')!r}")
-            w, h = self.size
+            hole = inputs.mapping(self.hole, "plate.hole", required=("semi_axes",), allowed=("offset", "semi_axes"),
+                                  what="null or {offset, semi_axes}")
+            off = inputs.vector(hole.get("offset", [0.0, 0.0]), "plate.hole.offset", 2, shape="[u, v]")
+            ax = inputs.vector(hole["semi_axes"], "plate.hole.semi_axes", 2, shape="[a, b]")
+            ax = [inputs.length(v, f"plate.hole.semi_axes[{i}]") for i, v in enumerate(ax)]
             if abs(off[0]) + ax[0] >= w / 2 or abs(off[1]) + ax[1] >= h / 2:
-                raise ValueError("plate.hole: the hole must lie strictly inside the plate")
-            object.__setattr__(self, "hole", {"offset": off.tolist(), "semi_axes": ax.tolist()})
+                raise ValueError(f"plate.hole: must lie strictly inside the plate (|offset| + semi_axes < size / 2 "
+                                 f"on each axis; offset {off.tolist()}, semi_axes {ax}, size {[w, h]})")
+            object.__setattr__(self, "hole", {"offset": off.tolist(), "semi_axes": ax})
 
     @property
     def side(self) -> np.ndarray:
@@ -324,16 +285,10 @@ class Mesh(Obstacle):
     kind: ClassVar[int] = KIND_MESH
 
     def __post_init__(self) -> None:
-        V = np.asarray(self.vertices, dtype=float)
-        F = np.asarray(self.faces)
-        if V.ndim != 2 or V.shape[1] != 3 or len(V) < 4 or not np.all(np.isfinite(V)):
-            raise ValueError("mesh.vertices: expected at least 4 finite [x, y, z] rows")
-        if F.ndim != 2 or F.shape[1] != 3 or len(F) < 4 or not np.issubdtype(F.dtype, np.integer):
-            raise ValueError("mesh.faces: expected at least 4 integer [i, j, k] rows")
-        if F.min() < 0 or F.max() >= len(V):
-            raise ValueError("mesh.faces: vertex index out of range")
+        V = inputs.rows(self.vertices, "mesh.vertices", 3, min_rows=4)
+        F = inputs.index_rows(self.faces, "mesh.faces", 3, len(V), min_rows=4)
         object.__setattr__(self, "vertices", V)
-        object.__setattr__(self, "faces", F.astype(np.int64))
+        object.__setattr__(self, "faces", F)
 
     @property
     def center(self) -> np.ndarray:  # type: ignore[override]
@@ -360,18 +315,19 @@ OBSTACLE_TYPES: dict[str, type[Obstacle]] = {c.type: c for c in (Box, Sphere, Cy
 
 
 def obstacle_from_dict(d: Any, where: str = "obstacle") -> Obstacle:
-    """Build an obstacle from its ``snakeplan.scene/1`` dict; ValueError names the bad field."""
-    if not isinstance(d, dict):
-        raise ValueError(f"{where}: expected an object, got {type(d).__name__}")
-    kind = d.get("type")
-    cls = OBSTACLE_TYPES.get(kind)  # type: ignore[arg-type]
+    """Build an obstacle from its ``snakeplan.scene/1`` dict; ValueError names the bad field's JSON path."""
+    d = inputs.mapping(d, where, required=("type",))
+    kind = d["type"]
+    if not isinstance(kind, str):
+        raise ValueError(f"{where}.type: expected a string, got {inputs.show(kind)}")
+    cls = OBSTACLE_TYPES.get(kind)
     if cls is None:
-        raise ValueError(f"{where}.type: unknown obstacle type {kind!r} (known: {', '.join(OBSTACLE_TYPES)})")
-    kwargs = {k: v for k, v in d.items() if k != "type"}
+        raise ValueError(f"{where}.type: unknown obstacle type {inputs.show(kind)} (known: {', '.join(OBSTACLE_TYPES)})")
+    names = [f.name for f in fields(cls)]
+    required = tuple(f.name for f in fields(cls) if f.default is MISSING and f.default_factory is MISSING)
+    inputs.mapping(d, where, required=required, allowed=("type", *names))
     try:
-        return cls(**kwargs)
-    except TypeError as exc:
-        raise ValueError(f"{where}: wrong fields for {kind}: {exc}") from None
+        return cls(**{k: v for k, v in d.items() if k != "type"})
     except ValueError as exc:
         msg = str(exc)
         if msg.startswith(f"{kind}."):

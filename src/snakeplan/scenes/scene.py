@@ -2,7 +2,8 @@
 
 A scene is plain data with a lossless JSON round-trip (schema ``snakeplan.scene/1``, docs/ARCHITECTURE.md) and the
 spatial queries every planner and the judge share: signed distance, chain clearance, line of sight.
-Lengths in mm.
+Lengths in mm. The constructor checks every field (:mod:`snakeplan.inputs`); :meth:`Scene.from_dict`, the one
+reader of scene files, also checks the metadata that code reads and where the entrance and targets lie.
 """
 
 from __future__ import annotations
@@ -14,10 +15,16 @@ from typing import Any
 
 import numpy as np
 
-from snakeplan.geometry.distance import ObstacleSet
-from snakeplan.geometry.primitives import Obstacle, obstacle_from_dict, vec3
+from snakeplan import inputs
+from snakeplan.geometry.distance import CONTACT_RESOLUTION_MM, ObstacleSet
+from snakeplan.geometry.primitives import Mesh, Obstacle, obstacle_from_dict
 
 SCHEMA = "snakeplan.scene/1"
+#: How deep (mm) a scene file's entrance may lie inside an obstacle's surface (it may sit on a wall's port).
+ENTRANCE_TOLERANCE_MM = CONTACT_RESOLUTION_MM
+#: Most obstacles in a scene file (the generated scenes have at most about 50; `snakeplan show` draws 10,000 in
+#: well under a minute).
+MAX_OBSTACLES = 10_000
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:
@@ -33,12 +40,8 @@ class Entrance:
     direction: np.ndarray
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "position", _frozen(vec3(self.position, "entrance.position")))
-        d = vec3(self.direction, "entrance.direction")
-        n = np.linalg.norm(d)
-        if n < 1e-12:
-            raise ValueError("entrance.direction: must be a non-zero vector")
-        object.__setattr__(self, "direction", _frozen(d / n))
+        object.__setattr__(self, "position", _frozen(inputs.vec3(self.position, "entrance.position")))
+        object.__setattr__(self, "direction", _frozen(inputs.unit(self.direction, "entrance.direction")))
 
     def to_dict(self) -> dict:
         return {"position": self.position.tolist(), "direction": self.direction.tolist()}
@@ -62,14 +65,19 @@ class Scene:
     metadata: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        lo, hi = vec3(self.bounds_min, "bounds.min"), vec3(self.bounds_max, "bounds.max")
-        if np.any(hi <= lo):
-            raise ValueError("bounds: max must exceed min on every axis")
-        t = np.array(self.targets, dtype=float).reshape(-1, 3) if len(self.targets) else np.zeros((0, 3))
-        if not np.all(np.isfinite(t)):
-            raise ValueError("targets: coordinates must be finite")
-        for name, value in (("bounds_min", _frozen(lo)), ("bounds_max", _frozen(hi)), ("targets", _frozen(t)),
-                            ("obstacles", tuple(self.obstacles))):
+        lo, hi = inputs.corners(self.bounds_min, self.bounds_max, "bounds")
+        if not isinstance(self.entrance, Entrance):
+            raise ValueError(f"entrance: expected an Entrance, got {inputs.show(self.entrance)}")
+        obstacles = tuple(self.obstacles)
+        for i, o in enumerate(obstacles):
+            if not isinstance(o, Obstacle):
+                raise ValueError(f"obstacles[{i}]: expected an obstacle, got {inputs.show(o)}")
+        fields = {"name": inputs.text(self.name, "name"),
+                  "seed": None if self.seed is None else inputs.integer(self.seed, "seed", 0, 2**64 - 1),
+                  "bounds_min": _frozen(lo), "bounds_max": _frozen(hi),
+                  "targets": _frozen(inputs.points(self.targets, "targets")), "obstacles": obstacles,
+                  "metadata": inputs.mapping(self.metadata, "metadata")}
+        for name, value in fields.items():
             object.__setattr__(self, name, value)
 
     # --- queries -------------------------------------------------------------------------------------------
@@ -122,51 +130,119 @@ class Scene:
 
     @classmethod
     def from_dict(cls, d: Any) -> Scene:
-        """Parse a ``snakeplan.scene/1`` object; ValueError names the first bad field."""
-        if not isinstance(d, dict):
-            raise ValueError("scene: expected a JSON object")
+        """Parse and check a ``snakeplan.scene/1`` object; ValueError names the first bad field's JSON path.
+
+        Beyond the constructor's checks: at most :data:`MAX_OBSTACLES` obstacles, each object with exactly its
+        type's fields; the metadata is plain JSON and the keys code reads are well formed (:func:`check_metadata`);
+        the entrance and the targets lie where they may (:func:`check_placement`).
+        """
+        d = inputs.mapping(d, "scene", what="a JSON object")
+        inputs.mapping(d, "", required=("name", "bounds", "entrance"))
         if d.get("schema", SCHEMA) != SCHEMA:
-            raise ValueError(f"schema: expected {SCHEMA!r}, got {d.get('schema')!r}")
+            raise ValueError(f"schema: expected {SCHEMA!r}, got {inputs.show(d['schema'])}")
         if d.get("units", "mm") != "mm":
-            raise ValueError(f"units: only 'mm' is supported, got {d.get('units')!r}")
-        for key in ("name", "bounds", "entrance"):
-            if key not in d:
-                raise ValueError(f"{key}: missing")
-        bounds, entrance = d["bounds"], d["entrance"]
-        if not isinstance(bounds, dict) or "min" not in bounds or "max" not in bounds:
-            raise ValueError("bounds: expected {min: [x, y, z], max: [x, y, z]}")
-        if not isinstance(entrance, dict) or "position" not in entrance or "direction" not in entrance:
-            raise ValueError("entrance: expected {position: [x, y, z], direction: [dx, dy, dz]}")
-        targets = d.get("targets", [])
-        if not isinstance(targets, list):
-            raise ValueError("targets: expected a list of [x, y, z]")
-        parsed_targets = [vec3(t, f"targets[{i}]") for i, t in enumerate(targets)]
-        obstacles = d.get("obstacles", [])
-        if not isinstance(obstacles, list):
-            raise ValueError("obstacles: expected a list")
-        seed = d.get("seed")
-        if seed is not None and (not isinstance(seed, int) or isinstance(seed, bool)):
-            raise ValueError(f"seed: expected an integer or null, got {seed!r}")
-        return cls(
-            name=str(d["name"]),
-            seed=seed,
-            bounds_min=bounds["min"],
-            bounds_max=bounds["max"],
-            entrance=Entrance(entrance["position"], entrance["direction"]),
-            targets=np.array(parsed_targets).reshape(-1, 3),
-            obstacles=[obstacle_from_dict(o, f"obstacles[{i}]") for i, o in enumerate(obstacles)],
-            metadata=dict(d.get("metadata") or {}),
-        )
+            raise ValueError(f"units: only 'mm' is supported, got {inputs.show(d['units'])}")
+        bounds = inputs.mapping(d["bounds"], "bounds", required=("min", "max"), what="{min: [x, y, z], max: [x, y, z]}")
+        entrance = inputs.mapping(d["entrance"], "entrance", required=("position", "direction"),
+                                  what="{position: [x, y, z], direction: [dx, dy, dz]}")
+        raw = inputs.items(d.get("obstacles", []), "obstacles")
+        if len(raw) > MAX_OBSTACLES:
+            raise ValueError(f"obstacles: more than {MAX_OBSTACLES} obstacles ({len(raw)}); join small ones into a mesh")
+        obstacles = [obstacle_from_dict(o, f"obstacles[{i}]") for i, o in enumerate(raw)]
+        metadata = d.get("metadata")
+        metadata = {} if metadata is None else inputs.mapping(metadata, "metadata")
+        inputs.plain_json(metadata, "metadata")
+        check_metadata(metadata, obstacles)
+        scene = cls(name=d["name"], seed=d.get("seed"), bounds_min=bounds["min"], bounds_max=bounds["max"],
+                    entrance=Entrance(entrance["position"], entrance["direction"]), targets=d.get("targets", []),
+                    obstacles=obstacles, metadata=metadata)
+        check_placement(scene)
+        return scene
 
     @classmethod
-    def from_json(cls, text: str) -> Scene:
-        try:
-            data = json.loads(text, parse_constant=_reject_constant)
-        except json.JSONDecodeError as exc:
-            raise ValueError(f"scene JSON: malformed at line {exc.lineno} column {exc.colno}: {exc.msg}") from None
-        return cls.from_dict(data)
+    def from_json(cls, text: str, source: str = "scene") -> Scene:
+        """Parse scene JSON ``text`` (:func:`snakeplan.inputs.load_json`'s limits; ``source`` names the file in a
+        message about the file as a whole)."""
+        return cls.from_dict(inputs.load_json(text, source))
 
 
-def _reject_constant(name: str) -> float:
-    raise ValueError(f"JSON: {name} is not a valid number")
+def check_placement(scene: Scene) -> None:
+    """The entrance and the targets lie inside the bounds; no target lies inside an obstacle (signed distance
+    >= 0) and the entrance lies at most :data:`ENTRANCE_TOLERANCE_MM` deep in one (it may sit in a wall's port)."""
+    names = ["entrance.position"] + [f"targets[{i}]" for i in range(len(scene.targets))]
+    pts = np.vstack([scene.entrance.position[None], scene.targets])
+    inside = scene.in_bounds(pts)
+    for name, p, ok in zip(names, pts, inside):
+        if not ok:
+            raise ValueError(f"{name}: {_fmt(p)} lies outside the bounds {_fmt(scene.bounds_min)} .. "
+                             f"{_fmt(scene.bounds_max)}")
+    if not scene.obstacles:
+        return
+    depth = -scene.signed_distance(pts)
+    allowed = np.r_[ENTRANCE_TOLERANCE_MM, np.zeros(len(scene.targets))]
+    for name, p, dp, limit in zip(names, pts, depth, allowed):
+        if dp > limit:
+            k = int(np.argmin([o.signed_distance(p) for o in scene.obstacles]))
+            what = "the entrance may touch a wall but" if name == "entrance.position" else "a target"
+            raise ValueError(f"{name}: {_fmt(p)} lies {dp:.3g} mm deep inside obstacles[{k}]; {what} must lie in "
+                             f"free space")
 
+
+def check_metadata(meta: dict, obstacles: list[Obstacle]) -> None:
+    """The metadata keys that code reads (docs/ARCHITECTURE.md, ``snakeplan.scene/1``), where present: fuel-tank
+    ``chambers`` (with ``holes``), oil-tank ``cells``, the station's ``field``, ``mesh`` and
+    ``parameters.base_temperature_k``."""
+    if "chambers" in meta:
+        n = _rooms(meta["chambers"], "metadata.chambers")
+        if "holes" in meta:
+            for i, h in enumerate(inputs.items(meta["holes"], "metadata.holes")):
+                name = f"metadata.holes[{i}]"
+                h = inputs.mapping(h, name, required=("center", "normal", "chambers"))
+                inputs.vec3(h["center"], f"{name}.center")
+                inputs.unit(h["normal"], f"{name}.normal")
+                pair = inputs.items(h["chambers"], f"{name}.chambers", "[a, b]")
+                if len(pair) != 2:
+                    raise ValueError(f"{name}.chambers: expected [a, b], got {inputs.show(pair)}")
+                for j, k in enumerate(pair):
+                    inputs.integer(k, f"{name}.chambers[{j}]", 0, n - 1)
+    if "cells" in meta:
+        _rooms(meta["cells"], "metadata.cells")
+    if "field" in meta:
+        field_ = inputs.mapping(meta["field"], "metadata.field", required=("values",))
+        values = inputs.items(field_["values"], "metadata.field.values")
+        for i, v in enumerate(values):
+            inputs.real(v, f"metadata.field.values[{i}]")
+        meshes = [o for o in obstacles if isinstance(o, Mesh)]
+        if len(meshes) != 1:
+            raise ValueError(f"metadata.field: lies on the scene's only mesh, but the scene has {len(meshes)} meshes")
+        if len(values) != len(meshes[0].vertices):
+            raise ValueError(f"metadata.field.values: expected one value per mesh vertex ({len(meshes[0].vertices)}), "
+                             f"got {len(values)}")
+    if "mesh" in meta:
+        mesh = inputs.mapping(meta["mesh"], "metadata.mesh")
+        for key in ("radius_mm", "height_mm"):
+            if key in mesh:
+                inputs.length(mesh[key], f"metadata.mesh.{key}")
+        if "axis" in mesh:
+            inputs.unit(mesh["axis"], "metadata.mesh.axis")
+        if "base_center" in mesh:
+            inputs.vec3(mesh["base_center"], "metadata.mesh.base_center")
+    if "parameters" in meta:
+        parameters = inputs.mapping(meta["parameters"], "metadata.parameters")
+        if "base_temperature_k" in parameters:
+            inputs.real(parameters["base_temperature_k"], "metadata.parameters.base_temperature_k")
+
+
+def _rooms(value: Any, name: str) -> int:
+    """Check a list of at least one room box ``{min, max}``; return how many."""
+    rooms = inputs.items(value, name)
+    if not rooms:
+        raise ValueError(f"{name}: needs at least one room")
+    for i, room in enumerate(rooms):
+        room = inputs.mapping(room, f"{name}[{i}]", required=("min", "max"))
+        inputs.corners(room["min"], room["max"], f"{name}[{i}]")
+    return len(rooms)
+
+
+def _fmt(p: np.ndarray) -> str:
+    return "[" + ", ".join(f"{v:g}" for v in p) + "]"

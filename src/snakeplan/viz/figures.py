@@ -23,7 +23,7 @@ def plan_figure(scene: Scene, path=None, body=None, *, curvature=None, k_ul: flo
     ax = fig.add_subplot(1, 2 if has_profile else 1, 1, projection="3d")
     draw_scene(ax, scene, path=path, body=body)
     ax.view_init(elev=35, azim=-60)
-    ax.set_title(title or f"{scene.name} (seed {scene.seed})")
+    ax.set_title(title or f"{scene.name} (seed {scene.seed})", parse_math=False)  # a scene name is text, not TeX
     if has_profile:
         s, kappa = curvature
         ax2 = fig.add_subplot(1, 2, 2)
