@@ -88,11 +88,26 @@ class SSCCPlanner(Planner):
             self._agents[robot] = SwingAgent.load(robot, self.agent_path, learning=True)
         return self._agents[robot]
 
-    def _policy(self, robot: Chain) -> tuple[str, SwingPolicy]:
-        if self.search == "agent" and self.agent_path is not None and robot.name not in ROBOTS:
+    def _given_agent(self, robot: Chain) -> SwingAgent:
+        """The agent in the file this planner was given, for ``robot``; ValueError ``policy: ...`` in one line when
+        it is not an SSCC agent that fits the robot."""
+        if robot.name not in ROBOTS:
             raise ValueError(f"policy: an SSCC agent is trained for a registered arm ({', '.join(robot_names())}); "
                              f"robot {robot.name} is not one")
-        agent = self.agent(robot.name) if self.search == "agent" else None
+        try:
+            return self.agent(robot.name)
+        except (ValueError, KeyError, IndexError) as exc:
+            why = f": {exc.args[0]}" if isinstance(exc, ValueError) and exc.args else ""
+            raise ValueError(f"policy: {self.agent_path} is not an SSCC agent for {robot.name} (one that "
+                             f"'snakeplan train sscc --robot {robot.name}' writes){why}") from None
+
+    def _policy(self, robot: Chain) -> tuple[str, SwingPolicy]:
+        if self.search != "agent":
+            agent = None
+        elif self.agent_path is not None:
+            agent = self._given_agent(robot)
+        else:
+            agent = self.agent(robot.name)
         if agent is not None:
             return "agent", agent
         if self.search == "random":
