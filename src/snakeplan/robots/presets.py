@@ -27,8 +27,8 @@ preset name or a robot file (DH YAML, URDF, ``snakeplan.robot/1`` JSON).
 
 from __future__ import annotations
 
-import math
 import json
+import math
 from collections.abc import Callable
 from importlib.resources import files
 from pathlib import Path
