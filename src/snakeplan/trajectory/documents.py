@@ -66,7 +66,7 @@ def to_dict(traj: Trajectory) -> dict[str, Any]:
         "units": {"length": "mm", "angle": "rad", "time": "s"},
         "robot": robot.name,
         "urdf": robot.with_base(np.eye(4)).to_urdf(),
-        "base_pose": traj.base_pose,
+        "base_pose": traj.base_pose + 0.0,  # no -0.0
         "tip_link": f"s{robot.n_sections - 1}_end",
         "body_links": _body_links(robot.n_sections),
         "joint_names": list(robot.joint_names),
