@@ -213,7 +213,7 @@ def test_train_rl_for_your_robot_and_scene_then_plan_with_the_policy(capsys, tmp
     assert code in (0, 1) and data["planner"] == "sac" and data["robot"] == "sscc-24" and len(data["path"]) > 1
     assert data["status"] in ("found", "approximate")  # a roll-out that fails its own checks is approximate
     code, _, err = run(capsys, "plan", "--scene", "pipe", "--planner", "sscc", "--policy", str(out / "last.npz"))
-    assert code == 2 and "--policy" in err
+    assert code == 2 and "policy: " in err and "is not an SSCC agent for sscc-24" in err and err.count("\n") == 1
 
 
 @pytest.mark.parametrize("scene, fragment", [("moon-base", "--scene: unknown scene"),

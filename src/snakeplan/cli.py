@@ -24,6 +24,10 @@ EXIT_OK, EXIT_INFEASIBLE, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 DEFAULT_SCENE = "fuel-tank"
 #: Planning budget (s) of `snakeplan demo`, per call.
 DEMO_TIME_LIMIT_S = 30.0
+ROBOT_HELP = ("robot preset, or a robot file: .urdf, DH .yaml or robot/1 .json (default: the one the scene is sized "
+              "for, e.g. sjtu-snake-iii)")
+TRAJECTORY_HELP = ("write the judged plan's trajectory (feed, joints, cables over time) to FILE: .json "
+                   "snakeplan.trajectory/1, .csv, or .ros.json / .yaml (ROS JointTrajectory); may be repeated")
 
 
 class UsageError(Exception):
@@ -62,19 +66,19 @@ def _load_scene(args: argparse.Namespace):
 
 
 def _robot_for(args: argparse.Namespace, scene):
-    """The robot named by --robot, else the one the scene's spec says it is sized for."""
+    """The robot named by --robot (a preset or a robot file), else the one the scene's spec says it is sized for."""
     from snakeplan.scenes import spec_for
 
     return _load_robot(args.robot or spec_for(scene).robot)
 
 
-def _load_robot(name: str):
-    from snakeplan.robots import get_robot
+def _load_robot(spec: str, field: str = "--robot"):
+    from snakeplan.robots import load_robot
 
     try:
-        return get_robot(name)
-    except KeyError as exc:
-        raise UsageError(f"--robot: {exc.args[0]}") from None
+        return load_robot(spec)
+    except (KeyError, ValueError) as exc:
+        raise UsageError(f"{field}: {exc.args[0]}") from None
 
 
 def _read_text(filename: str, field: str) -> str:
@@ -141,7 +145,7 @@ def cmd_robot(args: argparse.Namespace) -> int:
     if args.name is None:
         sys.stdout.write("\n".join(robot_names()) + "\n")
         return EXIT_OK
-    robot = _load_robot(args.name)
+    robot = _load_robot(args.name, "NAME")
     if args.json:
         _print_json(robot.to_dict())
         return EXIT_OK
@@ -154,7 +158,12 @@ def cmd_robot(args: argparse.Namespace) -> int:
         table.add_column(col, justify="right")
     for i, sec in enumerate(robot.sections):
         table.add_row(str(i), f"{sec.length:g}", f"{sec.radius:g}", f"{math.degrees(sec.max_bend):.1f}")
+    lim = robot.limits
+    feed = f"feed {robot.feed_range[0]:g}..{robot.feed_range[1]:g} mm, " if robot.has_feed else "no feed, "
+    cables = (f"{len(robot.cables.names)} driving cables" if robot.cables is not None else "not cable-driven")
     Console().print(table)
+    sys.stdout.write(f"{feed}{lim.feed_speed_mm_s:g} mm/s, {lim.feed_acceleration_mm_s2:g} mm/s^2; joints "
+                     f"{lim.joint_rate_rad_s:g} rad/s, {lim.joint_acceleration_rad_s2:g} rad/s^2; {cables}\n")
     return EXIT_OK
 
 
@@ -253,12 +262,38 @@ def _load_planner(name: str, **options):
     return cls(**options)
 
 
+def _check_trajectories(filenames: list[str] | None, field: str) -> None:
+    """Refuse trajectory files that could not be written or whose name picks no format, before any work."""
+    from snakeplan.trajectory import output_format
+
+    for filename in filenames or ():
+        output_format(filename, field)
+
+
+def _write_trajectories(filenames: list[str], scene, robot, path, report, provenance: dict) -> int:
+    """Build the trajectory of a judged path and write it to every file; exit status 1 (one line on stderr) when
+    the plan cannot become one."""
+    from snakeplan.trajectory import InfeasiblePlan, build_trajectory, write
+
+    try:
+        traj = build_trajectory(scene, robot, path, provenance, report)
+    except InfeasiblePlan as exc:
+        sys.stderr.write(f"snakeplan: no trajectory: {exc}\n")
+        return EXIT_INFEASIBLE
+    for filename in filenames:
+        kind = write(traj, filename)
+        sys.stderr.write(f"wrote {filename} ({kind}: {len(traj.t)} points, {traj.timing.duration_s:.2f} s, "
+                         f"{traj.method})\n")
+    return EXIT_OK
+
+
 def cmd_plan(args: argparse.Namespace) -> int:
     from snakeplan.episode import run_episode
     from snakeplan.planners import Problem
     from snakeplan.scenes import spec_for
 
     _check_picture(args.plot, "--plot")
+    _check_trajectories(args.trajectory, "--trajectory")
     scene = _load_scene(args)
     robot = _robot_for(args, scene)
     spec = spec_for(scene)
@@ -282,7 +317,38 @@ def cmd_plan(args: argparse.Namespace) -> int:
                          f"in {plan.compute_time_s:.3f} s\n")
         if episode.report is not None:
             sys.stdout.write("\n".join(_report_lines(episode.report)) + "\n")
+    if args.trajectory:
+        if episode.report is None:
+            sys.stderr.write("snakeplan: no trajectory: the planner returned no path\n")
+            return EXIT_INFEASIBLE
+        provenance = {"scene": {"name": scene.name, "seed": scene.seed}, "planner": plan.planner,
+                      "planner_seed": args.planner_seed, "status": str(plan.status)}
+        if _write_trajectories(args.trajectory, scene, robot, plan.path, episode.report, provenance):
+            return EXIT_INFEASIBLE
     return EXIT_OK if episode.success else EXIT_INFEASIBLE
+
+
+def cmd_trajectory(args: argparse.Namespace) -> int:
+    from snakeplan.scenes import Scene, make_scene, spec_for
+    from snakeplan.trajectory import read_plan
+
+    _check_trajectories(args.out, "-o")
+    plan = read_plan(_read_text(args.plan_file, "PLAN"))
+    if args.scene_file:
+        scene = Scene.from_json(_read_text(args.scene_file, "--scene-file"))
+    else:
+        name = args.scene or plan["scene"]["name"]
+        seed = args.seed if args.seed is not None else plan["scene"]["seed"]
+        if name is None or seed is None:
+            raise UsageError("--scene: the plan names no generated scene; give --scene and --seed, or --scene-file")
+        try:
+            scene = make_scene(name, seed)
+        except KeyError as exc:
+            raise UsageError(f"--scene: {exc.args[0]}") from None
+    robot = _load_robot(args.robot or plan["robot"] or spec_for(scene).robot)
+    provenance = {"scene": {"name": scene.name, "seed": scene.seed}, "planner": plan["planner"],
+                  "plan_file": Path(args.plan_file).name}
+    return _write_trajectories(args.out, scene, robot, plan["path"], None, provenance)
 
 
 def _plan_inspection(args: argparse.Namespace, scene, robot, default: str) -> int:
@@ -481,8 +547,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--list", action="store_true", help="list the scene names")
     p.set_defaults(func=cmd_scene_entry)
 
-    p = sub.add_parser("robot", help="print a robot preset", description="Print a robot preset (mm, rad).")
-    p.add_argument("name", nargs="?", help="preset name; omit to list them")
+    p = sub.add_parser("robot", help="print a robot preset or what a robot file describes",
+                       description="Print a robot (mm, rad, s): a preset, or a URDF, DH YAML or robot/1 JSON file "
+                                   "as snakeplan understands it.")
+    p.add_argument("name", nargs="?", metavar="NAME", help="preset name or robot file; omit to list the presets")
     p.add_argument("--json", action="store_true", help="print snakeplan.robot/1 JSON")
     p.set_defaults(func=cmd_robot)
 
@@ -490,7 +558,7 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Judge a tip path ({\"path\": [[x, y, z], ...]}, any plan file will do) with "
                                    "snakeplan's judge. Exit 0 feasible, 1 infeasible, 2 bad input.")
     scene_args(p)
-    p.add_argument("--robot", help="robot preset (default: the one the scene is sized for, e.g. sjtu-snake-iii)")
+    p.add_argument("--robot", help=ROBOT_HELP)
     p.add_argument("--json", action="store_true", help="print the verdict as JSON")
     p.add_argument("--plot", help="also write a PNG picture of the judged path")
     p.add_argument("path_file", metavar="PATH.json", help="the tip path file ('-' reads standard input)")
@@ -499,7 +567,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("show", help="draw a scene (and a path) to a PNG",
                        description="Draw a scene, optionally with a tip path and the arm's body at its end.")
     scene_args(p)
-    p.add_argument("--robot", help="robot preset (default: the one the scene is sized for, e.g. sjtu-snake-iii)")
+    p.add_argument("--robot", help=ROBOT_HELP)
     p.add_argument("--path", help="a tip path JSON file to draw and judge")
     p.add_argument("--out", default="scene.png", help="output PNG (default scene.png)")
     p.set_defaults(func=cmd_show)
@@ -515,17 +583,32 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Plan a path for a robot in a scene; the judge's verdict comes with it. "
                                    "Exit 0 feasible, 1 no feasible plan, 2 bad input.")
     scene_args(p)
-    p.add_argument("--robot", help="robot preset (default: the one the scene is sized for, e.g. sjtu-snake-iii)")
+    p.add_argument("--robot", help=ROBOT_HELP)
     p.add_argument("--planner", help="planner name (default: the best shipped planner for the scene)")
     p.add_argument("--planner-seed", type=_seed, default=0, help="the planner's random seed (default 0)")
-    p.add_argument("--policy", help="a policy file (.npz from 'snakeplan train rl') for sac-her, sac-per or sac "
-                                    "(default: the shipped one for the scene)")
+    p.add_argument("--policy", help="a trained policy file: .npz from 'snakeplan train rl' for sac-her, sac-per or "
+                                    "sac, or from 'snakeplan train sscc' for sscc (default: the shipped one for the "
+                                    "scene and robot)")
     p.add_argument("--time-limit", type=_finite, default=30.0, help="planning budget in seconds (default 30)")
     p.add_argument("--knowledge", choices=("full", "sensed"), default="full",
                    help="what the planner may know: the whole scene, or what its sensor revealed")
     p.add_argument("--json", action="store_true", help="print snakeplan.plan/1 JSON")
     p.add_argument("--plot", help="also write a PNG picture of the plan")
+    p.add_argument("--trajectory", action="append", metavar="FILE", help=TRAJECTORY_HELP)
     p.set_defaults(func=cmd_plan)
+
+    p = sub.add_parser("trajectory", help="turn a plan file into a trajectory a controller can run",
+                       description="Judge a plan (snakeplan.plan/1, as plan --json writes) and write its "
+                                   "time-parameterised trajectory: feed and joints (and cable lengths) at every "
+                                   "crawl step. Exit 0 written, 1 the plan is infeasible or the robot cannot "
+                                   "execute it, 2 bad input.")
+    p.add_argument("plan_file", metavar="PLAN.json", help="the plan file ('-' reads standard input)")
+    p.add_argument("--robot", help="robot preset or robot file (default: the plan's robot)")
+    p.add_argument("--scene", help="scene name (default: the plan's)")
+    p.add_argument("--seed", type=_seed, help="scene seed (default: the plan's)")
+    p.add_argument("--scene-file", help="a scene JSON file (snakeplan.scene/1) instead of the plan's scene")
+    p.add_argument("-o", "--out", action="append", required=True, metavar="FILE", help=TRAJECTORY_HELP)
+    p.set_defaults(func=cmd_trajectory)
 
     bench = sub.add_parser("bench", help="benchmarks: kernels, table2, station, sscc",
                            description="Benchmarks that reproduce the papers' figures and measure speed.")

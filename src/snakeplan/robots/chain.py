@@ -28,6 +28,8 @@ from numba import njit
 from numpy.typing import ArrayLike
 
 from snakeplan.geometry.transforms import normalize, rot_x, rot_y, rot_z
+from snakeplan.robots.cables import CableRouting
+from snakeplan.robots.limits import DEFAULT_LIMITS, MotionLimits
 
 SCHEMA = "snakeplan.robot/1"
 OPS = ("rx", "ry", "rz", "tx", "ty", "tz")
@@ -403,7 +405,10 @@ class Chain:
     Build one from sections (default structure ``Rx(a)·Ry(b)·Tz(l)`` per section), from a DH table
     (:meth:`from_dh`), from a ``snakeplan.robot/1`` dict (:meth:`from_dict`) or with explicit ``kinematics``.
     ``k_ul`` (1/mm) is the curvature upper limit of the smoothness index; by default the curvature of the
-    circle through three joints at maximum bend, ``max_i 2 sin(max_bend_i / 2) / length_i``.
+    circle through three joints at maximum bend, ``max_i 2 sin(max_bend_i / 2) / length_i``. ``limits``
+    (:class:`~snakeplan.robots.limits.MotionLimits`, default ``DEFAULT_LIMITS``) bound a trajectory's feed speed
+    and acceleration and its joint rates and accelerations; ``cables`` (a
+    :class:`~snakeplan.robots.cables.CableRouting`, one entry per section) makes the arm cable-driven.
     Chains are immutable; :meth:`with_base` returns a moved copy.
     """
 
@@ -416,6 +421,8 @@ class Chain:
         base: ArrayLike | None = None,
         k_ul: float | None = None,
         kinematics: Kinematics | None = None,
+        limits: MotionLimits | None = None,
+        cables: CableRouting | None = None,
     ) -> None:
         self._sections = tuple(sections)
         if not self._sections:
@@ -453,6 +460,12 @@ class Chain:
         else:
             self._feed = None
         self._corr = self._check_zero_configuration()
+        self._limits = DEFAULT_LIMITS if limits is None else limits
+        if not isinstance(self._limits, MotionLimits):
+            raise TypeError(f"limits: expected MotionLimits, got {type(limits).__name__}")
+        if cables is not None and len(cables.sections) != n:
+            raise ValueError(f"cables: {len(cables.sections)} sections of cables for {n} sections")
+        self._cables = cables
         self._universal: list[_UniversalSection | None] | None = None
         self._cone: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 
@@ -549,9 +562,20 @@ class Chain:
         """Base pose (4x4, read-only): the arm starts at its origin pointing along its local +z."""
         return self._base
 
+    @property
+    def limits(self) -> MotionLimits:
+        """Feed speed and acceleration, joint rate and acceleration limits of a trajectory."""
+        return self._limits
+
+    @property
+    def cables(self) -> CableRouting | None:
+        """The driving cables' routing, or None for an arm that is not cable-driven."""
+        return self._cables
+
     def with_base(self, base: ArrayLike) -> Chain:
         """A copy of this chain standing at ``base`` (4x4)."""
-        return Chain(self._sections, name=self._name, base=base, k_ul=self._k_ul, kinematics=self._kin)
+        return Chain(self._sections, name=self._name, base=base, k_ul=self._k_ul, kinematics=self._kin,
+                     limits=self._limits, cables=self._cables)
 
     def joint_limits(self) -> tuple[np.ndarray, np.ndarray]:
         """(lower, upper) joint limits, each (dof,): ±max_bend per universal-joint angle, the feed range."""
@@ -661,6 +685,15 @@ class Chain:
         vw = C1 @ v
         ortho = max(abs(u1 @ u2), abs(u1 @ vw), abs(u2 @ vw)) < _ORTHO_TOL
         return _UniversalSection(rot[0], j1.axis, j1.joint, C1, j2.axis, j2.joint, v, off2 @ rest[:3, :3], ortho)
+
+    def universal_joints(self) -> list[tuple[int, int]]:
+        """Per section, the indices in ``q`` of its two angles (first, second); ValueError when a section is
+        not a two-angle joint pivoting at its start."""
+        secs = self._universal_sections()
+        bad = [k for k, s in enumerate(secs) if s is None]
+        if bad:
+            raise ValueError(f"section {bad[0]} is not a two-angle joint pivoting at its start")
+        return [(s.j1, s.j2) for s in secs]
 
     def joint_angles_from_directions(
         self,
@@ -813,8 +846,9 @@ class Chain:
 
     # ------------------------------------------------------------------ serialisation
     def to_dict(self) -> dict[str, Any]:
-        """``snakeplan.robot/1`` dict (mm, rad, 1/mm) plus ``dof``, ``feed_range``, ``base`` and the exact
-        ``kinematics`` so :meth:`from_dict` rebuilds this chain."""
+        """``snakeplan.robot/1`` dict (mm, rad, 1/mm) plus ``dof``, ``feed_range``, ``base``, the exact
+        ``kinematics``, the motion ``limits`` and the ``cables`` (null when not cable-driven) so :meth:`from_dict`
+        rebuilds this chain."""
         return {
             "schema": SCHEMA,
             "name": self._name,
@@ -825,12 +859,15 @@ class Chain:
             "feed_range": None if self._feed is None else list(self._feed),
             "base": self._base.tolist(),
             "kinematics": self._kin.to_dict(),
+            "limits": self._limits.to_dict(),
+            "cables": None if self._cables is None else self._cables.to_dict(),
         }
 
     @classmethod
     def from_dict(cls, d: Any) -> Chain:
         """Chain from a ``snakeplan.robot/1`` dict. Only ``name`` and ``sections`` are required; without
-        ``kinematics`` the default structure is built. ValueError with a one-line message naming the field."""
+        ``kinematics`` the default structure is built; without ``limits``, ``DEFAULT_LIMITS`` (a partial
+        ``limits`` object takes the rest from them). ValueError with a one-line message naming the field."""
         if not isinstance(d, Mapping):
             raise ValueError("robot: must be a JSON object")
         if "schema" in d and d["schema"] != SCHEMA:
@@ -860,7 +897,10 @@ class Chain:
         feed = None if feed is None else _feed_range(feed)
         base = _check_base(d.get("base"))
         kin = None if d.get("kinematics") is None else Kinematics.from_dict(d["kinematics"])
-        chain = cls(sections, name=d["name"], feed_range=feed, base=base, k_ul=k_ul, kinematics=kin)
+        limits = None if d.get("limits") is None else MotionLimits.from_dict(d["limits"], DEFAULT_LIMITS)
+        cables = None if d.get("cables") is None else CableRouting.from_dict(d["cables"])
+        chain = cls(sections, name=d["name"], feed_range=feed, base=base, k_ul=k_ul, kinematics=kin,
+                    limits=limits, cables=cables)
         if "total_length" in d:
             total = _number("total_length", "", d["total_length"])
             if abs(total - chain.total_length) > _LENGTH_TOL * (1.0 + total):

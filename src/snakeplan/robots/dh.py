@@ -15,6 +15,8 @@ Format (all keys at the top level; ``links`` rows in order from the base)::
       - {alpha: 90, a: 0, theta: 0, d: 0, joint: revolute, name: delta1, limits: [-30, 30]}
       - ...
     sections: [3, 6, 9]           # index of the link row that ends each section
+    limits: {feed_speed_mm_s: 20, joint_rate_rad_s: 0.1}   # optional motion limits (snakeplan.robot/1 units)
+    cables: {sections: [...]}     # optional cable routing, as in snakeplan.robot/1 (mm, rad)
 
 A link row is ``Rx(alpha) · Tx(a) · Rz(theta) · Tz(d)`` (modified) or ``Rz(theta) · Tz(d) · Tx(a) · Rx(alpha)``
 (standard); a revolute joint adds ``q`` to ``theta``, a prismatic one to ``d``. ``alpha``, ``a``, ``theta``, ``d``
@@ -26,6 +28,8 @@ section whose end is still moved by it (in the modified convention a section-end
 what follows). Prismatic joints need ``limits``. ``mount`` (``rpy`` is roll-pitch-yaw about fixed x, y, z,
 i.e. ``Rz(yaw)·Ry(pitch)·Rx(roll)``) must turn the table so that the arm lies straight along the base +z axis
 at zero joint values and the feed pushes along +z; joint order is ``[feed, joints of the rows in order]``.
+``limits`` and ``cables`` are written in snakeplan's units whatever ``units`` says (their field names carry them);
+a partial ``limits`` takes the rest from ``DEFAULT_LIMITS``.
 """
 
 from __future__ import annotations
@@ -38,12 +42,14 @@ from typing import Any
 
 import yaml
 
+from snakeplan.robots.cables import CableRouting
 from snakeplan.robots.chain import ET, Chain, Kinematics, Section, _check_section_fields, _number, measure_lengths
+from snakeplan.robots.limits import DEFAULT_LIMITS, MotionLimits
 
 _LENGTH_UNITS = {"mm": 1.0, "cm": 10.0, "m": 1000.0}
 _ANGLE_UNITS = {"rad": 1.0, "deg": math.pi / 180.0}
 _TOP_KEYS = {"schema", "name", "convention", "units", "mount", "feed", "k_ul", "radius", "max_bend", "links",
-             "sections", "description", "source"}
+             "sections", "limits", "cables", "description", "source"}
 _LINK_KEYS = {"alpha", "a", "theta", "d", "joint", "name", "limits", "radius", "max_bend"}
 
 
@@ -202,4 +208,6 @@ def load_dh(source: str | os.PathLike | Mapping[str, Any]) -> Chain:
     k_ul = d.get("k_ul")
     if k_ul is not None:
         k_ul = _number("k_ul", "", k_ul) / ls
-    return Chain(secs, name=name, k_ul=k_ul, kinematics=kin)
+    limits = None if d.get("limits") is None else MotionLimits.from_dict(d["limits"], DEFAULT_LIMITS)
+    cables = None if d.get("cables") is None else CableRouting.from_dict(d["cables"])
+    return Chain(secs, name=name, k_ul=k_ul, kinematics=kin, limits=limits, cables=cables)

@@ -1,7 +1,13 @@
 """Robot presets of the three source papers, by name (mm, rad, 1/mm).
 
 - ``sjtu-snake-iii`` (paper 000, Zhu et al. 2026): 12 two-DoF sections, 2130 mm, 55 mm diameter, 50.7 deg
-  between sections, k_UL = 0.0055 /mm (reproduces the paper's smoothness indices), feed 0..2130 mm.
+  between sections, k_UL = 0.0055 /mm (reproduces the paper's smoothness indices), feed 0..2130 mm. Cable-driven:
+  "each platform ... controlled by three driving cables"; the paper gives no routing, so 3 cables per section
+  120 deg apart, each section's pattern turned 10 deg from the previous one's (the 36 cables use 36 holes 10 deg
+  apart); pitch radius 22 mm (0.8 of the 27.5 mm outer radius, leaving a 5.5 mm wall outside the holes); disc
+  spacing 30 mm at every joint, the smallest multiple of 10 mm at which two 55 mm discs still clear each other at
+  the 50.7 deg bend limit (edge gap ``2 (15 cos 25.35 deg - 27.5 sin 25.35 deg)`` = 3.6 mm; the shortest cable
+  segment is then 8.3 mm).
 - ``sscc-16`` / ``sscc-24`` (paper 001, SSCC in pipes): 8 / 12 universal joints of equal total length. The
   paper's tables were lost, so: 1200 mm total (150 / 100 mm sections), radius 15 mm, 60 deg per joint, a base
   feed 0..1200 mm (the pipe scenes feed the arm along the pipe axis). Their k_UL is the curvature of the circle
@@ -10,17 +16,27 @@
   gives no sizes, so 10 units of 800 mm, radius 60 mm, 30 deg per section, feed 0..2000 mm along the paper's
   base y axis (turned onto snakeplan's +z); k_UL by the same three-joint rule.
 
-``register_robot`` adds a user's own factory to the registry (a taken name raises).
+Motion limits (:class:`~snakeplan.robots.limits.MotionLimits`) bound the time-parameterised trajectories; the papers
+give none, so these are chosen for slow, safe motion at each arm's scale: sjtu-snake-iii feed 50 mm/s and
+100 mm/s², joints 0.3 rad/s and 0.6 rad/s²; sscc-16 / sscc-24 (1.2 m, light) feed 50 mm/s and 100 mm/s², joints
+0.5 rad/s and 1 rad/s²; hsr-10 (8 m, in its DH table) feed 20 mm/s and 40 mm/s², joints 0.1 rad/s and 0.2 rad/s².
+
+``register_robot`` adds a user's own factory to the registry (a taken name raises); :func:`load_robot` takes a
+preset name or a robot file (DH YAML, URDF, ``snakeplan.robot/1`` JSON).
 """
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Callable
 from importlib.resources import files
+from pathlib import Path
 
 from snakeplan.registry import Registry
+from snakeplan.robots.cables import CableRouting
 from snakeplan.robots.chain import Chain, Section
+from snakeplan.robots.limits import MotionLimits
 
 SJTU_SECTIONS = 12
 SJTU_TOTAL_LENGTH_MM = 2130.0
@@ -28,11 +44,19 @@ SJTU_RADIUS_MM = 55.0 / 2.0
 SJTU_MAX_BEND_RAD = math.radians(50.7)
 SJTU_K_UL = 0.0055  # 1/mm, paper 000 eq. 20
 SJTU_FEED_RANGE_MM = (0.0, 2130.0)
+SJTU_CABLES_PER_SECTION = 3
+SJTU_CABLE_PITCH_RADIUS_MM = 22.0
+SJTU_DISC_SPACING_MM = 30.0
+SJTU_CABLE_STAGGER_RAD = 2.0 * math.pi / (SJTU_CABLES_PER_SECTION * SJTU_SECTIONS)
+SJTU_LIMITS = MotionLimits(feed_speed_mm_s=50.0, feed_acceleration_mm_s2=100.0, joint_rate_rad_s=0.3,
+                           joint_acceleration_rad_s2=0.6)
 
 SSCC_TOTAL_LENGTH_MM = 1200.0
 SSCC_RADIUS_MM = 15.0
 SSCC_MAX_BEND_RAD = math.radians(60.0)
 SSCC_FEED_RANGE_MM = (0.0, 1200.0)
+SSCC_LIMITS = MotionLimits(feed_speed_mm_s=50.0, feed_acceleration_mm_s2=100.0, joint_rate_rad_s=0.5,
+                           joint_acceleration_rad_s2=1.0)
 
 HSR_UNITS = 10
 HSR_LINK_LENGTH_MM = 800.0
@@ -48,13 +72,17 @@ def three_joint_k_ul(length: float, max_bend: float) -> float:
 
 
 def sjtu_snake_iii() -> Chain:
-    """SJTU-Snake III (paper 000): 12 x 177.5 mm sections, radius 27.5 mm, 50.7 deg, with feed."""
+    """SJTU-Snake III (paper 000): 12 x 177.5 mm sections, radius 27.5 mm, 50.7 deg, with feed; 3 cables per
+    section."""
     length = SJTU_TOTAL_LENGTH_MM / SJTU_SECTIONS
     return Chain(
         [Section(length, SJTU_RADIUS_MM, SJTU_MAX_BEND_RAD)] * SJTU_SECTIONS,
         name="sjtu-snake-iii",
         feed_range=SJTU_FEED_RANGE_MM,
         k_ul=SJTU_K_UL,
+        limits=SJTU_LIMITS,
+        cables=CableRouting.uniform(SJTU_SECTIONS, SJTU_CABLES_PER_SECTION, SJTU_CABLE_PITCH_RADIUS_MM,
+                                    SJTU_DISC_SPACING_MM, SJTU_CABLE_STAGGER_RAD),
     )
 
 
@@ -66,6 +94,7 @@ def sscc(n_joints: int) -> Chain:
         name=f"sscc-{2 * n_joints}",
         feed_range=SSCC_FEED_RANGE_MM,
         k_ul=three_joint_k_ul(length, SSCC_MAX_BEND_RAD),
+        limits=SSCC_LIMITS,
     )
 
 
@@ -114,3 +143,36 @@ def get_robot(name: str) -> Chain:
 def register_robot(name: str, factory: Callable[[], Chain]) -> None:
     """Add a robot factory under ``name``; ValueError if the name is taken."""
     ROBOTS.register(name, factory)
+
+
+#: Robot file suffixes :func:`load_robot` reads, and what reads them.
+ROBOT_FILES = {".urdf": "URDF", ".xml": "URDF", ".yaml": "DH YAML", ".yml": "DH YAML", ".json": "snakeplan.robot/1"}
+
+
+def load_robot(spec: str) -> Chain:
+    """A robot by preset name, or from a file by its suffix: ``.urdf``/``.xml`` (:func:`~snakeplan.robots.urdf.
+    from_urdf`), ``.yaml``/``.yml`` (a DH table, :meth:`Chain.from_dh`) or ``.json`` (``snakeplan.robot/1``,
+    :meth:`Chain.from_dict`). ValueError with one line naming what is wrong (an unknown name lists the presets)."""
+    if spec in ROBOTS:
+        return get_robot(spec)
+    path = Path(spec)
+    kind = ROBOT_FILES.get(path.suffix.lower())
+    if kind is None or not path.exists():
+        what = f"no such file {spec}" if kind is not None else f"unknown robot {spec!r}"
+        raise ValueError(f"{what} (presets: {', '.join(robot_names())}; or a robot file: "
+                         f"{', '.join(ROBOT_FILES)})")
+    if not path.is_file():
+        raise ValueError(f"{spec} is not a file")
+    if kind == "URDF":
+        from snakeplan.robots.urdf import from_urdf
+
+        return from_urdf(path)
+    if kind == "DH YAML":
+        return Chain.from_dh(path)
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ValueError(f"cannot read {spec}: {exc.__class__.__name__}") from None
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{spec}: malformed JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") from None
+    return Chain.from_dict(data)

@@ -10,7 +10,10 @@ Options: ``search`` = ``"agent"`` (the shipped DDPG agent of the problem's robot
 ``"gradient"``, said in the plan's details), ``"random"`` or ``"gradient"``; ``learning`` (the agent keeps learning
 from every task, as in the paper: each search's transitions train it right after the plan is returned, while the
 arm crawls, so the update is not in ``compute_time_s``; its cost is in the details as ``learning_time_s``);
-``agent_path`` (an ``.npz`` from :func:`.training.train_agent` instead of the shipped agent).
+``agent_path`` (an ``.npz`` from :func:`.training.train_agent` instead of the shipped agent; ``policy``, the name
+every planner that rolls out a trained policy takes, and ``snakeplan plan --policy``, is the same). An agent is
+trained for one registered arm (``sscc-16``, ``sscc-24``) and fits no other: its file's shapes are checked against
+the problem's robot, and a robot that is not registered cannot use a given agent.
 
 Planning with the agent needs no torch (its actor runs in NumPy); learning needs the ``train`` extra.
 
@@ -36,6 +39,7 @@ from snakeplan.planners.sscc.swinging import (
     SwingSettings,
     swinging_search,
 )
+from snakeplan.robots import ROBOTS, Chain, robot_names
 
 SEARCHES = ("agent", "random", "gradient")
 #: Whether the agent keeps learning from every task by default (paper 001 does; see the module docstring).
@@ -58,11 +62,15 @@ class SSCCPlanner(Planner):
     """Swinging Search and Crawling Control (paper 001); see the module docstring for the options."""
 
     name = "sscc"
+    takes_policy = True
 
     def __init__(self, search: str = "agent", learning: bool = ONLINE_LEARNING, agent_path: str | None = None,
-                 settings: SwingSettings = SwingSettings()):
+                 settings: SwingSettings = SwingSettings(), policy: str | None = None):
         if search not in SEARCHES:
             raise ValueError(f"search: must be one of {', '.join(SEARCHES)}, got {search!r}")
+        if policy is not None and agent_path is not None and str(policy) != str(agent_path):
+            raise ValueError("policy: give the agent file once, as policy or as agent_path")
+        agent_path = agent_path if policy is None else policy
         self.search, self.learning, self.agent_path, self.settings = search, bool(learning), agent_path, settings
         self._agents: dict[str, SwingAgent] = {}
         self._pending: tuple[SwingAgent, list] | None = None
@@ -80,8 +88,26 @@ class SSCCPlanner(Planner):
             self._agents[robot] = SwingAgent.load(robot, self.agent_path, learning=True)
         return self._agents[robot]
 
-    def _policy(self, robot: str) -> tuple[str, SwingPolicy]:
-        agent = self.agent(robot) if self.search == "agent" else None
+    def _given_agent(self, robot: Chain) -> SwingAgent:
+        """The agent in the file this planner was given, for ``robot``; ValueError ``policy: ...`` in one line when
+        it is not an SSCC agent that fits the robot."""
+        if robot.name not in ROBOTS:
+            raise ValueError(f"policy: an SSCC agent is trained for a registered arm ({', '.join(robot_names())}); "
+                             f"robot {robot.name} is not one")
+        try:
+            return self.agent(robot.name)
+        except (ValueError, KeyError, IndexError) as exc:
+            why = f": {exc.args[0]}" if isinstance(exc, ValueError) and exc.args else ""
+            raise ValueError(f"policy: {self.agent_path} is not an SSCC agent for {robot.name} (one that "
+                             f"'snakeplan train sscc --robot {robot.name}' writes){why}") from None
+
+    def _policy(self, robot: Chain) -> tuple[str, SwingPolicy]:
+        if self.search != "agent":
+            agent = None
+        elif self.agent_path is not None:
+            agent = self._given_agent(robot)
+        else:
+            agent = self.agent(robot.name)
         if agent is not None:
             return "agent", agent
         if self.search == "random":
@@ -104,7 +130,7 @@ class SSCCPlanner(Planner):
                ) -> tuple[Status, np.ndarray | None, dict]:
         if len(problem.goals) != 1:
             return Status.FAILED, None, {"reason": f"sscc plans to one target, the scene has {len(problem.goals)}"}
-        used, policy = self._policy(problem.robot.name)
+        used, policy = self._policy(problem.robot)
         learner = policy if isinstance(policy, SwingAgent) and self.learning else None
         out = swinging_search(problem, policy, rng, deadline, self.settings, record=learner is not None)
         if learner is not None:
