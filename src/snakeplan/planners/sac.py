@@ -516,6 +516,7 @@ class NumpyPolicy:
         arrays["mu_w"], arrays["mu_b"] = self.mu[0].astype(np.float32), self.mu[1].astype(np.float32)
         if self.graph is not None:
             arrays.update({f"graph_{k}": v for k, v in self.graph.arrays().items()})
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
         with atomic_path(path) as tmp, open(tmp, "wb") as fh:
             np.savez_compressed(fh, **arrays)
 

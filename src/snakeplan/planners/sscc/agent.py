@@ -103,6 +103,7 @@ class SwingAgent:
     def save(self, path: str | Path) -> Path:
         """Write the weights as a plain ``.npz``."""
         out = Path(path)
+        Path(out).parent.mkdir(parents=True, exist_ok=True)
         with atomic_path(out) as tmp, open(tmp, "wb") as fh:
             np.savez(fh, **self.weights)
         return out
