@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from snakeplan.files import atomic_path, check_output, write_text
+from snakeplan.files import atomic_path, atomic_write, check_output
 
 ENV = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1] / "src")}
 
@@ -49,13 +49,13 @@ def test_check_output_names_the_field(tmp_path):
 
 
 def test_an_atomic_write_that_fails_leaves_the_old_file_and_no_debris(tmp_path):
-    target = write_text(tmp_path / "table.md", "old\n")
+    target = atomic_write(tmp_path / "table.md", "old\n")
     with pytest.raises(RuntimeError):
         with atomic_path(target) as tmp:
             tmp.write_text("half of the new")
             raise RuntimeError("interrupted")
     assert target.read_text() == "old\n" and [p.name for p in tmp_path.iterdir()] == ["table.md"]
-    write_text(target, "new\n")
+    atomic_write(target, "new\n")
     assert target.read_text() == "new\n" and [p.name for p in tmp_path.iterdir()] == ["table.md"]
 
 

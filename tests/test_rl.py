@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 
 import gymnasium as gym
@@ -319,7 +320,9 @@ def test_train_writes_policy_curve_and_resumes(tmp_path):
                      checkpoint_every=100, train_scenes=2, batch_size=16)
     first = train("oil-tank", "sac-per", 150, 0, tmp_path, config, progress=False)
     assert (tmp_path / "policy.npz").is_file() and (tmp_path / "curve.png").is_file()
-    assert (tmp_path / "checkpoint.zip").is_file()
+    state = json.loads((tmp_path / "state.json").read_text())
+    assert [g["step"] for g in state["generations"]] == [150, 100]
+    assert (tmp_path / "ckpt-00000150" / "model.zip").is_file()
     policy = NumpyPolicy.load(tmp_path / "last.npz")
     assert policy.meta["scene"] == "oil-tank" and "snakeplan.rl.train" in policy.meta["command"]
     second = train("oil-tank", "sac-per", 250, 0, tmp_path, config, progress=False)

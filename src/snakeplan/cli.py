@@ -18,9 +18,10 @@ import numpy as np
 
 from snakeplan.extras import MissingExtra, require_training
 from snakeplan.files import check_output
+from snakeplan.interrupt import report as report_interrupt
 from snakeplan.jsonable import jsonable
 
-EXIT_OK, EXIT_INFEASIBLE, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+EXIT_OK, EXIT_INFEASIBLE, EXIT_USAGE = 0, 1, 2
 DEFAULT_SCENE = "fuel-tank"
 #: Planning budget (s) of `snakeplan demo`, per call.
 DEMO_TIME_LIMIT_S = 30.0
@@ -468,26 +469,35 @@ def cmd_bench_sscc(args: argparse.Namespace) -> int:
 
 
 def cmd_train(args: argparse.Namespace) -> int:
-    require_training("train sscc")
-    from snakeplan.planners.sscc.training import train_agent
+    try:
+        require_training("train sscc")
+        from snakeplan.planners.sscc.training import train_agent
 
-    if args.steps < 1:
-        raise UsageError(f"--steps: expected a positive integer, got {args.steps}")
-    if args.robot not in ("sscc-16", "sscc-24"):
-        raise UsageError(f"--robot: the sscc agent is trained for sscc-16 or sscc-24, got {args.robot!r}")
-    result = train_agent(args.robot, args.out, steps=args.steps, seed=args.seed)
+        if args.steps < 1:
+            raise UsageError(f"--steps: expected a positive integer, got {args.steps}")
+        if args.checkpoint_every < 0:
+            raise UsageError(f"--checkpoint-every: expected a non-negative integer, got {args.checkpoint_every}")
+        if args.robot not in ("sscc-16", "sscc-24"):
+            raise UsageError(f"--robot: the sscc agent is trained for sscc-16 or sscc-24, got {args.robot!r}")
+        result = train_agent(args.robot, args.out, steps=args.steps, seed=args.seed, resume=not args.fresh,
+                             checkpoint_every=args.checkpoint_every)
+    except KeyboardInterrupt as exc:  # SIGINT / SIGTERM: a checkpoint is saved, one line says so
+        return report_interrupt(exc)
     sys.stdout.write(f"{result}\nwrote {args.out}\n")
     return EXIT_OK
 
 
 def cmd_train_rl(args: argparse.Namespace) -> int:
-    require_training("train rl")
-    from snakeplan.rl.train import parse_config, train
+    try:
+        require_training("train rl")
+        from snakeplan.rl.train import parse_config, train
 
-    if args.steps < 1:
-        raise UsageError(f"--steps: expected a positive integer, got {args.steps}")
-    config = parse_config(args.extra)
-    result = train(args.scene, args.algorithm, args.steps, args.seed, args.out, config, resume=not args.fresh)
+        if args.steps < 1:
+            raise UsageError(f"--steps: expected a positive integer, got {args.steps}")
+        config = parse_config(args.extra)
+        result = train(args.scene, args.algorithm, args.steps, args.seed, args.out, config, resume=not args.fresh)
+    except KeyboardInterrupt as exc:  # SIGINT / SIGTERM: a checkpoint is saved, one line says so
+        return report_interrupt(exc)
     sys.stdout.write(f"wrote {result.policy}\n")
     return EXIT_OK
 
@@ -691,13 +701,18 @@ def build_parser() -> argparse.ArgumentParser:
     tsub = p.add_subparsers(dest="train", required=True, parser_class=_Parser, metavar="AGENT")
     t = tsub.add_parser("sscc", help="the SSCC swinging-search agent (DDPG)")
     t.add_argument("--robot", default="sscc-24", help="sscc-16 or sscc-24 (default sscc-24)")
-    t.add_argument("--out", required=True, help="output .npz weight file")
+    t.add_argument("--out", required=True, help="output .npz weight file; its resumable state goes to the folder "
+                                                "OUT.state beside it")
     t.add_argument("--steps", type=int, default=12000, help="environment steps (default 12000)")
     t.add_argument("--seed", type=_seed, default=0, help="training seed (default 0)")
+    t.add_argument("--checkpoint-every", type=int, default=0,
+                   help="environment steps between checkpoints (default: a tenth of --steps, 1000-10000)")
+    t.add_argument("--fresh", action="store_true", help="delete the checkpoint in OUT.state and start over")
     t.set_defaults(func=cmd_train)
     t = tsub.add_parser("rl", help="a learned tip planner (sac-her, sac-per, sac)",
-                        description="Train sac-her / sac-per / sac on fuel-tank or oil-tank; resumes from a "
-                                    "checkpoint in --out. Any further option sets the training configuration "
+                        description="Train sac-her / sac-per / sac on fuel-tank or oil-tank; resumes from the "
+                                    "checkpoint in --out (Ctrl-C saves one; --checkpoint-every N, default a tenth "
+                                    "of --steps within 1000-10000). Any further option sets the training configuration "
                                     "(--paper, --turn-radius-mm 215, --capture-steps 4, --eval-episodes 50, ...; "
                                     "the list: 'python -m snakeplan.rl.train --help').")
     t.add_argument("scene", help="a scene family with targets (fuel-tank, oil-tank, pipe, or one you registered)")
@@ -705,7 +720,7 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--steps", type=int, required=True, help="environment steps")
     t.add_argument("--seed", type=_seed, default=0, help="training seed (default 0)")
     t.add_argument("--out", required=True, help="output folder (policy.npz, curve.png, checkpoints)")
-    t.add_argument("--fresh", action="store_true", help="ignore a checkpoint in --out")
+    t.add_argument("--fresh", action="store_true", help="delete the checkpoint in --out and start over")
     t.set_defaults(func=cmd_train_rl, takes_options=True)
     return parser
 
@@ -732,9 +747,8 @@ def main(argv: list[str] | None = None) -> int:
         return _fail(str(exc))
     except (ValueError, KeyError) as exc:
         return _fail(str(exc.args[0]) if exc.args else exc.__class__.__name__)
-    except KeyboardInterrupt:
-        sys.stderr.write("snakeplan: interrupted\n")
-        return EXIT_INTERRUPTED
+    except KeyboardInterrupt as exc:
+        return report_interrupt(exc)
     except BrokenPipeError:
         return EXIT_OK
 

@@ -32,19 +32,22 @@ def check_output(path: str | os.PathLike, field: str, suffixes: tuple[str, ...] 
 
 @contextmanager
 def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
-    """A temporary path beside ``path`` (same suffix) to write to; renamed over ``path`` when the block ends
-    normally, removed when it raises."""
+    """A temporary path beside ``path`` (same suffix, so writers that pick a format by suffix keep it) to write
+    to; when the block ends normally it is fsync'ed and renamed over ``path`` (readers see the old file or the
+    new one, never a part), otherwise removed."""
     out = Path(path)
     tmp = out.with_name(f".{out.stem}.{os.getpid()}.tmp{out.suffix}")
     try:
         yield tmp
+        with open(tmp, "rb+") as fh:
+            os.fsync(fh.fileno())
         os.replace(tmp, out)
     finally:
         tmp.unlink(missing_ok=True)
 
 
-def write_text(path: str | os.PathLike, text: str) -> Path:
-    """Write ``text`` to ``path`` atomically."""
+def atomic_write(path: str | os.PathLike, data: str | bytes) -> Path:
+    """Write ``data`` (text as UTF-8) to ``path`` atomically."""
     with atomic_path(path) as tmp:
-        tmp.write_text(text)
+        tmp.write_bytes(data.encode() if isinstance(data, str) else data)
     return Path(path)

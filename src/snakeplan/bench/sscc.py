@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from snakeplan.episode import run_episode
-from snakeplan.files import write_text
+from snakeplan.files import atomic_write
 from snakeplan.geometry.primitives import Pipe
 from snakeplan.planners import Problem
 from snakeplan.planners.sscc import SSCCPlanner, crawl, joint_angles
@@ -287,7 +287,7 @@ def run_sscc_bench(out_dir: str | Path = "bench-sscc", variants: Sequence[str] =
     text = "\n".join([(f"SSCC on paper 001's settings; every plan judged by snakeplan.evaluation. Aim: success >= "
                        f"{100 * AIM_SUCCESS:.0f} % and median time <= {AIM_MEDIAN_TIME_S:g} s per target."), "",
                       summary_markdown(summary), "", *[f"![{Path(p).stem}]({Path(p).name})" for p in pictures]])
-    write_text(out / "sscc.md", text + "\n")
+    atomic_write(out / "sscc.md", text + "\n")
     return {"settings": summary, "figures": pictures, "runs_csv": str(out / "runs.csv")}
 
 

@@ -18,10 +18,14 @@ from pathlib import Path
 
 import numpy as np
 
-from snakeplan.planners.inspection import InspectionProblem, InspectionResult, get_inspection_planner
+from snakeplan.files import atomic_write
+from snakeplan.planners.inspection import (
+    InspectionProblem,
+    InspectionResult,
+    get_inspection_planner,
+)
 from snakeplan.robots import get_robot
 from snakeplan.scenes import make_scene
-from snakeplan.files import write_text
 from snakeplan.viz.figures import save_figure
 from snakeplan.viz.maps import error_curves_figure, inspection_figure
 
@@ -133,7 +137,7 @@ def run_station_bench(seeds: int = DEFAULT_SEEDS, seed0: int = 0, out_dir: str |
                           "trace_mean_k2": c["trace"].mean(axis=0).tolist()} for n, c in curves.items()}},
     }
     summary["figures"] = _figures(out, first_problem, first, times, curves, seed_list)
-    write_text(out / "station.json", json.dumps(summary, indent=2, allow_nan=False) + "\n")
+    atomic_write(out / "station.json", json.dumps(summary, indent=2, allow_nan=False) + "\n")
     if not as_json:
         _print_table(summary, out)
     return summary

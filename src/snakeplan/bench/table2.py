@@ -19,7 +19,7 @@ import numpy as np
 
 from snakeplan.bench.statistics import games_howell, levene_p, shapiro_p, welch_anova
 from snakeplan.episode import run_episode
-from snakeplan.files import write_text
+from snakeplan.files import atomic_write
 from snakeplan.planners import Problem
 from snakeplan.robots import get_robot
 from snakeplan.scenes import make_scene, scene_names, scene_spec
@@ -133,7 +133,7 @@ def run_table2(config: Table2Config, out_dir: str | Path, fresh: bool = False, p
     rows = [r for r in _read_runs(runs_file) if float(r["time_limit_s"]) == config.time_limit_s
             and r["scene"] in config.scenes and r["planner"] in config.planners_in(r["scene"]) and int(r["seed"]) in config.seeds]
     summary = summarise(rows, config)
-    write_text(out / "table2.md", summary_markdown(summary, config) + "\n\n" + statistics_markdown(rows, config))
+    atomic_write(out / "table2.md", summary_markdown(summary, config) + "\n\n" + statistics_markdown(rows, config))
     _write_summary_csv(out / "table2.csv", summary)
     figure_7(config, out)
     return summary

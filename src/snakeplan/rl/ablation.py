@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from snakeplan.files import write_text
+from snakeplan.files import atomic_write
 from snakeplan.rl.train import ALGORITHMS, DEFAULT_CONFIG, TrainConfig, plot_curves, train
 from snakeplan.scenes import scene_spec
 
@@ -76,5 +76,5 @@ def run_ablation(scene: str, seeds: list[int], steps: int, out_dir: str | Path, 
                               for k in curves}
     out.mkdir(parents=True, exist_ok=True)
     plot_curves(curves, out / f"ablation-{scene}-{compare}.png")
-    write_text(out / f"ablation-{scene}-{compare}.json", json.dumps(result, indent=1))
+    atomic_write(out / f"ablation-{scene}-{compare}.json", json.dumps(result, indent=1))
     return result

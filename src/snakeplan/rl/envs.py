@@ -83,6 +83,10 @@ class SnakeEnv(gym.Env):
         self.crawler.reset(self.scene)
         self.outcome = "running"
 
+    def __getstate__(self) -> dict:
+        """Pickled (a training checkpoint) without the scene cache: scenes are regenerated from their seeds."""
+        return {**self.__dict__, "_cache": {}}
+
     def scene_for(self, seed: int) -> Scene:
         """The family's scene for ``seed`` (generated once, then cached)."""
         if seed not in self._cache:

@@ -1,13 +1,26 @@
 """Training entry point for the learned planners: SAC-HER, SAC-PER and plain SAC (paper 000 Algorithms 1-3).
 
-``train(scene, algorithm, steps, seed, out_dir)`` trains with a progress bar, evaluates the deterministic policy
-every ``eval_every`` steps on fixed validation episodes (judged by :func:`snakeplan.evaluation.evaluate`),
-checkpoints the model, replay buffer and curve every ``checkpoint_every`` steps (an interrupted run resumes from
-the last checkpoint), and writes into ``out_dir``:
+``train(scene, algorithm, steps, seed, out_dir)`` trains with a progress bar (on a terminal; in a log, a plain
+line every 1 % of the run), evaluates the deterministic policy every ``eval_every`` steps on fixed validation
+episodes (judged by :func:`snakeplan.evaluation.evaluate`), checkpoints every ``checkpoint_every`` steps (default
+:func:`snakeplan.checkpoints.checkpoint_interval`: a tenth of the run, within 1,000-10,000 steps and at most the
+run) and writes into ``out_dir``:
 
 - ``policy.npz``: the best validation policy as plain weights (:class:`snakeplan.planners.sac.NumpyPolicy`),
-  ``last.npz`` the final one; ``curve.json`` and ``curve.png``: the learning curve.
-- ``checkpoint.zip``, ``replay.pkl``, ``state.json``: the resumable state (SB3's own formats; for resuming only).
+  ``last.npz`` the final one; ``curve.json`` and ``curve.png``: the learning curve. Each is written atomically.
+- ``state.json`` and ``ckpt-<step>/`` folders: the resumable state, a :class:`snakeplan.checkpoints.StateFolder`
+  (two generations; the manifest, written last, lists each one's files with sizes and sha256, its env steps
+  and the evaluation history so far). A generation holds ``model.zip`` and ``replay.pkl`` (SB3's formats),
+  ``envs.pkl`` (the training environments mid-episode), ``rng.pkl`` (torch, NumPy, Python and action-space
+  generator states) and ``best.npz`` (the best policy so far). These are pickles: resume only your own.
+
+Checkpoints are taken at the start of a rollout, where the last step's transition is stored and trained on, and
+hold every generator the run draws from, so a run resumed from step k continues exactly as the uninterrupted run
+would have (same buffer, same draws, same weights; tests/test_training_state.py checks it). Evaluations happen
+where they always did; the manifest's history is the one source of them, so a resumed run continues after its
+last recorded evaluation and never repeats one. A run killed at any moment (SIGKILL included) resumes from its
+newest intact checkpoint, losing at most ``checkpoint_every`` steps; SIGINT or SIGTERM saves a checkpoint first
+and raises :class:`snakeplan.interrupt.Interrupted` (the command line prints one line and exits 130).
 
 Defaults (:data:`DEFAULT_CONFIG`), measured on the 2-core CPU with torch on one thread: the environment steps at
 about 3,600/s, so gradient updates bound the wall time; 128 x 128 networks (an update with batch 128 takes 9.5 ms,
@@ -26,6 +39,7 @@ import argparse
 import json
 import math
 import shlex
+import signal
 import sys
 import time
 from collections import deque
@@ -38,10 +52,31 @@ from stable_baselines3.common.buffers import DictReplayBuffer
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import DummyVecEnv
 
+from snakeplan.checkpoints import (
+    Generation,
+    StateError,
+    StateFolder,
+    checkpoint_interval,
+    sb3_files,
+    sb3_restore,
+)
 from snakeplan.episode import run_episode
+from snakeplan.files import atomic_path, atomic_write
+from snakeplan.interrupt import Interrupted, StopRequest, interruptible, report
 from snakeplan.planners import Problem
-from snakeplan.planners.sac import CAPTURE_STEPS, TURN_RADIUS_MM, NumpyPolicy, RoomGraph, SacPlanner
-from snakeplan.rl.agents import EPSILON_DECAY, EPSILON_MIN, EPSILON_START, EpsilonGreedySAC
+from snakeplan.planners.sac import (
+    CAPTURE_STEPS,
+    TURN_RADIUS_MM,
+    NumpyPolicy,
+    RoomGraph,
+    SacPlanner,
+)
+from snakeplan.rl.agents import (
+    EPSILON_DECAY,
+    EPSILON_MIN,
+    EPSILON_START,
+    EpsilonGreedySAC,
+)
 from snakeplan.rl.envs import TRAIN_SCENES, TRAIN_SEED, VALIDATION_SEED, SnakeEnv
 from snakeplan.rl.extractor import GoalRouteExtractor
 from snakeplan.rl.her import FastHerReplayBuffer
@@ -89,7 +124,8 @@ class TrainConfig:
     capture_steps: int = CAPTURE_STEPS
     eval_every: int = 5000
     eval_episodes: int = 20
-    checkpoint_every: int = 10000
+    #: 0: :func:`snakeplan.checkpoints.checkpoint_interval` of the run's steps.
+    checkpoint_every: int = 0
     torch_threads: int = 1
 
 
@@ -142,9 +178,14 @@ def make_env(scene: str, config: TrainConfig):
                             capture_steps=config.capture_steps, lookahead=config.lookahead)
 
 
+def route_graph(scene: str, config: TrainConfig) -> RoomGraph | None:
+    """The scene family's route graph, which the local observation's features read (None for "paper")."""
+    return RoomGraph.from_scene(make_scene(scene, TRAIN_SEED)) if config.observation == "local" else None
+
+
 def build_model(scene: str, algorithm: str, config: TrainConfig, seed: int, env, steps: int):
     """The SB3 model of ``algorithm`` on ``env`` (buffer sized for ``steps``) and the scene family's route graph."""
-    graph = RoomGraph.from_scene(make_scene(scene, TRAIN_SEED)) if config.observation == "local" else None
+    graph = route_graph(scene, config)
     policy_kwargs = {"net_arch": list(config.net_arch), "features_extractor_class": GoalRouteExtractor,
                      "features_extractor_kwargs": {"mode": config.observation,
                                                    "graph": graph.arrays() if graph else None}}
@@ -166,14 +207,22 @@ def build_model(scene: str, algorithm: str, config: TrainConfig, seed: int, env,
 
 
 class _Monitor(BaseCallback):
-    """Progress bar, rolling training success, periodic validation, best-policy export and checkpoints."""
+    """Rolling training success, periodic validation and progress at each step; checkpoints and stops at the
+    start of each rollout, where the last step's transition is stored and trained on (a consistent state)."""
 
-    def __init__(self, run: _Run):
+    def __init__(self, run: _Run, stop: StopRequest):
         super().__init__()
-        self.run = run
+        self.run, self.stop = run, stop
 
     def _on_training_start(self) -> None:
         self.run.start_bar()
+
+    def _on_rollout_start(self) -> None:
+        run, n = self.run, self.model.num_timesteps
+        if self.stop.requested:
+            run.interrupt(n, self.stop)
+        if n - run.last_checkpoint >= run.checkpoint_every:
+            run.checkpoint(n)
 
     def _on_step(self) -> bool:
         run = self.run
@@ -183,13 +232,8 @@ class _Monitor(BaseCallback):
         n = self.model.num_timesteps
         if n - run.last_eval >= run.config.eval_every:
             run.validate(n)
-        if n - run.last_checkpoint >= run.config.checkpoint_every:
-            run.checkpoint(n)
         run.advance(n)
         return True
-
-    def _on_training_end(self) -> None:
-        self.run.stop_bar()
 
 
 class _Run:
@@ -199,15 +243,19 @@ class _Run:
                  progress: bool, command: str):
         self.scene, self.algorithm, self.steps, self.seed, self.out = scene, algorithm, steps, seed, out
         self.config, self.progress, self.command = config, progress, command
+        self.checkpoint_every = config.checkpoint_every or checkpoint_interval(steps)
+        self.state = StateFolder(out, run_identity(scene, algorithm, seed, config))
         self.history: list[dict] = []
         self.episodes: deque[bool] = deque(maxlen=ROLLING_EPISODES)
         self.last_eval = self.last_checkpoint = 0
         self.wall_before = 0.0
         self.t0 = time.perf_counter()
         self.best = -1.0
+        self.best_policy: NumpyPolicy | None = None
         self.model = None
         self.graph: RoomGraph | None = None
         self._bar = None
+        self._line_every = 0
         self.seeds = range(VALIDATION_SEED, VALIDATION_SEED + config.eval_episodes)
 
     @property
@@ -239,40 +287,61 @@ class _Run:
         if result["success_rate"] > self.best:
             self.best = result["success_rate"]
             policy.meta["validation_success"] = self.best
-            policy.save(self.out / "policy.npz")
+            self.best_policy = policy
+            _save_policy(policy, self.out / "policy.npz")
         self.write_curve()
 
     def checkpoint(self, n: int) -> None:
-        self.model.save(self.out / "checkpoint.zip")
-        self.model.save_replay_buffer(self.out / "replay.pkl")
-        state = {"last_eval": self.last_eval, "last_checkpoint": n, "wall_s": self.wall, "best": self.best,
-                 "history": self.history, "episodes": list(self.episodes)}
-        (self.out / "state.json").write_text(json.dumps(state))
+        """Save generation ``n`` (see the module doc): model, replay buffer, environments, RNG states, best
+        policy; the manifest records the evaluation history and the counters."""
+        writers = sb3_files(self.model)
+        if self.best_policy is not None:
+            writers["best.npz"] = self.best_policy.save
+        record = {"env_steps": n, "history": self.history, "last_eval": self.last_eval, "wall_s": self.wall,
+                  "best": self.best, "episodes": list(self.episodes)}
+        self.state.save(n, writers, record)
         self.last_checkpoint = n
 
-    def restore(self) -> bool:
-        """Load the last checkpoint into a model; False when there is none."""
-        state_file = self.out / "state.json"
-        if not (state_file.is_file() and (self.out / "checkpoint.zip").is_file()):
-            return False
-        state = json.loads(state_file.read_text())
-        cls = {"sac-per": PerSAC}.get(self.algorithm, EpsilonGreedySAC)
-        env = DummyVecEnv([make_env(self.scene, self.config)] * self.config.n_envs)
-        self.model = cls.load(self.out / "checkpoint.zip", env=env, device="cpu")
-        self.model.load_replay_buffer(self.out / "replay.pkl")
-        self.last_eval, self.last_checkpoint = state["last_eval"], state["last_checkpoint"]
-        self.wall_before, self.best, self.history = state["wall_s"], state["best"], state["history"]
-        self.episodes.extend(state["episodes"])
-        return True
+    def interrupt(self, n: int, stop: StopRequest) -> None:
+        """Save step ``n`` unless saved already, and stop with the one line that says how to go on."""
+        if self.state.current is None or n > self.state.current.step:
+            self.checkpoint(n)
+        raise Interrupted(f"interrupted at step {n}; checkpoint saved in {self.out}; rerun the same command to "
+                          f"resume", stop.signum or signal.SIGINT)
+
+    def restore(self, generation: Generation) -> None:
+        """Continue from ``generation``: the model, its replay buffer, environments and RNG states as saved, so the
+        run goes on as if never stopped; the top-level policy and curve are rewritten to match it."""
+        self.model = sb3_restore({"sac-per": PerSAC}.get(self.algorithm, EpsilonGreedySAC), generation)
+        record = generation.record
+        self.last_eval, self.last_checkpoint = record["last_eval"], generation.step
+        self.wall_before, self.best, self.history = record["wall_s"], record["best"], record["history"]
+        self.episodes.extend(record["episodes"])
+        if "best.npz" in generation.files:
+            self.best_policy = NumpyPolicy.load(generation.path("best.npz"))
+            _save_policy(self.best_policy, self.out / "policy.npz")
+        if self.history:
+            self.write_curve()
 
     def write_curve(self) -> None:
-        (self.out / "curve.json").write_text(json.dumps(self.history, indent=1))
-        plot_curves({f"{self.scene} {self.algorithm}": [self.history]}, self.out / "curve.png")
+        atomic_write(self.out / "curve.json", json.dumps(self.history, indent=1))
+        with atomic_path(self.out / "curve.png") as tmp:
+            plot_curves({f"{self.scene} {self.algorithm}": [self.history]}, tmp)
 
     def start_bar(self) -> None:
+        """A progress bar on a terminal; elsewhere (a log file) a plain line every 1 % of the run."""
         if not self.progress:
             return
-        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+        if not sys.stdout.isatty():
+            self._line_every = max(1, self.steps // 100)
+            return
+        from rich.progress import (
+            BarColumn,
+            MofNCompleteColumn,
+            Progress,
+            TextColumn,
+            TimeRemainingColumn,
+        )
 
         self._bar = Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
                              TimeRemainingColumn(), TextColumn("{task.fields[status]}"))
@@ -280,11 +349,15 @@ class _Run:
         self._bar.start()
 
     def advance(self, n: int) -> None:
-        if self._bar is not None and n % 100 == 0:
-            last = self.history[-1]["success"] if self.history else float("nan")
-            rolling = float(np.mean(self.episodes)) if self.episodes else 0.0
-            self._bar.update(self._task, completed=n,
-                             status=f"train {rolling:.0%}  val {last:.0%}  {n / max(self.wall, 1e-9):.0f} steps/s")
+        if not (self._bar is not None and n % 100 == 0 or self._line_every and n % self._line_every == 0):
+            return
+        last = self.history[-1]["success"] if self.history else float("nan")
+        rolling = float(np.mean(self.episodes)) if self.episodes else 0.0
+        status = f"train {rolling:.0%}  val {last:.0%}  {n / max(self.wall, 1e-9):.0f} steps/s"
+        if self._bar is not None:
+            self._bar.update(self._task, completed=n, status=status)
+        else:
+            print(f"{self.scene} {self.algorithm}: step {n}/{self.steps}  {status}", flush=True)
 
     def stop_bar(self) -> None:
         if self._bar is not None:
@@ -292,15 +365,35 @@ class _Run:
             self._bar = None
 
 
+def _save_policy(policy: NumpyPolicy, path: Path) -> None:
+    with atomic_path(path) as tmp:
+        policy.save(tmp)
+
+
+#: Configuration fields that may change when a run is resumed (they do not change what is learned).
+RESUMABLE_CHANGES = ("eval_every", "checkpoint_every", "torch_threads")
+
+
+def run_identity(scene: str, algorithm: str, seed: int, config: TrainConfig) -> dict:
+    """What a checkpoint must match to be resumed: scene, algorithm, seed and the configuration (except
+    :data:`RESUMABLE_CHANGES`); the number of steps may grow."""
+    return {"trainer": "snakeplan.rl.train", "scene": scene, "algorithm": algorithm, "seed": seed,
+            "config": {k: v for k, v in asdict(config).items() if k not in RESUMABLE_CHANGES}}
+
+
 def train(scene: str, algorithm: str, steps: int, seed: int, out_dir: str | Path,
           config: TrainConfig = DEFAULT_CONFIG, progress: bool = True, resume: bool = True) -> TrainResult:
     """Train ``algorithm`` ("sac-her", "sac-per", "sac") on scene family ``scene`` for ``steps`` environment
-    steps with ``seed``; files go to ``out_dir`` (see the module doc). With ``resume``, a checkpoint there is
-    continued up to ``steps``."""
+    steps with ``seed``; files go to ``out_dir`` (see the module doc). With ``resume``, the checkpoint there is
+    continued up to ``steps``; without, it is deleted first. SIGINT or SIGTERM saves a checkpoint and raises
+    :class:`snakeplan.interrupt.Interrupted`."""
     if algorithm not in ALGORITHMS:
         raise ValueError(f"algorithm: must be one of {ALGORITHMS}, got {algorithm!r}")
     if steps <= 0:
         raise ValueError(f"steps: must be positive, got {steps}")
+    if config.checkpoint_every < 0:
+        raise ValueError(f"--checkpoint-every: must be 0 (the default interval) or positive, "
+                         f"got {config.checkpoint_every}")
     if scene not in scene_names():
         raise ValueError(f"scene: unknown scene family {scene!r} (known: {', '.join(scene_names())})")
     if scene_spec(scene).task != "reach":
@@ -312,22 +405,41 @@ def train(scene: str, algorithm: str, steps: int, seed: int, out_dir: str | Path
     out.mkdir(parents=True, exist_ok=True)
     command = _command(scene, algorithm, steps, seed, out, config)
     run = _Run(scene, algorithm, steps, seed, out, config, progress, command)
-    resumed = resume and run.restore()
-    if not resumed:
-        env = DummyVecEnv([make_env(scene, config)] * config.n_envs)
-        env.seed(seed)
-        run.model, run.graph = build_model(scene, algorithm, config, seed, env, steps)
+    try:
+        with run.state.locked(), interruptible() as stop:
+            return _train(run, stop, resume)
+    except StateError as exc:
+        raise ValueError(f"--out: {exc}; rerun with --fresh to start over, or choose another --out") from None
+
+
+def _train(run: _Run, stop: StopRequest, resume: bool) -> TrainResult:
+    if not resume:
+        run.state.clear()
+    generation = run.state.load()
+    for warning in run.state.warnings:
+        sys.stderr.write(f"snakeplan: warning: {warning}\n")
+    if generation is None:
+        env = DummyVecEnv([make_env(run.scene, run.config)] * run.config.n_envs)
+        env.seed(run.seed)
+        run.model, run.graph = build_model(run.scene, run.algorithm, run.config, run.seed, env, run.steps)
     else:
-        run.graph = RoomGraph.from_scene(make_scene(scene, TRAIN_SEED)) if config.observation == "local" else None
-    remaining = steps - run.model.num_timesteps
-    if remaining > 0:
-        run.model.learn(remaining, callback=_Monitor(run), reset_num_timesteps=not resumed)
+        run.graph = route_graph(run.scene, run.config)
+        run.restore(generation)
+    remaining = run.steps - run.model.num_timesteps
+    try:
+        if remaining > 0:
+            run.model.learn(remaining, callback=_Monitor(run, stop), reset_num_timesteps=generation is None)
+    finally:
+        run.stop_bar()
     n = run.model.num_timesteps
     if run.last_eval < n:
         run.validate(n)
-    run.export(n).save(out / "last.npz")
-    run.checkpoint(n)
-    return TrainResult(out, out / "policy.npz", run.history)
+    _save_policy(run.export(n), run.out / "last.npz")
+    if run.state.current is None or n > run.state.current.step:
+        run.checkpoint(n)
+    if stop.requested:
+        run.interrupt(n, stop)
+    return TrainResult(run.out, run.out / "policy.npz", run.history)
 
 
 def _command(scene: str, algorithm: str, steps: int, seed: int, out: Path, config: TrainConfig) -> str:
@@ -425,8 +537,11 @@ def _parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    result = train(args.scene, args.algorithm, args.steps, args.seed, args.out, _config(args),
-                   progress=not args.no_progress, resume=not args.fresh)
+    try:
+        result = train(args.scene, args.algorithm, args.steps, args.seed, args.out, _config(args),
+                       progress=not args.no_progress, resume=not args.fresh)
+    except KeyboardInterrupt as exc:
+        return report(exc)
     last = result.history[-1] if result.history else {}
     print(json.dumps({"policy": str(result.policy), "last": last}))
     return 0

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from snakeplan.files import check_output, write_text
+from snakeplan.files import atomic_write, check_output
 from snakeplan.geometry.polyline import validate_path
 from snakeplan.jsonable import jsonable
 from snakeplan.trajectory.build import Trajectory
@@ -167,7 +167,7 @@ def write(traj: Trajectory, filename: str, field: str = "--trajectory") -> str:
 
         text = ("# trajectory_msgs/msg/JointTrajectory (ROS 2) from snakeplan; SI units: feed m, angles rad\n"
                 + yaml.safe_dump(ros_message(traj), sort_keys=False, default_flow_style=None, width=120))
-    write_text(Path(filename), text)
+    atomic_write(Path(filename), text)
     return kind
 
 

@@ -9,6 +9,8 @@ not import it.
 from __future__ import annotations
 
 import math
+import signal
+import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -16,6 +18,16 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 
+from snakeplan.checkpoints import (
+    Generation,
+    StateError,
+    StateFolder,
+    checkpoint_interval,
+    sb3_files,
+    sb3_restore,
+)
+from snakeplan.files import atomic_path
+from snakeplan.interrupt import Interrupted, interruptible
 from snakeplan.planners.sscc.agent import (
     ACTION_NOISE,
     BATCH_SIZE,
@@ -86,6 +98,10 @@ class SwingEnv(_Spaces):
         self.episodes = 0
         self.successes = 0
 
+    def __getstate__(self) -> dict:
+        """Pickled (a training checkpoint) without the scene and arm caches: they are rebuilt from their keys."""
+        return {**self.__dict__, "_scenes": {}, "_arms": {}}
+
     def _scene(self, key: tuple[str, int]) -> Scene:
         if key not in self._scenes:
             self._scenes[key] = make_scene(*key)
@@ -122,7 +138,8 @@ class SwingEnv(_Spaces):
         return self.episode.observation(), float(status.reward), status.feasible, truncated, {}
 
 
-def _ddpg(env: gym.Env, seed: int, learning_rate: float = LEARNING_RATE, buffer_size: int = BUFFER_SIZE):
+def _ddpg(env: gym.Env, seed: int, learning_rate: float = LEARNING_RATE, buffer_size: int = BUFFER_SIZE,
+          learning_starts: int = LEARNING_STARTS):
     """A fresh Stable-Baselines3 DDPG model with this module's settings."""
     from stable_baselines3 import DDPG
     from stable_baselines3.common.noise import NormalActionNoise
@@ -130,7 +147,7 @@ def _ddpg(env: gym.Env, seed: int, learning_rate: float = LEARNING_RATE, buffer_
     n_act = env.action_space.shape[0]
     noise = NormalActionNoise(np.zeros(n_act), ACTION_NOISE * np.ones(n_act))
     return DDPG("MlpPolicy", env, learning_rate=learning_rate, buffer_size=buffer_size,
-                learning_starts=LEARNING_STARTS, batch_size=BATCH_SIZE, tau=TAU, gamma=GAMMA,
+                learning_starts=learning_starts, batch_size=BATCH_SIZE, tau=TAU, gamma=GAMMA,
                 action_noise=noise, policy_kwargs={"net_arch": list(NET_ARCH)}, seed=seed, device="cpu")
 
 
@@ -177,40 +194,148 @@ class TrainingResult:
     out: str
 
 
+def state_folder(out: str | Path) -> Path:
+    """Where :func:`train_agent` writing ``out`` keeps its resumable state: the folder ``<out>.state`` beside it."""
+    out = Path(out)
+    return out.with_name(out.name + ".state")
+
+
 def train_agent(robot: str, out: str | Path, steps: int = TRAIN_STEPS, seed: int = 0,
                 scenes: tuple[str, ...] = TRAIN_SCENES, targets: int = TRAIN_TARGETS,
-                threads: int = 1) -> TrainingResult:
-    """Train the DDPG swing agent for ``robot`` from scratch for ``steps`` environment steps and write it to
-    ``out`` (``.npz``). Every ``EVAL_EVERY`` steps the actor is scored on ``EVAL_EPISODES`` starts drawn from
+                threads: int = 1, resume: bool = True, checkpoint_every: int = 0, eval_every: int = EVAL_EVERY,
+                eval_episodes: int = EVAL_EPISODES, learning_starts: int = LEARNING_STARTS) -> TrainingResult:
+    """Train the DDPG swing agent for ``robot`` for ``steps`` environment steps and write it to ``out``
+    (``.npz``). Every ``eval_every`` steps the actor is scored on ``eval_episodes`` starts drawn from
     ``EVAL_TARGETS`` held-out targets (seeds after the training ones); the best checkpoint (most solved, then
     fewest steps) is kept, since DDPG's return is not monotone in training time. Seeded: the same seed and
     settings give the same file on the same software stack. ``threads`` caps torch's CPU threads (the networks
-    are small; more threads rarely help)."""
+    are small; more threads rarely help).
+
+    Resumable: every ``checkpoint_every`` steps (0: :func:`snakeplan.checkpoints.checkpoint_interval`) the run
+    is saved in :func:`state_folder` (a :class:`snakeplan.checkpoints.StateFolder`; its generations hold
+    :func:`snakeplan.checkpoints.sb3_files` and ``best.npz``, the manifest the evaluation history and the best
+    step). With ``resume`` a call continues from there exactly as if never stopped (without, the state is
+    deleted first); a finished run's state stays, so calling again only rewrites ``out``. SIGINT or SIGTERM
+    saves a checkpoint and raises :class:`snakeplan.interrupt.Interrupted`."""
     import torch
-    from stable_baselines3.common.callbacks import BaseCallback
 
     torch.set_num_threads(threads)
-    env = SwingEnv(robot, scenes, targets)
-    held_out = SwingEnv(robot, scenes, EVAL_TARGETS, seed_offset=TRAIN_SEED_OFFSET + targets)
-    model = _ddpg(env, seed)
-    history: list[tuple[int, float, float]] = []
-    best: dict = {"key": (-1.0, 0.0)}
+    identity = {"trainer": "snakeplan.planners.sscc.training", "robot": robot, "seed": seed, "scenes": list(scenes),
+                "targets": targets, "eval_episodes": eval_episodes, "learning_starts": learning_starts}
+    run = _SwingRun(robot, Path(out), steps, seed, StateFolder(state_folder(out), identity),
+                    checkpoint_every or checkpoint_interval(steps), eval_every,
+                    SwingEnv(robot, scenes, EVAL_TARGETS, seed_offset=TRAIN_SEED_OFFSET + targets), eval_episodes)
+    try:
+        with run.state.locked(), interruptible() as stop:
+            if not resume:
+                run.state.clear()
+            generation = run.state.load()
+            for warning in run.state.warnings:
+                sys.stderr.write(f"snakeplan: warning: {warning}\n")
+            if generation is None:
+                run.model = _ddpg(SwingEnv(robot, scenes, targets), seed, buffer_size=min(BUFFER_SIZE, steps),
+                                  learning_starts=learning_starts)
+            else:
+                run.restore(generation)
+            return run.train(stop, fresh=generation is None)
+    except StateError as exc:
+        raise ValueError(f"--out: {exc}; rerun with --fresh to start over") from None
 
-    class _KeepBest(BaseCallback):
-        def _on_step(self) -> bool:
-            if self.num_timesteps % EVAL_EVERY == 0:
-                agent = SwingAgent(robot, model_weights(model))
-                solved, mean_steps = evaluate_agent(agent, held_out)
-                history.append((self.num_timesteps, solved, mean_steps))
-                if (solved, -mean_steps) > best["key"]:
-                    best.update(key=(solved, -mean_steps), agent=agent, step=self.num_timesteps)
-            return True
 
-    t0 = time.perf_counter()
-    model.learn(total_timesteps=steps, callback=_KeepBest())
-    seconds = time.perf_counter() - t0
-    if "agent" not in best:
-        best.update(key=(math.nan, math.nan), agent=SwingAgent(robot, model_weights(model)), step=steps)
-    path = best["agent"].save(out)
-    return TrainingResult(robot, steps, seed, seconds, env.episodes, best["step"], best["key"][0],
-                          -best["key"][1], history, str(path))
+class _SwingRun:
+    """One :func:`train_agent` run: the model, the evaluation history, the best agent, checkpoints."""
+
+    def __init__(self, robot: str, out: Path, steps: int, seed: int, state: StateFolder, checkpoint_every: int,
+                 eval_every: int, held_out: SwingEnv, eval_episodes: int):
+        self.robot, self.out, self.steps, self.seed, self.state = robot, out, steps, seed, state
+        self.checkpoint_every, self.eval_every, self.eval_episodes = checkpoint_every, eval_every, eval_episodes
+        self.held_out = held_out
+        self.model = None
+        self.history: list[tuple[int, float, float]] = []
+        #: The best agent so far: its step, (share solved, -mean steps) and the agent.
+        self.best: tuple[int, tuple[float, float], SwingAgent] | None = None
+        self.seconds_before = 0.0
+        self.t0 = time.perf_counter()
+
+    @property
+    def seconds(self) -> float:
+        return self.seconds_before + time.perf_counter() - self.t0
+
+    def evaluate(self, n: int) -> None:
+        agent = SwingAgent(self.robot, model_weights(self.model))
+        solved, mean_steps = evaluate_agent(agent, self.held_out, self.eval_episodes)
+        self.history.append((n, solved, mean_steps))
+        if self.best is None or (solved, -mean_steps) > self.best[1]:
+            self.best = (n, (solved, -mean_steps), agent)
+
+    def checkpoint(self, n: int) -> None:
+        writers = sb3_files(self.model)
+        best = None
+        if self.best is not None:
+            step, (solved, neg_steps), agent = self.best
+            writers["best.npz"] = lambda path: _save_weights(agent.weights, path)
+            best = {"step": step, "solved": solved, "mean_steps": -neg_steps}
+        self.state.save(n, writers, {"env_steps": n, "history": self.history, "best": best,
+                                     "seconds": self.seconds})
+
+    def interrupt(self, n: int, stop) -> None:
+        """Save step ``n`` unless saved already, and stop with the one line that says how to go on."""
+        if self.state.current is None or n > self.state.current.step:
+            self.checkpoint(n)
+        raise Interrupted(f"interrupted at step {n}; checkpoint saved in {self.state.root}; rerun the same command "
+                          f"to resume", stop.signum or signal.SIGINT)
+
+    def restore(self, generation: Generation) -> None:
+        from stable_baselines3 import DDPG
+
+        self.model = sb3_restore(DDPG, generation)
+        record = generation.record
+        self.history = [tuple(h) for h in record["history"]]
+        self.seconds_before = record["seconds"]
+        if record["best"] is not None:
+            b = record["best"]
+            weights = SwingAgent.load(self.robot, generation.path("best.npz")).weights
+            self.best = (b["step"], (b["solved"], -b["mean_steps"]), SwingAgent(self.robot, weights))
+
+    def train(self, stop, fresh: bool) -> TrainingResult:
+        from stable_baselines3.common.callbacks import BaseCallback
+
+        run = self
+
+        class _Callback(BaseCallback):
+            def _on_rollout_start(self) -> None:  # the last step is stored and trained on: a consistent state
+                n = self.num_timesteps
+                if stop.requested:
+                    run.interrupt(n, stop)
+                if n - (run.state.current.step if run.state.current else 0) >= run.checkpoint_every:
+                    run.checkpoint(n)
+
+            def _on_step(self) -> bool:
+                if self.num_timesteps % run.eval_every == 0:
+                    run.evaluate(self.num_timesteps)
+                return True
+
+        self.t0 = time.perf_counter()
+        remaining = self.steps - self.model.num_timesteps
+        if remaining > 0:
+            self.model.learn(total_timesteps=remaining, callback=_Callback(), reset_num_timesteps=fresh)
+        n = self.model.num_timesteps
+        if self.state.current is None or n > self.state.current.step:
+            self.checkpoint(n)
+        if stop.requested:
+            self.interrupt(n, stop)
+        if self.best is None:
+            step, key, agent = self.steps, (math.nan, math.nan), SwingAgent(self.robot, model_weights(self.model))
+        else:
+            step, key, agent = self.best
+        self.out.parent.mkdir(parents=True, exist_ok=True)
+        _save_weights(agent.weights, self.out)
+        return TrainingResult(self.robot, self.steps, self.seed, self.seconds,
+                              self.model.env.envs[0].unwrapped.episodes, step, key[0], -key[1], self.history,
+                              str(self.out))
+
+
+def _save_weights(weights: dict[str, np.ndarray], path: Path) -> None:
+    """Write agent weights as a plain ``.npz`` at exactly ``path``, atomically."""
+    with atomic_path(path) as tmp, open(tmp, "wb") as f:
+        np.savez(f, **weights)
