@@ -469,35 +469,32 @@ def cmd_bench_sscc(args: argparse.Namespace) -> int:
 
 
 def cmd_train(args: argparse.Namespace) -> int:
-    try:
-        require_training("train sscc")
-        from snakeplan.planners.sscc.training import train_agent
+    """Interrupted (SIGINT, SIGTERM), it saves a checkpoint; main() says so in one line, exit 130."""
+    require_training("train sscc")
+    from snakeplan.planners.sscc.training import train_agent
 
-        if args.steps < 1:
-            raise UsageError(f"--steps: expected a positive integer, got {args.steps}")
-        if args.checkpoint_every < 0:
-            raise UsageError(f"--checkpoint-every: expected a non-negative integer, got {args.checkpoint_every}")
-        if args.robot not in ("sscc-16", "sscc-24"):
-            raise UsageError(f"--robot: the sscc agent is trained for sscc-16 or sscc-24, got {args.robot!r}")
-        result = train_agent(args.robot, args.out, steps=args.steps, seed=args.seed, resume=not args.fresh,
-                             checkpoint_every=args.checkpoint_every)
-    except KeyboardInterrupt as exc:  # SIGINT / SIGTERM: a checkpoint is saved, one line says so
-        return report_interrupt(exc)
+    check_output(args.out, "--out")
+    if args.steps < 1:
+        raise UsageError(f"--steps: expected a positive integer, got {args.steps}")
+    if args.checkpoint_every < 0:
+        raise UsageError(f"--checkpoint-every: expected a non-negative integer, got {args.checkpoint_every}")
+    if args.robot not in ("sscc-16", "sscc-24"):
+        raise UsageError(f"--robot: the sscc agent is trained for sscc-16 or sscc-24, got {args.robot!r}")
+    result = train_agent(args.robot, args.out, steps=args.steps, seed=args.seed, resume=not args.fresh,
+                         checkpoint_every=args.checkpoint_every)
     sys.stdout.write(f"{result}\nwrote {args.out}\n")
     return EXIT_OK
 
 
 def cmd_train_rl(args: argparse.Namespace) -> int:
-    try:
-        require_training("train rl")
-        from snakeplan.rl.train import parse_config, train
+    """Interrupted (SIGINT, SIGTERM), it saves a checkpoint; main() says so in one line, exit 130."""
+    require_training("train rl")
+    from snakeplan.rl.train import parse_config, train
 
-        if args.steps < 1:
-            raise UsageError(f"--steps: expected a positive integer, got {args.steps}")
-        config = parse_config(args.extra)
-        result = train(args.scene, args.algorithm, args.steps, args.seed, args.out, config, resume=not args.fresh)
-    except KeyboardInterrupt as exc:  # SIGINT / SIGTERM: a checkpoint is saved, one line says so
-        return report_interrupt(exc)
+    if args.steps < 1:
+        raise UsageError(f"--steps: expected a positive integer, got {args.steps}")
+    config = parse_config(args.extra)
+    result = train(args.scene, args.algorithm, args.steps, args.seed, args.out, config, resume=not args.fresh)
     sys.stdout.write(f"wrote {result.policy}\n")
     return EXIT_OK
 
