@@ -11,6 +11,7 @@ import argparse
 import json
 import math
 import sys
+import warnings
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -251,6 +252,16 @@ def _status(plan) -> str:
     return f"{plan.status} (stopped: {stopped})" if stopped else str(plan.status)
 
 
+def _as_option(message: str) -> str:
+    """A planner's message about its ``policy`` (the file it rolls out) as the command line names it: ``--policy``."""
+    return f"--{message}" if message.startswith("policy:") else message
+
+
+def _warning_line(message, category, filename, lineno, file=None, line=None) -> None:
+    """Print a warning raised while planning as one line (``snakeplan: warning: ...``)."""
+    sys.stderr.write(f"snakeplan: warning: {_as_option(str(message))}\n")
+
+
 def _load_planner(name: str, **options):
     from snakeplan.planners.registry import PLANNERS
 
@@ -300,14 +311,15 @@ def cmd_plan(args: argparse.Namespace) -> int:
     spec = spec_for(scene)
     if spec.task == "inspect":
         return _plan_inspection(args, scene, robot, spec.planner)
-    options = {}
-    if args.policy is not None:
-        if not Path(args.policy).is_file():
-            raise UsageError(f"--policy: no such file {args.policy}")
-        options["policy"] = args.policy
+    options = {} if args.policy is None else {"policy": args.policy}
     planner = _load_planner(args.planner or spec.planner, **options)
     problem = Problem(scene, robot, time_limit_s=args.time_limit, knowledge=args.knowledge)
-    episode = run_episode(problem, planner, seed=args.planner_seed)
+    with warnings.catch_warnings():
+        warnings.showwarning = _warning_line
+        try:
+            episode = run_episode(problem, planner, seed=args.planner_seed)
+        except ValueError as exc:
+            raise ValueError(_as_option(str(exc))) from None
     plan = episode.plan
     if args.plot:
         _write_plot(args.plot, scene, robot, plan.path, episode.report, plan.planner)

@@ -30,6 +30,7 @@ import io
 import json
 import math
 import time
+import warnings
 from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
@@ -42,7 +43,8 @@ from snakeplan.files import atomic_path
 from snakeplan.geometry import polyline
 from snakeplan.planners.base import Planner, Problem, Status
 from snakeplan.planners.registry import register_planner
-from snakeplan.robots import Chain
+from snakeplan.planners.weights import read_npz, read_weights_file
+from snakeplan.robots import Chain, get_robot
 from snakeplan.scenes import Scene, scene_spec, spec_for
 from snakeplan.world import PLANNING, REACH_TOLERANCE_MM, ROLLOUT, FullView, KnowledgeView, ValidityChecker
 
@@ -483,31 +485,224 @@ class Crawler:
 
 # --- the policy ---------------------------------------------------------------------------------------------
 _GRAPH_KEYS = ("lo", "hi", "centre", "normal", "next_portal", "after")
+#: What a policy file is held to besides its shapes: hidden layers, goal-capture steps, and the magnitude of weights
+#: and of route-table coordinates (mm). A trained actor's weights are O(1) and a tank is metres across; past these
+#: a roll-out's float arithmetic could overflow into NaN actions. Portal normals are unit vectors within UNIT_TOL.
+MAX_HIDDEN_LAYERS = 16
+MAX_CAPTURE_STEPS = 100
+MAX_WEIGHT = 1e6
+MAX_COORD_MM = 1e7
+UNIT_TOL = 1e-6
+
+
+class PolicyTransferWarning(UserWarning):
+    """A policy planned in a scene family other than the one it was trained in: accepted, since it may transfer."""
+
+
+def _bad(message: str) -> ValueError:
+    return ValueError(f"policy: {message}")
+
+
+def _short(value) -> str:
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def _at(name: str, index) -> str:
+    return f"{name}[{', '.join(str(int(i)) for i in index)}]"
+
+
+def _real(value) -> float | None:
+    """``value`` as a float when it is a finite JSON number (not a boolean), else None."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return None
+    try:
+        number = float(value)
+    except OverflowError:
+        return None
+    return number if math.isfinite(number) else None
+
+
+def _is_count(value, top: int) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and 0 <= value <= top
+
+
+def _check_meta(meta) -> dict:
+    """``meta`` after checking the types and ranges of the keys a roll-out reads (others are free-form)."""
+    if not isinstance(meta, dict):
+        raise _bad(f"meta: must be a JSON object, got {type(meta).__name__}")
+    mode = meta.get("observation")
+    if not isinstance(mode, str) or mode not in OBSERVATIONS:
+        raise _bad(f"meta.observation: must be one of {', '.join(OBSERVATIONS)}, got {_short(mode)}")
+    if not _is_count(meta.get("hidden_layers"), MAX_HIDDEN_LAYERS):
+        raise _bad(f"meta.hidden_layers: must be an integer in 0..{MAX_HIDDEN_LAYERS}, "
+                   f"got {_short(meta.get('hidden_layers'))}")
+    for key in ("step_mm", "turn_radius_mm"):
+        if key in meta and not (_real(meta[key]) or 0.0) > 0.0:
+            raise _bad(f"meta.{key}: must be a positive finite number of mm, got {_short(meta[key])}")
+    step, radius = float(meta.get("step_mm", STEP_MM)), float(meta.get("turn_radius_mm", TURN_RADIUS_MM))
+    if step > math.pi * radius:
+        raise _bad(f"meta.turn_radius_mm: {radius:g} mm would turn a {step:g} mm step by more than half a turn")
+    if "capture_steps" in meta and not _is_count(meta["capture_steps"], MAX_CAPTURE_STEPS):
+        raise _bad(f"meta.capture_steps: must be an integer in 0..{MAX_CAPTURE_STEPS}, "
+                   f"got {_short(meta['capture_steps'])}")
+    if not isinstance(meta.get("lookahead", False), bool):
+        raise _bad(f"meta.lookahead: must be true or false, got {_short(meta['lookahead'])}")
+    for key in ("name", "scene", "algorithm", "robot"):
+        if key in meta and not (isinstance(meta[key], str) and meta[key]):
+            raise _bad(f"meta.{key}: must be a non-empty string, got {_short(meta[key])}")
+    return meta
+
+
+def _parse_meta(raw: np.ndarray | None) -> dict:
+    """The ``meta`` array (a 0-d string of JSON) as a checked dict."""
+    if raw is None:
+        raise _bad("meta: missing (a JSON object naming the observation design and hidden_layers)")
+    if raw.dtype.kind != "U" or raw.shape != ():
+        raise _bad(f"meta: must be a JSON string (a 0-d unicode array), got a {raw.dtype} array of shape {raw.shape}")
+
+    def constant(name: str):
+        raise ValueError(f"{name} is not a JSON number")
+
+    try:
+        meta = json.loads(str(raw), parse_constant=constant)
+    except RecursionError:
+        raise _bad("meta: JSON nested too deeply") from None
+    except ValueError as exc:
+        raise _bad(f"meta: not valid JSON ({exc})") from None
+    return _check_meta(meta)
+
+
+def _real_array(value, name: str, bound: float, shape: tuple | None = None, what: str = "") -> np.ndarray:
+    """``value`` as float64 after checking it is a real (not boolean) numeric array of ``shape`` (None entries:
+    any length) whose values are finite and within +-``bound``."""
+    a = np.asarray(value)
+    if a.dtype.kind not in "fiu":
+        raise _bad(f"{name}: must hold real numbers, got dtype {a.dtype}")
+    if shape is not None and (a.ndim != len(shape) or any(s is not None and s != n for s, n in zip(shape, a.shape))):
+        expected = "(" + ", ".join("n" if s is None else str(s) for s in shape) + ("," if len(shape) == 1 else "") + ")"
+        raise _bad(f"{name}: shape {a.shape}, expected {expected}{what}")
+    a = np.ascontiguousarray(a, dtype=float)
+    finite = np.isfinite(a)
+    if not finite.all():
+        index = np.argwhere(~finite)[0]
+        raise _bad(f"{_at(name, index)}: {a[tuple(index)]} is not a finite number")
+    if np.any(np.abs(a) > bound):
+        index = np.argwhere(np.abs(a) > bound)[0]
+        raise _bad(f"{_at(name, index)}: {a[tuple(index)]:g} is beyond +-{bound:g}")
+    return a
+
+
+def _index_table(value, name: str, shape: tuple, low: int, high: int, what: str) -> np.ndarray:
+    """``value`` as int64 after checking it is an integer array of ``shape`` with entries in ``low..high``."""
+    a = np.asarray(value)
+    if a.dtype.kind not in "iu":
+        raise _bad(f"{name}: must be an integer array, got dtype {a.dtype}")
+    if a.shape != shape:
+        raise _bad(f"{name}: shape {a.shape}, expected {shape} (rooms x rooms)")
+    wrong = (a < low) | (a > high)
+    if wrong.any():
+        index = np.argwhere(wrong)[0]
+        raise _bad(f"{_at(name, index)}: {int(a[tuple(index)])} is not {what} ({low}..{high})")
+    return np.ascontiguousarray(a, dtype=np.int64)
+
+
+def _check_graph(graph: RoomGraph) -> RoomGraph:
+    """``graph`` with float64 / int64 arrays, after checking that every route-table index is in range (the roll-out
+    reads them unchecked), rooms are boxes with min <= max, and portal normals are unit vectors."""
+    lo = _real_array(graph.lo, "graph_lo", MAX_COORD_MM, (None, 3))
+    rooms = lo.shape[0]
+    if rooms == 0:
+        raise _bad("graph_lo: no rooms (route tables need at least one)")
+    hi = _real_array(graph.hi, "graph_hi", MAX_COORD_MM, (rooms, 3), " (one row per room of graph_lo)")
+    if np.any(lo > hi):
+        index = np.argwhere(lo > hi)[0]
+        raise _bad(f"{_at('graph_lo', index)}: {lo[tuple(index)]:g} is above graph_hi's {hi[tuple(index)]:g}")
+    centre = _real_array(graph.centre, "graph_centre", MAX_COORD_MM, (None, 3))
+    portals = centre.shape[0]
+    normal = _real_array(graph.normal, "graph_normal", 1.0 + UNIT_TOL, (portals, 3),
+                         " (one row per portal of graph_centre)")
+    off = np.abs(np.linalg.norm(normal, axis=1) - 1.0) > UNIT_TOL
+    if off.any():
+        raise _bad(f"graph_normal[{int(np.argmax(off))}]: must be a unit vector")
+    nxt = _index_table(graph.next_portal, "graph_next_portal", (rooms, rooms), -1, portals - 1,
+                       "a portal index or -1")
+    if np.any(np.diagonal(nxt) != -1):
+        room = int(np.argmax(np.diagonal(nxt) != -1))
+        raise _bad(f"graph_next_portal[{room}, {room}]: the route from a room to itself has no portal (-1)")
+    after = _index_table(graph.after, "graph_after", (rooms, rooms), 0, rooms - 1, "a room index")
+    return RoomGraph(lo, hi, centre, normal, nxt, after)
 
 
 class NumpyPolicy:
     """Deterministic actor from plain weights: hidden ReLU layers ``(w_i, b_i)``, mean head, tanh.
 
     A policy file is an ``.npz`` of ``w0, b0, ..., mu_w, mu_b``, optional route tables ``graph_*``, and ``meta``
-    (a JSON string: scene, algorithm, observation design, crawl settings, training command); read without pickle.
+    (a JSON string: scene, robot, algorithm, observation design, crawl settings, training command); read without
+    pickle. Every policy is checked when made (:meth:`load` adds the file's arrays): ValueError ``policy: ...``
+    names what is wrong. ``meta`` holds ``observation`` (one of :data:`OBSERVATIONS`) and ``hidden_layers`` (0 to
+    ``MAX_HIDDEN_LAYERS``); optionally positive finite ``step_mm`` and ``turn_radius_mm`` (a step turns by at
+    most half a turn), ``capture_steps`` (0 to ``MAX_CAPTURE_STEPS``), boolean ``lookahead``, and non-empty
+    strings ``name``, ``scene``, ``algorithm``, ``robot``; other keys are free-form. The layers chain from the
+    input :func:`policy_input` makes for the design (and look-ahead) to :func:`action_dim` outputs, with real,
+    finite weights within ``MAX_WEIGHT``; route tables: see :func:`_check_graph`.
     """
 
     def __init__(self, layers: list[tuple[np.ndarray, np.ndarray]], mu: tuple[np.ndarray, np.ndarray], meta: dict,
                  graph: RoomGraph | None = None):
-        self.layers = layers
-        self.mu = mu
+        meta = _check_meta(meta)
+        mode = meta["observation"]
+        lookahead = bool(meta.get("lookahead", False)) and mode == "local"
+        if len(layers) != meta["hidden_layers"]:
+            raise _bad(f"meta.hidden_layers: {meta['hidden_layers']}, but the network has {len(layers)}")
+        width = input_dim(mode, observation_dim(mode, lookahead))
+        feeds = f" (the input of the {mode} observation{' with look-ahead' if lookahead else ''})"
+        checked = []
+        for i, (w, b) in enumerate([*layers, mu]):
+            name = f"w{i}" if i < len(layers) else "mu_w"
+            rows = None if i < len(layers) else action_dim(mode)
+            w = _real_array(w, name, MAX_WEIGHT, (rows, width), feeds)
+            bias = "b" + name[1:] if i < len(layers) else "mu_b"
+            checked.append((w, _real_array(b, bias, MAX_WEIGHT, (w.shape[0],), f" (one per row of {name})")))
+            if w.shape[0] == 0:
+                raise _bad(f"{name}: a layer needs at least one unit")
+            width, feeds = w.shape[0], f" (to follow {name})"
+        self.layers = checked[:-1]
+        self.mu = checked[-1]
         self.meta = meta
-        self.graph = graph
-        self.mode = meta["observation"]
+        self.graph = None if graph is None else _check_graph(graph)
+        self.mode = mode
 
     @classmethod
     def load(cls, path: str | Path | io.BytesIO) -> NumpyPolicy:
-        with np.load(path, allow_pickle=False) as z:
-            meta = json.loads(str(z["meta"]))
-            layers = [(z[f"w{i}"].astype(float), z[f"b{i}"].astype(float)) for i in range(meta["hidden_layers"])]
-            mu = (z["mu_w"].astype(float), z["mu_b"].astype(float))
-            graph = RoomGraph.from_arrays({k: z[f"graph_{k}"] for k in _GRAPH_KEYS}) if "graph_lo" in z else None
-        return cls(layers, mu, meta, graph)
+        """The policy in a file (or its bytes in a BytesIO), checked; ValueError ``policy: ...`` when it is not one."""
+        data = path.getvalue() if isinstance(path, io.BytesIO) else read_weights_file(path, "policy")
+        return cls.from_bytes(data)
+
+    @classmethod
+    def from_bytes(cls, data: bytes) -> NumpyPolicy:
+        """The policy in a file's bytes: the arrays the meta's ``hidden_layers`` names, all six route tables or none,
+        nothing else."""
+        arrays = read_npz(data, "policy")
+        meta = _parse_meta(arrays.pop("meta", None))
+        names = [f"{p}{i}" for i in range(meta["hidden_layers"]) for p in "wb"] + ["mu_w", "mu_b"]
+        missing = [k for k in names if k not in arrays]
+        if missing:
+            raise _bad(f"{missing[0]}: missing (meta.hidden_layers = {meta['hidden_layers']} needs "
+                       f"{', '.join(names)})")
+        tables = [f"graph_{k}" for k in _GRAPH_KEYS]
+        given = [k for k in tables if k in arrays]
+        if given and len(given) < len(tables):
+            absent = next(k for k in tables if k not in arrays)
+            raise _bad(f"{absent}: missing (route tables come all together: {', '.join(tables)})")
+        extra = sorted(set(arrays) - set(names) - set(tables))
+        if extra:
+            name = extra[0] if extra[0].isidentifier() else _short(extra[0])
+            raise _bad(f"{name}: unexpected array (a policy file holds meta, {', '.join(names)} and "
+                       f"optionally the graph_* route tables)")
+        layers = [(arrays[f"w{i}"], arrays[f"b{i}"]) for i in range(meta["hidden_layers"])]
+        graph = RoomGraph.from_arrays({k: arrays[f"graph_{k}"] for k in _GRAPH_KEYS}) if given else None
+        return cls(layers, (arrays["mu_w"], arrays["mu_b"]), meta, graph)
 
     def save(self, path: str | Path) -> None:
         arrays = {"meta": np.array(json.dumps({**self.meta, "hidden_layers": len(self.layers)}))}
@@ -533,6 +728,46 @@ class NumpyPolicy:
         return Crawler(robot, self.mode, self.meta.get("step_mm", STEP_MM),
                        self.meta.get("turn_radius_mm", TURN_RADIUS_MM), check_body, self.meta.get("capture_steps", 0),
                        self.meta.get("lookahead", False))
+
+
+def trained_robot(policy: NumpyPolicy) -> str | None:
+    """The robot a policy was trained for: its meta's ``robot``, else (files from before it was recorded) the robot
+    of its meta's scene family's spec; None when neither is known."""
+    if "robot" in policy.meta:
+        return policy.meta["robot"]
+    family = policy.meta.get("scene")
+    try:
+        return scene_spec(family).robot if family is not None else None
+    except KeyError:
+        return None
+
+
+def check_policy_fits(policy: NumpyPolicy, scene: Scene, robot: Chain) -> None:
+    """The rule for planning with a policy outside what it was trained for.
+
+    Another robot is refused (ValueError ``policy: ...``): the observation (inserted fraction), the step and the
+    crawl depend on the arm, so a robot whose section count or lengths differ from the trained robot's (see
+    :func:`trained_robot`; unknown: not checked) gets no plan, nor does an arm shorter than one step. Another
+    scene family is accepted with a :class:`PolicyTransferWarning` (a policy may transfer; its route tables stay
+    those of its own family).
+    """
+    trained = trained_robot(policy)
+    if trained is not None and trained != robot.name:
+        try:
+            theirs = get_robot(trained)
+        except KeyError:
+            raise _bad(f"trained for robot {trained}, which is not registered here; planning with {robot.name}"
+                       ) from None
+        if theirs.n_sections != robot.n_sections or not np.allclose(theirs.lengths, robot.lengths):
+            raise _bad(f"trained for {trained} ({theirs.n_sections} sections, {theirs.total_length:g} mm), planning "
+                       f"with {robot.name} ({robot.n_sections} sections, {robot.total_length:g} mm): a policy "
+                       f"plans for the arm it was trained on")
+    step = float(policy.meta.get("step_mm", STEP_MM))
+    if step > robot.total_length:
+        raise _bad(f"meta.step_mm: a {step:g} mm step is longer than {robot.name} ({robot.total_length:g} mm)")
+    family = policy.meta.get("scene")
+    if family is not None and family != scene.name:
+        warnings.warn(f"policy: trained in {family}, planning in {scene.name}", PolicyTransferWarning, stacklevel=3)
 
 
 def rollout(policy: NumpyPolicy, scene: Scene, robot: Chain, deadline: float = math.inf,
@@ -568,12 +803,13 @@ _POLICIES: dict[str, NumpyPolicy] = {}
 
 
 def load_policy(path: str | Path) -> NumpyPolicy:
-    """A policy file, parsed once per content: keyed by the hash of its bytes, not its path, so a file that
-    training rewrites in place (``--out DIR/policy.npz``) is read again."""
-    data = Path(path).read_bytes()
+    """A policy file, parsed and checked once per content: keyed by the hash of its bytes, not its path, so a file
+    that training rewrites in place (``--out DIR/policy.npz``) is read again; ValueError ``policy: ...`` when the
+    file is missing or not a valid policy."""
+    data = read_weights_file(path, "policy")
     key = hashlib.sha256(data).hexdigest()
     if key not in _POLICIES:
-        _POLICIES[key] = NumpyPolicy.load(io.BytesIO(data))
+        _POLICIES[key] = NumpyPolicy.from_bytes(data)
     return _POLICIES[key]
 
 
@@ -621,8 +857,6 @@ class SacPlanner(Planner):
         if path is None:
             raise ValueError(f"policy: no {self.name} policy ships for scene family {scene.name}; train one "
                              f"('snakeplan train rl') and pass its policy.npz")
-        if not path.is_file():
-            raise ValueError(f"policy: no policy file {path}")
         return load_policy(path)
 
     def _smoothest(self, path: np.ndarray, problem: Problem, model: ValidityChecker
@@ -646,6 +880,7 @@ class SacPlanner(Planner):
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float
                ) -> tuple[Status, np.ndarray | None, dict]:
         policy = self._policy(problem.scene)
+        check_policy_fits(policy, problem.scene, problem.robot)
         model = ValidityChecker(problem.world, problem.robot, PLANNING)
         details = {"policy": policy.meta.get("name", str(self.policy or self.name))}
         best, best_reach = None, -1.0

@@ -8,7 +8,11 @@ Episodes whose inverse-kinematics start is already a solution are redrawn: they 
 the settings; :mod:`.training` trains with them.
 
 Shipped weights are the policy's ``state_dict`` as a plain ``.npz`` (``data/<robot>.npz``, read with
-``allow_pickle=False``). Planning runs the actor in NumPy (a two-layer MLP), so this module imports neither
+``allow_pickle=False``). An agent file is checked before use (:func:`agent_shapes`): exactly the arrays of the
+DDPG ``state_dict`` for its arm (actor, critic and their targets, ``NET_ARCH`` hidden units), each of the shape
+the arm's state and action sizes give, real and finite within ``MAX_WEIGHT``; the file carries no other record
+of its arm, so an agent for another section count is refused by its shapes. A file that is not one gives one
+ValueError ``agent_path: ...``. Planning runs the actor in NumPy (a two-layer MLP), so this module imports neither
 torch, Stable-Baselines3 nor Gymnasium; learning (the ``train`` extra) does. As in the paper, the agent can keep
 learning from every task: with ``learning`` on, each search's transitions go to its replay buffer and up to
 ``ONLINE_GRADIENT_STEPS`` updates follow.
@@ -20,7 +24,6 @@ thousand updates and then drifts (see :func:`.training.train_agent`'s history).
 from __future__ import annotations
 
 import hashlib
-import io
 from importlib.resources import files
 from pathlib import Path
 from typing import Any
@@ -29,6 +32,7 @@ import numpy as np
 
 from snakeplan.files import atomic_path
 from snakeplan.planners.sscc.swinging import SwingEpisode, Transition, action_size, observation_size
+from snakeplan.planners.weights import read_npz, read_weights_file
 from snakeplan.robots import get_robot
 
 #: Training targets: scenes and their seeds (``TRAIN_TARGETS`` per scene from ``TRAIN_SEED_OFFSET``).
@@ -61,6 +65,8 @@ ONLINE_BUFFER_SIZE = 20_000
 ONLINE_THREADS = 1
 #: Exploration noise (std of the action) when the agent plans.
 PLAN_NOISE = 0.1
+#: Largest magnitude of a weight (a trained network's are O(1)); past it the actor's arithmetic could overflow.
+MAX_WEIGHT = 1e6
 #: Package whose ``data`` folder holds the shipped agents, one ``<robot>.npz`` each.
 DATA_PACKAGE = "snakeplan.planners.sscc"
 
@@ -68,6 +74,46 @@ DATA_PACKAGE = "snakeplan.planners.sscc"
 def shipped_agent_path(robot: str) -> Path:
     """Where the pretrained agent for ``robot`` ships: ``data/<robot>.npz`` inside this package."""
     return Path(str(files(DATA_PACKAGE).joinpath("data", f"{robot}.npz")))
+
+
+def agent_shapes(n_sections: int) -> dict[str, tuple[int, ...]]:
+    """The arrays of an agent for an arm of ``n_sections`` and their shapes: the DDPG policy's ``state_dict``
+    (actor ``state -> NET_ARCH -> action``, one critic ``state + action -> NET_ARCH -> 1``, and their targets;
+    linear layers at every second index, ReLUs between)."""
+    state, action = observation_size(n_sections), action_size(n_sections)
+    nets = {"actor.mu": (state, *NET_ARCH, action), "critic.qf0": (state + action, *NET_ARCH, 1)}
+    shapes: dict[str, tuple[int, ...]] = {}
+    for stem, sizes in nets.items():
+        net, _, head = stem.partition(".")
+        for prefix in (f"{net}.{head}", f"{net}_target.{head}"):
+            for i, (into, out) in enumerate(zip(sizes, sizes[1:])):
+                shapes[f"{prefix}.{2 * i}.weight"] = (out, into)
+                shapes[f"{prefix}.{2 * i}.bias"] = (out,)
+    return shapes
+
+
+def _weights_problem(robot: str, n_sections: int, weights: dict) -> str | None:
+    """What is wrong with ``weights`` as the agent of ``robot`` (see :func:`agent_shapes`), or None."""
+    shapes = agent_shapes(n_sections)
+    missing = [k for k in shapes if k not in weights]
+    if missing:
+        return f"{missing[0]}: missing (an agent file holds the DDPG state_dict: {len(shapes)} arrays)"
+    extra = sorted(set(weights) - set(shapes), key=str)
+    if extra:
+        return f"{extra[0]!r}: unexpected array (an agent file holds the DDPG state_dict only)"
+    for key, shape in shapes.items():
+        a = np.asarray(weights[key])
+        if a.dtype.kind not in "fiu":
+            return f"{key}: must hold real numbers, got dtype {a.dtype}"
+        if a.shape != shape:
+            return (f"{key}: shape {a.shape}, expected {shape} for {robot} ({n_sections} sections: state "
+                    f"{observation_size(n_sections)}, action {action_size(n_sections)})")
+        values = a.astype(np.float64)
+        if not np.all(np.isfinite(values)):
+            return f"{key}: values must be finite numbers"
+        if np.any(np.abs(values) > MAX_WEIGHT):
+            return f"{key}: values must be within +-{MAX_WEIGHT:g}"
+    return None
 
 
 def model_weights(model) -> dict[str, np.ndarray]:
@@ -89,16 +135,16 @@ class SwingAgent:
         self.learning, self.seed, self.noise = learning, seed, noise
         self._model = None
         self.last_action: np.ndarray | None = None
+        problem = _weights_problem(robot, self.n_sections, self.weights)
+        if problem is not None:
+            raise ValueError(f"weights: {problem}")
         self._layers = self._actor_layers()
-        w_in = self._layers[0][0].shape[1]
-        if w_in != observation_size(self.n_sections) or self._layers[-1][0].shape[0] != action_size(self.n_sections):
-            raise ValueError(f"agent weights do not fit {robot}: input {w_in}, expected "
-                             f"{observation_size(self.n_sections)}")
 
     @classmethod
     def load(cls, robot: str, path: str | Path | None = None, **options: Any) -> SwingAgent:
-        """The agent stored at ``path`` (default: the shipped one for ``robot``)."""
-        return cls(robot, _weights(_agent_bytes(robot, path)), **options)
+        """The agent stored at ``path`` (default: the shipped one for ``robot``); ValueError ``agent_path: ...`` when
+        the file is missing or not an agent for ``robot``."""
+        return cls(robot, _weights(robot, _agent_bytes(robot, path)), **options)
 
     def save(self, path: str | Path) -> Path:
         """Write the weights as a plain ``.npz``."""
@@ -163,13 +209,17 @@ class SwingAgent:
 def _agent_bytes(robot: str, path: str | Path | None) -> bytes:
     source = Path(path) if path is not None else shipped_agent_path(robot)
     if not source.exists():
-        raise FileNotFoundError(f"no SSCC agent for {robot} at {source}; train one with 'snakeplan train sscc'")
-    return source.read_bytes()
+        raise ValueError(f"agent_path: no SSCC agent for {robot} at {source}; train one with 'snakeplan train sscc'")
+    return read_weights_file(source, "agent_path")
 
 
-def _weights(data: bytes) -> dict[str, np.ndarray]:
-    with np.load(io.BytesIO(data), allow_pickle=False) as z:
-        return {k: z[k] for k in z.files}
+def _weights(robot: str, data: bytes) -> dict[str, np.ndarray]:
+    """The arrays of an agent file's bytes, checked as the agent of ``robot``."""
+    weights = read_npz(data, "agent_path")
+    problem = _weights_problem(robot, get_robot(robot).n_sections, weights)
+    if problem is not None:
+        raise ValueError(f"agent_path: {problem}")
+    return weights
 
 
 #: Planning (not learning) agents by robot and the sha256 of their file's bytes.
@@ -179,9 +229,9 @@ _AGENTS: dict[tuple[str, str], SwingAgent] = {}
 def load_agent(robot: str, path: str | Path | None = None) -> SwingAgent:
     """The planning agent (not learning) for ``robot`` stored at ``path`` (default: the shipped one), parsed once
     per content: keyed by the hash of the file's bytes, not its path, so a file that training rewrites in place
-    is read again."""
+    is read again; ValueError ``agent_path: ...`` when the file is missing or not an agent for ``robot``."""
     data = _agent_bytes(robot, path)
     key = (robot, hashlib.sha256(data).hexdigest())
     if key not in _AGENTS:
-        _AGENTS[key] = SwingAgent(robot, _weights(data))
+        _AGENTS[key] = SwingAgent(robot, _weights(robot, data))
     return _AGENTS[key]
