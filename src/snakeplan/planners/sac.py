@@ -13,7 +13,9 @@ This module holds everything a roll-out needs, so planning never imports the tra
   pursuit.
 - :class:`RoomGraph` and :func:`policy_input`: the goal, the next hole on the fewest-holes route and the waypoint
   after it, in the tip frame; the coarse structure (rooms, holes) is what an operator knows of a tank (§4.1).
-- :class:`NumpyPolicy`: the actor from a plain ``.npz`` weights file (no pickle, no torch), ~20 us a call.
+- :class:`NumpyPolicy`: the actor from a plain ``.npz`` weights file (no pickle, no torch), ~20 us a call; a file
+  is checked before use (one ``policy: ...`` error names what is wrong) and :func:`check_policy_fits` says when
+  it fits a problem (another robot: refused; another scene family: a warning).
 
 The planners roll the policy out from the entrance (a roll-out takes milliseconds) until every target is reached;
 the smoothest of the roll-out and its Gaussian smoothings (``SMOOTHING_SIGMAS_MM``) that passes the planning-time

@@ -57,7 +57,7 @@ def read_npz(data: bytes, field: str) -> dict[str, np.ndarray]:
     try:
         archive = np.load(io.BytesIO(data), allow_pickle=False)
         unpacked = sum(info.file_size for info in archive.zip.infolist())
-    except Exception as exc:  # any failure of the zip reader on foreign bytes is the file's
+    except Exception as exc:  # noqa: BLE001 - any failure of the zip reader on foreign bytes is the file's
         raise ValueError(f"{field}: damaged .npz archive ({_why(exc)})") from None
     arrays: dict[str, np.ndarray] = {}
     with archive:
@@ -67,10 +67,10 @@ def read_npz(data: bytes, field: str) -> dict[str, np.ndarray]:
         for name in archive.files:
             try:
                 value = archive[name]
-            except Exception as exc:  # damaged data, or an object (pickled) array, which is never loaded
+            except Exception as exc:  # noqa: BLE001 - damaged data, or an object (pickled) array, never loaded
                 raise ValueError(f"{field}: array {name!r} is not a readable plain .npy array ({_why(exc)})"
                                  ) from None
-            if not isinstance(value, np.ndarray):
-                raise ValueError(f"{field}: member {name!r} is not an .npy array")
+            if not isinstance(value, np.ndarray):  # a member that is not .npy comes back as bytes
+                raise ValueError(f"{field}: member {name!r} is not an .npy array")  # noqa: TRY004 - bad input
             arrays[name] = value
     return arrays

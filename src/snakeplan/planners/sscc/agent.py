@@ -24,6 +24,7 @@ thousand updates and then drifts (see :func:`.training.train_agent`'s history).
 from __future__ import annotations
 
 import hashlib
+import itertools
 from importlib.resources import files
 from pathlib import Path
 from typing import Any
@@ -86,7 +87,7 @@ def agent_shapes(n_sections: int) -> dict[str, tuple[int, ...]]:
     for stem, sizes in nets.items():
         net, _, head = stem.partition(".")
         for prefix in (f"{net}.{head}", f"{net}_target.{head}"):
-            for i, (into, out) in enumerate(zip(sizes, sizes[1:])):
+            for i, (into, out) in enumerate(itertools.pairwise(sizes)):
                 shapes[f"{prefix}.{2 * i}.weight"] = (out, into)
                 shapes[f"{prefix}.{2 * i}.bias"] = (out,)
     return shapes
