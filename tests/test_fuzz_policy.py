@@ -2,10 +2,10 @@
 
 Hypothesis mutates the shipped policies (fuel-tank sac-her, oil-tank sac-per) and SSCC agents (sscc-16, sscc-24):
 truncation, random bytes, flipped bytes, missing and extra arrays, wrong shapes and dtypes, NaN/inf weights,
-route-table indices out of range, bad meta JSON and types. `snakeplan plan ... --policy FILE` runs in a subprocess
-with a timeout (an out-of-range route index used to segfault the process); the checks of the files themselves
-also run in-process, many more of them. The CLI cannot take an SSCC agent (`--policy` is for learned planners), so
-agents are loaded in-process with ``SwingAgent.load``. Each fuzz test counts inputs tried, clean rejections,
+route-table indices out of range, bad meta JSON and types. `snakeplan plan ... --policy FILE` (sac-her in the fuel
+tank, sac-per in the oil tank, sscc in the pipe) runs in a subprocess with a timeout (an out-of-range route index
+used to segfault the process); the loaders (``NumpyPolicy.from_bytes`` with ``check_policy_fits``,
+``SwingAgent.load``) also run in-process, many more times. Each fuzz test counts inputs tried, clean rejections,
 tracebacks, hangs, crashes (exit by a signal) and wrong acceptances, and prints them (``-s``); a bounded slice runs
 by default, the long run with ``-m slow``.
 """
@@ -13,6 +13,7 @@ by default, the long run with ``-m slow``.
 from __future__ import annotations
 
 import io
+import itertools
 import json
 import os
 import subprocess
@@ -214,6 +215,13 @@ def _benign(draw, arrays, raw):
     return how, _npz(changed, compressed=how != "float64 and uncompressed"), ACCEPT
 
 
+def _benign_agent(draw, arrays, raw):
+    """An agent saved as float64, compressed or not: it must plan (exit 0 or 1)."""
+    compressed = draw(st.booleans())
+    data = _npz({k: v.astype(float) for k, v in arrays.items()}, compressed=compressed)
+    return f"float64{' compressed' if compressed else ''}", data, ACCEPT
+
+
 POLICY_MUTATIONS = (_truncated, _random_bytes, _flipped, _missing, _extra, _wrong_shape, _wrong_dtype, _nonfinite,
                     _bad_index, _bad_tables, _bad_meta)
 AGENT_MUTATIONS = (_truncated, _random_bytes, _flipped, _missing, _extra, _wrong_shape, _wrong_dtype, _nonfinite)
@@ -243,11 +251,16 @@ class Tally:
         assert not self.failures, "\n".join(self.failures[:20])
 
 
-def plan_cli(family: str, policy: Path) -> tuple[int | None, str, str]:
-    """``snakeplan plan`` in a subprocess with ``--policy``: (exit status, or None when it hung; stdout; stderr)."""
-    planner = POLICIES[family][0]
-    cmd = [sys.executable, "-m", "snakeplan.cli", "plan", "--scene", family, "--planner", planner, "--policy",
-           str(policy), "--time-limit", PLAN_BUDGET_S]
+def plan_cli(target: str, policy: Path) -> tuple[int | None, str, str]:
+    """``snakeplan plan`` in a subprocess with ``--policy``: a learned planner's policy in its scene family
+    (``target`` a family), or an SSCC agent in the pipe (``target`` its robot): (exit status, or None when it hung;
+    stdout; stderr)."""
+    if target in AGENTS:
+        where = ["--scene", "pipe", "--planner", "sscc", "--robot", target]
+    else:
+        where = ["--scene", target, "--planner", POLICIES[target][0]]
+    cmd = [sys.executable, "-m", "snakeplan.cli", "plan", *where, "--policy", str(policy), "--time-limit",
+           PLAN_BUDGET_S]
     env = {**os.environ, "PYTHONPATH": str(SRC)}
     try:
         done = subprocess.run(cmd, check=False, capture_output=True, text=True, timeout=CLI_TIMEOUT_S, env=env)
@@ -312,22 +325,37 @@ def _settings(examples: int, derandomize: bool):
                     phases=[Phase.explicit, Phase.generate], suppress_health_check=list(HealthCheck))
 
 
-def fuzz_cli(examples: int, derandomize: bool, tmp: Path) -> Tally:
-    """Every policy mutation (and one valid variation) once per example, each through the CLI in a subprocess."""
+#: The CLI fuzz's kinds of mutation: a policy's, an agent's, ... (valid variations included; the default slice
+#: runs the first 15).
+_CLI_POLICY = (_bad_index, _random_bytes, _truncated, _bad_meta, _nonfinite, _missing, _wrong_dtype, _benign,
+               _bad_tables, _extra, _wrong_shape, _flipped)
+_CLI_AGENT = (_truncated, _random_bytes, _nonfinite, _wrong_shape, _benign_agent, _missing, _wrong_dtype, _extra,
+              _flipped)
+CLI_KINDS = [kind for pair in itertools.zip_longest([("policy", m) for m in _CLI_POLICY],
+                                                    [("agent", m) for m in _CLI_AGENT])
+             for kind in pair if kind is not None]
+
+
+def fuzz_cli(examples: int, kinds: list, derandomize: bool, tmp: Path) -> Tally:
+    """Each example runs one command per kind of mutation in ``kinds`` (from :data:`CLI_KINDS`), each with its
+    mutated file through the CLI in a subprocess."""
     tally = Tally("plan --policy in a subprocess")
-    files = iter(range(10**9))
 
     @_settings(examples, derandomize)
     @given(st.data())
     def run(data):
-        for mutate in (*POLICY_MUTATIONS, _benign):
-            family = data.draw(st.sampled_from(sorted(POLICIES)))
-            raw = POLICIES[family][1].read_bytes()
-            label, content, expect = mutate(data.draw, SHIPPED[family], raw)
-            path = tmp / f"policy-{next(files)}.npz"
+        for i, (what, mutate) in enumerate(kinds):
+            if what == "policy":
+                target = data.draw(st.sampled_from(sorted(POLICIES)))
+                arrays, raw = SHIPPED[target], POLICIES[target][1].read_bytes()
+            else:
+                target = data.draw(st.sampled_from(sorted(AGENTS)))
+                arrays, raw = SHIPPED_AGENTS[target], AGENTS[target].read_bytes()
+            label, content, expect = mutate(data.draw, arrays, raw)
+            path = tmp / f"{what}-{i}.npz"
             path.write_bytes(content)
-            rc, _, stderr = plan_cli(family, path)
-            tally.add(classify_cli(rc, stderr, expect), f"{family}: {label}", stderr)
+            rc, _, stderr = plan_cli(target, path)
+            tally.add(classify_cli(rc, stderr, expect), f"{target}: {label}", stderr)
             path.unlink()
 
     run()
@@ -365,7 +393,7 @@ def fuzz_in_process(examples: int, derandomize: bool, tmp: Path) -> tuple[Tally,
 
 
 def test_fuzz_policy_files_through_the_cli(tmp_path):
-    fuzz_cli(1, True, tmp_path).check()
+    fuzz_cli(1, CLI_KINDS[:15], True, tmp_path).check()
 
 
 def test_fuzz_policy_and_agent_files_in_process(tmp_path):
@@ -375,9 +403,9 @@ def test_fuzz_policy_and_agent_files_in_process(tmp_path):
 
 @pytest.mark.slow
 def test_fuzz_policy_files_long_run(tmp_path, request):
-    if "slow" not in request.config.getoption("markexpr"):
+    if "slow" not in (request.config.getoption("markexpr") or ""):
         pytest.skip("the long fuzz run is opt-in: -m slow")
-    tallies = [fuzz_cli(8, False, tmp_path), *fuzz_in_process(400, False, tmp_path)]
+    tallies = [fuzz_cli(6, CLI_KINDS, False, tmp_path), *fuzz_in_process(300, False, tmp_path)]
     for tally in tallies:
         tally.check()
 
@@ -540,7 +568,15 @@ def test_policy_trained_for_another_arm_is_refused(capsys, tmp_path):
     assert code == 2 and "trained for sscc-24" in _one_policy_line(err)
 
 
-# --- SSCC agents (the CLI takes no agent file: loaded as the planner does) -----------------------------------
+# --- SSCC agents ---------------------------------------------------------------------------------------------
+def test_sscc_agent_truncated_through_the_cli_is_one_policy_line(capsys, tmp_path):
+    raw = AGENTS["sscc-24"].read_bytes()
+    (tmp_path / "half.npz").write_bytes(raw[: len(raw) // 2])
+    code = main(["plan", "--scene", "pipe", "--planner", "sscc", "--policy", str(tmp_path / "half.npz")])
+    _, err = capsys.readouterr()
+    assert code == 2 and "damaged .npz archive" in _one_policy_line(err)
+
+
 def test_sscc_agent_truncated_empty_or_random_is_one_error(tmp_path):
     raw = AGENTS["sscc-16"].read_bytes()
     for name, data in (("truncated", raw[:1000]), ("empty", b""), ("random", np.random.default_rng(3).bytes(999))):

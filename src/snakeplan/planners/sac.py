@@ -40,6 +40,7 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
+from snakeplan import inputs
 from snakeplan.evaluation.metrics import path_smoothness
 from snakeplan.files import atomic_path
 from snakeplan.geometry import polyline
@@ -505,54 +506,33 @@ def _bad(message: str) -> ValueError:
     return ValueError(f"policy: {message}")
 
 
-def _short(value) -> str:
-    text = repr(value)
-    return text if len(text) <= 40 else text[:37] + "..."
-
-
 def _at(name: str, index) -> str:
     return f"{name}[{', '.join(str(int(i)) for i in index)}]"
 
 
-def _real(value) -> float | None:
-    """``value`` as a float when it is a finite JSON number (not a boolean), else None."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        return None
-    try:
-        number = float(value)
-    except OverflowError:
-        return None
-    return number if math.isfinite(number) else None
-
-
-def _is_count(value, top: int) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool) and 0 <= value <= top
-
-
 def _check_meta(meta) -> dict:
-    """``meta`` after checking the types and ranges of the keys a roll-out reads (others are free-form)."""
-    if not isinstance(meta, dict):
-        raise _bad(f"meta: must be a JSON object, got {type(meta).__name__}")
-    mode = meta.get("observation")
-    if not isinstance(mode, str) or mode not in OBSERVATIONS:
-        raise _bad(f"meta.observation: must be one of {', '.join(OBSERVATIONS)}, got {_short(mode)}")
-    if not _is_count(meta.get("hidden_layers"), MAX_HIDDEN_LAYERS):
-        raise _bad(f"meta.hidden_layers: must be an integer in 0..{MAX_HIDDEN_LAYERS}, "
-                   f"got {_short(meta.get('hidden_layers'))}")
-    for key in ("step_mm", "turn_radius_mm"):
-        if key in meta and not (_real(meta[key]) or 0.0) > 0.0:
-            raise _bad(f"meta.{key}: must be a positive finite number of mm, got {_short(meta[key])}")
-    step, radius = float(meta.get("step_mm", STEP_MM)), float(meta.get("turn_radius_mm", TURN_RADIUS_MM))
-    if step > math.pi * radius:
-        raise _bad(f"meta.turn_radius_mm: {radius:g} mm would turn a {step:g} mm step by more than half a turn")
-    if "capture_steps" in meta and not _is_count(meta["capture_steps"], MAX_CAPTURE_STEPS):
-        raise _bad(f"meta.capture_steps: must be an integer in 0..{MAX_CAPTURE_STEPS}, "
-                   f"got {_short(meta['capture_steps'])}")
-    if not isinstance(meta.get("lookahead", False), bool):
-        raise _bad(f"meta.lookahead: must be true or false, got {_short(meta['lookahead'])}")
-    for key in ("name", "scene", "algorithm", "robot"):
-        if key in meta and not (isinstance(meta[key], str) and meta[key]):
-            raise _bad(f"meta.{key}: must be a non-empty string, got {_short(meta[key])}")
+    """``meta`` after checking it is plain JSON data and the types and ranges of the keys a roll-out reads
+    (:mod:`snakeplan.inputs`' checks; other keys are free-form)."""
+    try:
+        inputs.mapping(meta, "meta", required=("observation", "hidden_layers"), what="a JSON object")
+        inputs.plain_json(meta, "meta")
+        mode = inputs.text(meta["observation"], "meta.observation")
+        if mode not in OBSERVATIONS:
+            raise ValueError(f"meta.observation: must be one of {', '.join(OBSERVATIONS)}, got {inputs.show(mode)}")
+        inputs.integer(meta["hidden_layers"], "meta.hidden_layers", 0, MAX_HIDDEN_LAYERS)
+        step = inputs.length(meta.get("step_mm", STEP_MM), "meta.step_mm")
+        radius = inputs.length(meta.get("turn_radius_mm", TURN_RADIUS_MM), "meta.turn_radius_mm")
+        if step > math.pi * radius:
+            raise ValueError(f"meta.turn_radius_mm: {radius:g} mm would turn a {step:g} mm step by more than half "
+                             f"a turn")
+        inputs.integer(meta.get("capture_steps", 0), "meta.capture_steps", 0, MAX_CAPTURE_STEPS)
+        if type(meta.get("lookahead", False)) is not bool:
+            raise ValueError(f"meta.lookahead: expected true or false, got {inputs.show(meta['lookahead'])}")
+        for key in ("name", "scene", "algorithm", "robot"):
+            if key in meta:
+                inputs.text(meta[key], f"meta.{key}")
+    except ValueError as exc:
+        raise _bad(str(exc)) from None
     return meta
 
 
@@ -562,16 +542,10 @@ def _parse_meta(raw: np.ndarray | None) -> dict:
         raise _bad("meta: missing (a JSON object naming the observation design and hidden_layers)")
     if raw.dtype.kind != "U" or raw.shape != ():
         raise _bad(f"meta: must be a JSON string (a 0-d unicode array), got a {raw.dtype} array of shape {raw.shape}")
-
-    def constant(name: str):
-        raise ValueError(f"{name} is not a JSON number")
-
     try:
-        meta = json.loads(str(raw), parse_constant=constant)
-    except RecursionError:
-        raise _bad("meta: JSON nested too deeply") from None
+        meta = inputs.load_json(str(raw), "meta")
     except ValueError as exc:
-        raise _bad(f"meta: not valid JSON ({exc})") from None
+        raise _bad(str(exc)) from None
     return _check_meta(meta)
 
 
@@ -642,10 +616,11 @@ class NumpyPolicy:
     A policy file is an ``.npz`` of ``w0, b0, ..., mu_w, mu_b``, optional route tables ``graph_*``, and ``meta``
     (a JSON string: scene, robot, algorithm, observation design, crawl settings, training command); read without
     pickle. Every policy is checked when made (:meth:`load` adds the file's arrays): ValueError ``policy: ...``
-    names what is wrong. ``meta`` holds ``observation`` (one of :data:`OBSERVATIONS`) and ``hidden_layers`` (0 to
-    ``MAX_HIDDEN_LAYERS``); optionally positive finite ``step_mm`` and ``turn_radius_mm`` (a step turns by at
-    most half a turn), ``capture_steps`` (0 to ``MAX_CAPTURE_STEPS``), boolean ``lookahead``, and non-empty
-    strings ``name``, ``scene``, ``algorithm``, ``robot``; other keys are free-form. The layers chain from the
+    names what is wrong. ``meta`` is plain JSON (finite numbers, valid text) holding ``observation`` (one of
+    :data:`OBSERVATIONS`) and ``hidden_layers`` (0 to ``MAX_HIDDEN_LAYERS``); optionally ``step_mm`` and
+    ``turn_radius_mm`` (lengths as :func:`snakeplan.inputs.length` takes them; a step turns by at most half a
+    turn), ``capture_steps`` (0 to ``MAX_CAPTURE_STEPS``), boolean ``lookahead``, and names ``name``, ``scene``,
+    ``algorithm``, ``robot``; other keys are free-form. The layers chain from the
     input :func:`policy_input` makes for the design (and look-ahead) to :func:`action_dim` outputs, with real,
     finite weights within ``MAX_WEIGHT``; route tables: see :func:`_check_graph`.
     """
@@ -699,7 +674,7 @@ class NumpyPolicy:
             raise _bad(f"{absent}: missing (route tables come all together: {', '.join(tables)})")
         extra = sorted(set(arrays) - set(names) - set(tables))
         if extra:
-            name = extra[0] if extra[0].isidentifier() else _short(extra[0])
+            name = extra[0] if extra[0].isidentifier() else inputs.show(extra[0])
             raise _bad(f"{name}: unexpected array (a policy file holds meta, {', '.join(names)} and "
                        f"optionally the graph_* route tables)")
         layers = [(arrays[f"w{i}"], arrays[f"b{i}"]) for i in range(meta["hidden_layers"])]
@@ -747,20 +722,22 @@ def trained_robot(policy: NumpyPolicy) -> str | None:
 def check_policy_fits(policy: NumpyPolicy, scene: Scene, robot: Chain) -> None:
     """The rule for planning with a policy outside what it was trained for.
 
-    Another robot is refused (ValueError ``policy: ...``): the observation (inserted fraction), the step and the
-    crawl depend on the arm, so a robot whose section count or lengths differ from the trained robot's (see
-    :func:`trained_robot`; unknown: not checked) gets no plan, nor does an arm shorter than one step. Another
-    scene family is accepted with a :class:`PolicyTransferWarning` (a policy may transfer; its route tables stay
-    those of its own family).
+    Another arm is refused (ValueError ``policy: ...``): the observation (inserted fraction), the step and the
+    crawl depend on the arm, so the planning robot must have the section count and lengths of the trained robot
+    (see :func:`trained_robot`; when that is no registered preset, its name), and be longer than one step. A policy
+    that names no robot or family is not checked for it. Another scene family is accepted with a
+    :class:`PolicyTransferWarning` (a policy may transfer; its route tables stay those of its own family).
     """
     trained = trained_robot(policy)
-    if trained is not None and trained != robot.name:
+    if trained is not None:
         try:
             theirs = get_robot(trained)
         except KeyError:
-            raise _bad(f"trained for robot {trained}, which is not registered here; planning with {robot.name}"
-                       ) from None
-        if theirs.n_sections != robot.n_sections or not np.allclose(theirs.lengths, robot.lengths):
+            theirs = None
+        if theirs is None and trained != robot.name:
+            raise _bad(f"trained for robot {trained}, which is not registered here; planning with {robot.name}")
+        if theirs is not None and (theirs.n_sections != robot.n_sections
+                                   or not np.allclose(theirs.lengths, robot.lengths)):
             raise _bad(f"trained for {trained} ({theirs.n_sections} sections, {theirs.total_length:g} mm), planning "
                        f"with {robot.name} ({robot.n_sections} sections, {robot.total_length:g} mm): a policy "
                        f"plans for the arm it was trained on")

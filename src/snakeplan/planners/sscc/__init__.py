@@ -96,10 +96,10 @@ class SSCCPlanner(Planner):
                              f"robot {robot.name} is not one")
         try:
             return self.agent(robot.name)
-        except (ValueError, KeyError, IndexError) as exc:
-            why = f": {exc.args[0]}" if isinstance(exc, ValueError) and exc.args else ""
+        except ValueError as exc:  # the loader's one line, "agent_path: <what is wrong>"
+            why = str(exc).removeprefix("agent_path: ")
             raise ValueError(f"policy: {self.agent_path} is not an SSCC agent for {robot.name} (one that "
-                             f"'snakeplan train sscc --robot {robot.name}' writes){why}") from None
+                             f"'snakeplan train sscc --robot {robot.name}' writes): {why}") from None
 
     def _policy(self, robot: Chain) -> tuple[str, SwingPolicy]:
         if self.search != "agent":
