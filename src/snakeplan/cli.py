@@ -348,7 +348,7 @@ def cmd_trajectory(args: argparse.Namespace) -> int:
     _check_trajectories(args.out, "-o")
     plan = read_plan(_read_text(args.plan_file, "PLAN"))
     if args.scene_file:
-        scene = Scene.from_json(_read_text(args.scene_file, "--scene-file"))
+        scene = Scene.from_json(_read_text(args.scene_file, "--scene-file"), "--scene-file")
     else:
         name = args.scene or plan["scene"]["name"]
         seed = args.seed if args.seed is not None else plan["scene"]["seed"]

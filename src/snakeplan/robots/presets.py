@@ -27,12 +27,12 @@ preset name or a robot file (DH YAML, URDF, ``snakeplan.robot/1`` JSON).
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Callable
 from importlib.resources import files
 from pathlib import Path
 
+from snakeplan.inputs import load_json
 from snakeplan.registry import Registry
 from snakeplan.robots.cables import CableRouting
 from snakeplan.robots.chain import Chain, Section
@@ -170,9 +170,7 @@ def load_robot(spec: str) -> Chain:
     if kind == "DH YAML":
         return Chain.from_dh(path)
     try:
-        data = json.loads(path.read_text())
+        text = path.read_text()
     except (OSError, UnicodeDecodeError) as exc:
         raise ValueError(f"cannot read {spec}: {exc.__class__.__name__}") from None
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{spec}: malformed JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") from None
-    return Chain.from_dict(data)
+    return Chain.from_dict(load_json(text, str(spec)))

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from snakeplan.files import atomic_write, check_output
+from snakeplan.inputs import load_json
 from snakeplan.geometry.polyline import validate_path
 from snakeplan.jsonable import jsonable
 from snakeplan.trajectory.build import Trajectory
@@ -171,19 +172,10 @@ def write(traj: Trajectory, filename: str, field: str = "--trajectory") -> str:
     return kind
 
 
-def _reject_constant(name: str) -> float:
-    raise ValueError(f"{name} is not a valid number")
-
-
 def read_plan(text: str, field: str = "PLAN") -> dict[str, Any]:
     """The parts of a ``snakeplan.plan/1`` document a trajectory needs: ``scene`` (name, seed), ``robot``,
     ``planner`` (each None when absent) and ``path`` ``(m, 3)`` mm; ValueError naming the field."""
-    try:
-        data = json.loads(text, parse_constant=_reject_constant)
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{field}: malformed JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") from None
-    except ValueError as exc:
-        raise ValueError(f"{field}: {exc}") from None
+    data = load_json(text, field)
     if not isinstance(data, dict) or "path" not in data:
         raise ValueError(f'{field}: must hold a plan (an object with a "path" list of [x, y, z], as plan --json '
                          "writes)")
