@@ -61,7 +61,11 @@ def checkpoint_interval(steps: int) -> int:
 
 class StateError(ValueError):
     """Saved state that cannot be resumed: an unreadable manifest, another run's state, nothing intact, or a
-    folder another job is using."""
+    folder another job is using; ``advice`` says what the user can do about it."""
+
+    def __init__(self, message: str, advice: str = "rerun with --fresh to start over"):
+        super().__init__(message)
+        self.advice = advice
 
 
 def _digest(path: Path) -> dict:
@@ -155,7 +159,8 @@ class StateFolder:
             try:
                 fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except OSError:
-                raise StateError(f"{self.root} is in use by another job") from None
+                raise StateError(f"{self.root} is in use by another job",
+                                 "wait for it to finish, or choose another --out") from None
             yield
 
     def load(self) -> Generation | None:

@@ -409,7 +409,7 @@ def train(scene: str, algorithm: str, steps: int, seed: int, out_dir: str | Path
         with run.state.locked(), interruptible() as stop:
             return _train(run, stop, resume)
     except StateError as exc:
-        raise ValueError(f"--out: {exc}; rerun with --fresh to start over, or choose another --out") from None
+        raise ValueError(f"--out: {exc}; {exc.advice}") from None
 
 
 def _train(run: _Run, stop: StopRequest, resume: bool) -> TrainResult:

@@ -239,7 +239,7 @@ def train_agent(robot: str, out: str | Path, steps: int = TRAIN_STEPS, seed: int
                 run.restore(generation)
             return run.train(stop, fresh=generation is None)
     except StateError as exc:
-        raise ValueError(f"--out: {exc}; rerun with --fresh to start over") from None
+        raise ValueError(f"--out: {exc}; {exc.advice}") from None
 
 
 class _SwingRun:
