@@ -71,3 +71,25 @@ def test_ctrl_c_in_a_benchmark_is_one_line_and_exit_130(tmp_path):
     out, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
     assert err.strip().splitlines()[-1] == "snakeplan: interrupted" and "Traceback" not in err
+
+
+def _wrapped_interrupt(args):
+    """What a Ctrl-C inside a C callback (numba loading a cached kernel) reaches Python as."""
+    try:
+        raise KeyboardInterrupt
+    except KeyboardInterrupt as stop:
+        raise SystemError("CPUDispatcher(<function _lazy_theta>) returned a result with an exception set") from stop
+
+
+def test_a_ctrl_c_wrapped_by_a_c_callback_is_still_one_line_and_exit_130(monkeypatch, capsys):
+    """CI once sent SIGINT while numba was unpickling a cached kernel: a SystemError traceback and exit 1."""
+    from snakeplan import cli
+    from snakeplan.interrupt import interruption
+
+    assert interruption(ValueError("plain")) is None
+    monkeypatch.setattr(cli, "cmd_scene_entry", _wrapped_interrupt)
+    assert cli.main(["scene", "--list"]) == 130
+    assert capsys.readouterr().err == "snakeplan: interrupted\n"
+    monkeypatch.setattr(cli, "cmd_scene_entry", lambda args: (_ for _ in ()).throw(SystemError("a real bug")))
+    with pytest.raises(SystemError, match="a real bug"):
+        cli.main(["scene", "--list"])

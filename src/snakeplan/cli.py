@@ -19,7 +19,7 @@ import numpy as np
 
 from snakeplan.extras import MissingExtra, require_training
 from snakeplan.files import check_output
-from snakeplan.interrupt import report as report_interrupt
+from snakeplan.interrupt import interruption, report as report_interrupt
 from snakeplan.jsonable import jsonable
 
 EXIT_OK, EXIT_INFEASIBLE, EXIT_USAGE = 0, 1, 2
@@ -752,14 +752,17 @@ def main(argv: list[str] | None = None) -> int:
             raise UsageError(f"unrecognized arguments: {' '.join(extra)}")
         args.extra = extra
         return int(args.func(args))
-    except (UsageError, MissingExtra) as exc:
-        return _fail(str(exc))
-    except (ValueError, KeyError) as exc:
-        return _fail(str(exc.args[0]) if exc.args else exc.__class__.__name__)
-    except KeyboardInterrupt as exc:
-        return report_interrupt(exc)
     except BrokenPipeError:
         return EXIT_OK
+    except BaseException as exc:
+        stop = interruption(exc)
+        if stop is not None:
+            return report_interrupt(stop)
+        if isinstance(exc, (UsageError, MissingExtra)):
+            return _fail(str(exc))
+        if isinstance(exc, (ValueError, KeyError)):
+            return _fail(str(exc.args[0]) if exc.args else exc.__class__.__name__)
+        raise
 
 
 def _fail(message: str) -> int:

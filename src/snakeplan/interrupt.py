@@ -11,6 +11,10 @@ API:
   (elsewhere the block runs unguarded) and the previous ones come back on leaving, so blocks nest.
 - :class:`Interrupted` ``(message, signum)``: a ``KeyboardInterrupt``, so code that does not catch it stops as
   after Ctrl-C; ``str()`` is the message, without the program's name.
+- :func:`interruption` ``(exc)``: the ``KeyboardInterrupt`` behind ``exc`` (itself, its cause or its context,
+  followed down the chain), or None. A signal that lands inside a C callback (numba loading a cached function,
+  a NumPy ufunc) reaches Python as a ``SystemError`` whose cause is the ``KeyboardInterrupt``; the command line
+  must still report it as an interruption.
 - :func:`report` ``(exc)``: writes ``snakeplan: <message>`` (``interrupted`` for a bare ``KeyboardInterrupt``)
   as one line on stderr and returns :data:`EXIT_INTERRUPTED` (130), the status a command then exits with.
 
@@ -27,8 +31,11 @@ and the command line around it::
 
     try:
         run()
-    except KeyboardInterrupt as exc:  # Interrupted, or Ctrl-C outside any interruptible() block
-        return report(exc)
+    except BaseException as exc:  # Interrupted, Ctrl-C outside any block, or one wrapped by a C callback
+        stop = interruption(exc)
+        if stop is None:
+            raise
+        return report(stop)
 
 This module imports nothing from snakeplan, so any layer may use it.
 """
@@ -91,6 +98,18 @@ def interruptible(immediate: bool = False,
     finally:
         for s, h in previous.items():
             signal.signal(s, signal.SIG_DFL if h is None else h)
+
+
+def interruption(exc: BaseException) -> KeyboardInterrupt | None:
+    """The ``KeyboardInterrupt`` that ``exc`` is or was raised from (through ``__cause__`` and ``__context__``),
+    or None when the chain holds none."""
+    seen: set[int] = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return exc
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return None
 
 
 def report(exc: BaseException, stream: TextIO | None = None) -> int:

@@ -62,7 +62,7 @@ from snakeplan.checkpoints import (
 )
 from snakeplan.episode import run_episode
 from snakeplan.files import atomic_path, atomic_write
-from snakeplan.interrupt import Interrupted, StopRequest, interruptible, report
+from snakeplan.interrupt import Interrupted, StopRequest, interruptible, interruption, report
 from snakeplan.planners import Problem
 from snakeplan.planners.sac import (
     CAPTURE_STEPS,
@@ -540,8 +540,11 @@ def main(argv: list[str] | None = None) -> int:
     try:
         result = train(args.scene, args.algorithm, args.steps, args.seed, args.out, _config(args),
                        progress=not args.no_progress, resume=not args.fresh)
-    except KeyboardInterrupt as exc:
-        return report(exc)
+    except BaseException as exc:
+        stop = interruption(exc)
+        if stop is None:
+            raise
+        return report(stop)
     last = result.history[-1] if result.history else {}
     print(json.dumps({"policy": str(result.policy), "last": last}))
     return 0
