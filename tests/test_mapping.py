@@ -130,6 +130,29 @@ def test_cheap_gain_equals_explicit_trace_drop(sphere):
     assert GainEvaluator(prior.covariance).gain([], []) == 0.0
 
 
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_blockwise_gain_equals_full_product(sphere, seed):
+    """The gain from each candidate's block of P W P equals tr(S^-1 (P W P)_{idx,idx}) with the full n x n
+    product P W P and an explicit inverse, on a posterior covariance (after fusing other measurements)."""
+    V, F = sphere
+    prior = surface_prior(V, F, sigma_f=3.0, length_scale=2500.0)
+    rng = np.random.default_rng(seed)
+    gmap = GaussianMap(prior.mean, prior.covariance)
+    gmap.update(rng.choice(len(V), 30), None, rng.uniform(0.01, 0.2, 30))
+    P = gmap.cov
+    w = rng.uniform(0.0, 1.0, len(V))
+    idx = rng.choice(len(V), int(rng.integers(1, 80)))
+    r = rng.uniform(0.01, 0.2, len(idx))
+    for weights in (None, w):
+        full = P @ ((np.ones(len(V)) if weights is None else weights)[:, None] * P)
+        nodes = np.unique(idx)
+        prec = np.zeros(len(V))
+        np.add.at(prec, idx, 1.0 / r)
+        S = P[np.ix_(nodes, nodes)] + np.diag(1.0 / prec[nodes])
+        expected = float(np.trace(np.linalg.inv(S) @ full[np.ix_(nodes, nodes)]))
+        assert GainEvaluator(P, weights).gain(idx, r) == pytest.approx(expected, rel=1e-10)
+
+
 # ---------------------------------------------------------------------------------------------- camera
 @pytest.fixture(scope="module")
 def patch_camera():

@@ -24,6 +24,7 @@ import numpy as np
 from snakeplan.geometry.polyline import validate_path
 from snakeplan.robots import Chain
 from snakeplan.scenes import Scene
+from snakeplan.threads import single_threaded
 from snakeplan.world import DEFAULT_SENSOR_RANGE_MM, KnowledgeView, view_for
 
 #: Default planning budget (s), the same for every planner in a comparison.
@@ -154,13 +155,16 @@ class Planner(ABC):
     takes_policy: ClassVar[bool] = False
 
     def plan(self, problem: Problem, seed: int = 0) -> Plan:
-        """Plan within ``problem.time_limit_s``; the wall time is measured here, the same way for all planners."""
+        """Plan within ``problem.time_limit_s``; the wall time is measured here, the same way for all planners,
+        with BLAS/OpenMP on one thread (:mod:`snakeplan.threads`)."""
         if self.needs_full_scene and problem.knowledge != "full":
             raise ValueError(f"knowledge: planner {self.name} needs the whole scene ('full')")
         problem = replace(problem, world=problem.world.fresh())  # every plan starts knowing only the prior
-        t0 = time.perf_counter()
-        status, path, details = self._solve(problem, np.random.default_rng(seed), t0 + problem.time_limit_s)
-        return Plan(self.name, status, path, time.perf_counter() - t0, details)
+        with single_threaded():
+            t0 = time.perf_counter()
+            status, path, details = self._solve(problem, np.random.default_rng(seed), t0 + problem.time_limit_s)
+            elapsed = time.perf_counter() - t0
+        return Plan(self.name, status, path, elapsed, details)
 
     @abstractmethod
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float

@@ -52,6 +52,7 @@ from snakeplan.mapping.gp import DEFAULT_LENGTH_SCALE_MM, DEFAULT_SIGMA_F, Surfa
 from snakeplan.registry import Registry, named_subclass
 from snakeplan.robots import Chain
 from snakeplan.scenes import Scene
+from snakeplan.threads import single_threaded
 
 #: Motion budget of the camera (s), paper §4.
 BUDGET_S = 130.0
@@ -551,7 +552,13 @@ class InspectionPlanner(ABC):
 
     def plan(self, problem: InspectionProblem, seed: int = 0) -> InspectionResult:
         """Fly the mission within the budget; same seed, same mission. Measurements are simulated from the
-        scene's field with noise from a generator seeded by ``seed`` (independent of the planner's)."""
+        scene's field with noise from a generator seeded by ``seed`` (independent of the planner's). BLAS and
+        OpenMP run on one thread throughout (:mod:`snakeplan.threads`)."""
+        with single_threaded():
+            return self._fly(problem, seed)
+
+    def _fly(self, problem: InspectionProblem, seed: int) -> InspectionResult:
+        """The mission loop of :meth:`plan`."""
         world = problem.world()
         truth = problem.truth
         planner_rng, noise_rng = (np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(2))
