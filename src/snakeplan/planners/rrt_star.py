@@ -113,13 +113,10 @@ class _SweptTip(ob.MotionValidator):
 
     def __init__(self, si: ob.SpaceInformation, arm: ValidityChecker, radius: float):
         super().__init__(si)
-        self._arm = arm
-        self._radius = radius
+        self._check = arm.motion_check(radius)
 
     def checkMotion(self, s1: ob.State, s2: ob.State) -> bool:
-        a = np.array([[s1[0], s1[1], s1[2]]])
-        b = np.array([[s2[0], s2[1], s2[2]]])
-        return bool(self._arm.segment_free(a, b, self._radius)[0])
+        return self._check(s1[0], s1[1], s1[2], s2[0], s2[1], s2[2])
 
 
 def _plan_leg(arm: ValidityChecker, start: np.ndarray, goal: np.ndarray, radius: float, deadline: float

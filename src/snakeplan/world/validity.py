@@ -20,6 +20,7 @@ depth the judge checks.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal
 
@@ -92,6 +93,20 @@ def _scan(p, cum, lengths, u, depths, max_bends, radii, rows, boxes, tris, range
         if arc[0] > ftl.INSERTION_TOL:
             return i, _INSERTION, -1
     return -1, -1, -1
+
+
+@njit(cache=True)
+def _motion_free(rows, boxes, tris, ranges, lo, hi, ax, ay, az, bx, by, bz, radius, joints, radii, cand, stack,
+                 stats):
+    """Whether the capsule of ``radius`` along (ax, ay, az) -> (bx, by, bz) is clear and both ends are in the
+    bounds [lo, hi] (one segment, scalars in: the per-motion check of a sampling planner)."""
+    joints[0, 0], joints[0, 1], joints[0, 2] = ax, ay, az
+    joints[1, 0], joints[1, 1], joints[1, 2] = bx, by, bz
+    for k in range(3):
+        if not (lo[k] <= joints[0, k] <= hi[k] and lo[k] <= joints[1, k] <= hi[k]):
+            return False
+    radii[0] = radius
+    return chain_hit(rows, boxes, tris, ranges, joints, radii, cand, stack, stats) < 0
 
 
 def _last(flags: np.ndarray) -> int:
@@ -167,6 +182,24 @@ class ValidityChecker:
         are in bounds (so the whole segment is)."""
         r = self.tip_radius if radius is None else radius
         return self.obstacles.segments_clear(a, b, r) & self.world.in_bounds(a) & self.world.in_bounds(b)
+
+    def motion_check(self, radius: float | None = None) -> Callable[[float, float, float, float, float, float], bool]:
+        """A fast form of :meth:`segment_free` for one segment given as six coordinates (mm): ``check(ax, ay, az,
+        bx, by, bz)``, for a sampling planner's per-motion callback (one jitted call, no arrays built per call).
+        It checks the obstacles known when it is made (a sensed view's later growth is not seen)."""
+        r = self.tip_radius if radius is None else float(radius)
+        obstacles = self.obstacles
+        rows, boxes, tris, ranges = obstacles.packed
+        stats = obstacles.evaluations
+        lo, hi = self.world.scene.bounds_min.astype(float), self.world.scene.bounds_max.astype(float)
+        joints, radii = np.empty((2, 3)), np.empty(1)
+        cand, stack = np.empty(rows.shape[0], dtype=np.int64), np.empty((256, 2))
+
+        def check(ax: float, ay: float, az: float, bx: float, by: float, bz: float) -> bool:
+            return _motion_free(rows, boxes, tris, ranges, lo, hi, ax, ay, az, bx, by, bz, r, joints, radii, cand,
+                                stack, stats)
+
+        return check
 
     # --- crawls -------------------------------------------------------------------------------------------------
     def _grid(self, cum: np.ndarray, start: float, stop: float) -> np.ndarray:
