@@ -79,3 +79,66 @@ def test_blocked_target_fails_at_once():
     plan = RRTStar().plan(Problem(solid, ROBOT, time_limit_s=5.0), seed=0)
     assert plan.status == "failed" and plan.path is None
     assert plan.compute_time_s < 1.0
+
+
+def test_compiled_tree_is_a_shortest_path_tree_of_free_motions():
+    """Invariants of the compiled RRT*'s tree, checked with the validity checker's own segment test: every edge
+    is a free motion no longer than the range, every cost-to-come is its parent's plus the edge's length, the
+    child lists match the parents, and the best goal vertex is the cheapest vertex at the goal."""
+    from snakeplan.planners import rrt_star, tip_rrt_star
+    from snakeplan.world import PLANNING, ValidityChecker
+
+    scene = make_scene("fuel-tank", 2)
+    arm = ValidityChecker(Problem(scene, ROBOT).world, ROBOT, PLANNING)
+    start = scene.entrance.position + rrt_star.LEAD_MM * arm.direction
+    goal = scene.targets[0]
+    tip_rrt_star.seed_stream(5)
+    tree = tip_rrt_star._Tree(start, capacity=64)  # small: the arrays must grow
+    rows, boxes, tris, ranges = arm.obstacles.packed
+    k_rrt = tip_rrt_star.REWIRE_FACTOR * np.e * 4.0 / 3.0
+    for _ in range(12):
+        tree.reserve(tip_rrt_star.CHUNK)
+        tip_rrt_star.grow(tree.pos, tree.parent, tree.cost, tree.inc, tree.child, tree.sibling, tree.goals,
+                          tree.state, goal, scene.bounds_min.astype(float), scene.bounds_max.astype(float),
+                          rrt_star.RANGE_MM, rrt_star.GOAL_BIAS, k_rrt, 10**6, tip_rrt_star.CHUNK, rows, boxes, tris,
+                          ranges, arm.tip_radius, arm.obstacles.evaluations)
+    n = int(tree.state[0])
+    assert n > 500 and tree.state[3] >= 0
+    v = np.arange(1, n)
+    par = tree.parent[v]
+    edge = np.linalg.norm(tree.pos[v] - tree.pos[par], axis=1)
+    assert np.all(arm.segment_free(tree.pos[par], tree.pos[v]))
+    assert np.all(edge <= rrt_star.RANGE_MM + 1e-9)
+    np.testing.assert_allclose(tree.cost[v], tree.cost[par] + edge, rtol=1e-12, atol=1e-9)
+    children = {}
+    for u in range(n):
+        c = tree.child[u]
+        while c >= 0:
+            children.setdefault(u, []).append(int(c))
+            c = tree.sibling[c]
+    assert sorted(x for cs in children.values() for x in cs) == list(range(1, n))
+    assert all(tree.parent[c] == u for u, cs in children.items() for c in cs)
+    at_goal = np.flatnonzero(np.all(tree.pos[:n] == goal, axis=1))
+    best = int(tree.state[3])
+    assert best in at_goal and tree.cost[best] == tree.cost[at_goal].min()
+    path = tree.path()
+    assert np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1)) == pytest.approx(tree.cost[best])
+
+
+@pytest.mark.parametrize(("name", "seed"), [("fuel-tank", 4), ("oil-tank", 5)])
+def test_compiled_rrt_star_matches_ompl(name, seed):
+    """The compiled RRT* and OMPL's, on the same problem: both judged successful, smoothed paths of about the
+    same length (different random streams, so not the same tree)."""
+    pytest.importorskip("ompl")
+    scene = make_scene(name, seed)
+    plans = {b: RRTStar(backend=b).plan(Problem(scene, ROBOT, time_limit_s=10.0), seed=seed)
+             for b in ("compiled", "ompl")}
+    for plan in plans.values():
+        assert plan.status == "found" and evaluate(scene, ROBOT, plan.path).success
+    lengths = [p.details["smoothed_length_mm"] for p in plans.values()]
+    assert lengths[0] == pytest.approx(lengths[1], rel=0.1)
+
+
+def test_unknown_backend_is_refused():
+    with pytest.raises(ValueError, match="^backend: "):
+        RRTStar(backend="fast")

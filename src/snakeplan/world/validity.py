@@ -96,10 +96,11 @@ def _scan(p, cum, lengths, u, depths, max_bends, radii, rows, boxes, tris, range
 
 
 @njit(cache=True)
-def _motion_free(rows, boxes, tris, ranges, lo, hi, ax, ay, az, bx, by, bz, radius, joints, radii, cand, stack,
+def motion_free(rows, boxes, tris, ranges, lo, hi, ax, ay, az, bx, by, bz, radius, joints, radii, cand, stack,
                  stats):
     """Whether the capsule of ``radius`` along (ax, ay, az) -> (bx, by, bz) is clear and both ends are in the
-    bounds [lo, hi] (one segment, scalars in: the per-motion check of a sampling planner)."""
+    bounds [lo, hi] (one segment, scalars in: the per-motion check of a sampling planner; jitted, so compiled
+    planners call it too)."""
     joints[0, 0], joints[0, 1], joints[0, 2] = ax, ay, az
     joints[1, 0], joints[1, 1], joints[1, 2] = bx, by, bz
     for k in range(3):
@@ -196,7 +197,7 @@ class ValidityChecker:
         cand, stack = np.empty(rows.shape[0], dtype=np.int64), np.empty((256, 2))
 
         def check(ax: float, ay: float, az: float, bx: float, by: float, bz: float) -> bool:
-            return _motion_free(rows, boxes, tris, ranges, lo, hi, ax, ay, az, bx, by, bz, r, joints, radii, cand,
+            return motion_free(rows, boxes, tris, ranges, lo, hi, ax, ay, az, bx, by, bz, r, joints, radii, cand,
                                 stack, stats)
 
         return check

@@ -1,0 +1,265 @@
+"""A compiled RRT* in tip space: OMPL's ``RRTstar`` with its defaults, in numba, motion checks in the same loop.
+
+OMPL's RRT* calls back into Python for every motion check, and on these scenes its own iteration costs about
+0.1 ms besides (measured with no Python callback at all), so a plan of a few thousand iterations cannot take
+less than a few tenths of a second through it. This is the same algorithm with the same defaults, compiled
+whole (mm):
+
+* sample the goal with probability ``goal_bias``, else uniformly in the bounds; steer from the nearest vertex
+  by at most ``range_mm``; keep the new state when the swept tip ball clears the obstacles
+  (:func:`snakeplan.world.validity.motion_free`, the kernel behind :meth:`ValidityChecker.motion_check`);
+* neighbours: the k nearest vertices, k = ceil(1.1 e (1 + 1/3) ln(n + 1)) (OMPL's ``useKNearest`` with rewire
+  factor 1.1); the parent is the neighbour of least cost-to-come through it whose motion is free, tried in
+  order of that cost (OMPL's delayed collision checking), neighbours farther than ``range_mm`` being refused;
+* rewiring: every other neighbour whose cost-to-come drops through the new vertex is re-parented when its
+  motion is free (reusing the checks already made), and its subtree's costs are updated;
+* the goal is reached when the goal state itself joins the tree; the best goal vertex is kept.
+
+Nearest and k-nearest searches are brute force over the tree (a few thousand vertices: cheaper here than
+keeping a spatial index). The random stream is numba's, seeded per plan; the trees therefore differ from
+OMPL's for the same seed, and :mod:`snakeplan.bench.speed` compares the two on the same problems.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+from numba import njit
+
+from snakeplan.world import ValidityChecker
+from snakeplan.world.validity import motion_free
+
+#: OMPL RRTstar's rewire factor; k_rrt = factor * e * (1 + 1 / dimension).
+REWIRE_FACTOR = 1.1
+#: Iterations per compiled call between deadline checks.
+CHUNK = 256
+#: Vertices allocated at first (the arrays double when full).
+CAPACITY = 4096
+
+# indices into the integer state of a search: vertices, iterations, iteration of the first solution (-1: none yet),
+# best goal vertex (-1: none), goal vertices
+_N, _ITER, _FOUND_AT, _BEST, _GOALS = 0, 1, 2, 3, 4
+
+
+@njit(cache=True)
+def seed_stream(seed):
+    """Seed numba's random stream (process-wide, like OMPL's: plan from one thread at a time)."""
+    np.random.seed(seed)
+
+
+@njit(cache=True)
+def _insert_k(kd, ki, m, k, d, j):
+    """Insert (d, j) into the ascending list kd/ki of length m (at most k kept); return the new length."""
+    if m == k and d >= kd[m - 1]:
+        return m
+    pos = m if m < k else k - 1
+    while pos > 0 and kd[pos - 1] > d:
+        kd[pos] = kd[pos - 1]
+        ki[pos] = ki[pos - 1]
+        pos -= 1
+    kd[pos] = d
+    ki[pos] = j
+    return m + 1 if m < k else m
+
+
+@njit(cache=True)
+def _detach(child, sibling, parent_of, v):
+    """Remove vertex v from its parent's list of children."""
+    p = parent_of[v]
+    if child[p] == v:
+        child[p] = sibling[v]
+    else:
+        c = child[p]
+        while sibling[c] != v:
+            c = sibling[c]
+        sibling[c] = sibling[v]
+    sibling[v] = -1
+
+
+@njit(cache=True)
+def grow(pos, parent, cost, inc, child, sibling, goals, state, goal, lo, hi, range_mm, goal_bias, k_rrt, improve,
+         iterations, rows, boxes, tris, ranges, radius, stats):
+    """Run up to ``iterations`` RRT* iterations on the tree (arrays with room for that many more vertices);
+    True when the search is done (``improve`` iterations after the first solution)."""
+    cap = pos.shape[0]
+    joints = np.empty((2, 3))
+    radii = np.empty(1)
+    cand = np.empty(rows.shape[0], dtype=np.int64)
+    stack = np.empty((256, 2))
+    kmax = int(math.ceil(k_rrt * math.log(cap + 1.0))) + 1
+    kd = np.empty(kmax)
+    ki = np.empty(kmax, dtype=np.int64)
+    valid = np.empty(kmax, dtype=np.int8)
+    through = np.empty(kmax)
+    order = np.empty(kmax, dtype=np.int64)
+    todo = np.empty(cap, dtype=np.int64)
+    x = np.empty(3)
+    for _ in range(iterations):
+        if state[_FOUND_AT] >= 0 and state[_ITER] >= state[_FOUND_AT] + improve:
+            return True
+        state[_ITER] += 1
+        n = state[_N]
+        if np.random.random() < goal_bias:
+            x[:] = goal
+        else:
+            for a in range(3):
+                x[a] = lo[a] + np.random.random() * (hi[a] - lo[a])
+        near, dn = 0, np.inf
+        for j in range(n):
+            d = (pos[j, 0] - x[0]) ** 2 + (pos[j, 1] - x[1]) ** 2 + (pos[j, 2] - x[2]) ** 2
+            if d < dn:
+                near, dn = j, d
+        dn = math.sqrt(dn)
+        if dn > range_mm:
+            for a in range(3):
+                x[a] = pos[near, a] + (x[a] - pos[near, a]) * (range_mm / dn)
+        if not motion_free(rows, boxes, tris, ranges, lo, hi, pos[near, 0], pos[near, 1], pos[near, 2], x[0], x[1],
+                           x[2], radius, joints, radii, cand, stack, stats):
+            continue
+        k = min(int(math.ceil(k_rrt * math.log(n + 1.0))), kmax)
+        m = 0
+        for j in range(n):
+            d = math.sqrt((pos[j, 0] - x[0]) ** 2 + (pos[j, 1] - x[1]) ** 2 + (pos[j, 2] - x[2]) ** 2)
+            m = _insert_k(kd, ki, m, k, d, j)
+        for i in range(m):
+            through[i] = cost[ki[i]] + kd[i]
+            valid[i] = 0
+        order[:m] = np.argsort(through[:m], kind="mergesort")
+        par = -1
+        for o in range(m):
+            i = order[o]
+            j = ki[i]
+            if j == near or (kd[i] < range_mm and motion_free(rows, boxes, tris, ranges, lo, hi, pos[j, 0], pos[j, 1],
+                                                              pos[j, 2], x[0], x[1], x[2], radius, joints, radii,
+                                                              cand, stack, stats)):
+                valid[i] = 1
+                par = i
+                break
+            valid[i] = -1
+        v = n
+        pos[v] = x
+        if par >= 0:
+            parent[v] = ki[par]
+            inc[v] = kd[par]
+        else:
+            parent[v] = near
+            inc[v] = dn if dn <= range_mm else range_mm
+        cost[v] = cost[parent[v]] + inc[v]
+        child[v] = -1
+        sibling[v] = child[parent[v]]
+        child[parent[v]] = v
+        state[_N] = n + 1
+        improved = False
+        for i in range(m):
+            j = ki[i]
+            if j == parent[v]:
+                continue
+            new_cost = cost[v] + kd[i]
+            if new_cost < cost[j]:
+                ok = valid[i] == 1
+                if valid[i] == 0:
+                    ok = kd[i] < range_mm and motion_free(rows, boxes, tris, ranges, lo, hi, x[0], x[1], x[2],
+                                                          pos[j, 0], pos[j, 1], pos[j, 2], radius, joints, radii,
+                                                          cand, stack, stats)
+                if ok:
+                    _detach(child, sibling, parent, j)
+                    parent[j] = v
+                    inc[j] = kd[i]
+                    cost[j] = new_cost
+                    sibling[j] = child[v]
+                    child[v] = j
+                    top = 0
+                    c = child[j]
+                    while c >= 0:
+                        todo[top] = c
+                        top += 1
+                        c = sibling[c]
+                    while top > 0:
+                        top -= 1
+                        u = todo[top]
+                        cost[u] = cost[parent[u]] + inc[u]
+                        c = child[u]
+                        while c >= 0:
+                            todo[top] = c
+                            top += 1
+                            c = sibling[c]
+                    improved = True
+        if x[0] == goal[0] and x[1] == goal[1] and x[2] == goal[2]:
+            goals[state[_GOALS]] = v
+            state[_GOALS] += 1
+            improved = True
+        if improved and state[_GOALS] > 0:
+            best = goals[0]
+            for g in range(1, state[_GOALS]):
+                if cost[goals[g]] < cost[best]:
+                    best = goals[g]
+            state[_BEST] = best
+        if state[_BEST] >= 0 and state[_FOUND_AT] < 0:
+            state[_FOUND_AT] = state[_ITER]
+    return False
+
+
+class _Tree:
+    """The arrays of one search (vertices in insertion order; the root is vertex 0)."""
+
+    def __init__(self, root: np.ndarray, capacity: int = CAPACITY) -> None:
+        self.pos = np.zeros((capacity, 3))
+        self.parent = np.full(capacity, -1, dtype=np.int64)
+        self.cost = np.zeros(capacity)
+        self.inc = np.zeros(capacity)
+        self.child = np.full(capacity, -1, dtype=np.int64)
+        self.sibling = np.full(capacity, -1, dtype=np.int64)
+        self.goals = np.zeros(capacity, dtype=np.int64)
+        self.state = np.array([1, 0, -1, -1, 0], dtype=np.int64)
+        self.pos[0] = root
+
+    def reserve(self, extra: int) -> None:
+        """Room for ``extra`` more vertices (the arrays double as needed)."""
+        need = int(self.state[_N]) + extra
+        cap = self.pos.shape[0]
+        if need <= cap:
+            return
+        new = max(need, 2 * cap)
+        for name, fill in (("pos", 0.0), ("parent", -1), ("cost", 0.0), ("inc", 0.0), ("child", -1),
+                           ("sibling", -1), ("goals", 0)):
+            old = getattr(self, name)
+            grown = np.full((new, *old.shape[1:]), fill, dtype=old.dtype)
+            grown[:cap] = old
+            setattr(self, name, grown)
+
+    def path(self) -> np.ndarray | None:
+        """Vertices from the root to the best goal vertex (mm), or None."""
+        v = int(self.state[_BEST])
+        if v < 0:
+            return None
+        chain = []
+        while v >= 0:
+            chain.append(v)
+            v = int(self.parent[v])
+        return self.pos[chain[::-1]].copy()
+
+
+def plan_leg(arm: ValidityChecker, start: np.ndarray, goal: np.ndarray, radius: float, deadline: float,
+             range_mm: float, goal_bias: float, improve: int) -> tuple[np.ndarray | None, int]:
+    """RRT* from ``start`` to ``goal`` (mm) with tip clearance ``radius`` (mm) until ``deadline`` (a perf_counter
+    value) or ``improve`` iterations after the first solution; (waypoints or None, tree size). Seed the stream
+    (:func:`seed_stream`) before a plan's first leg."""
+    obstacles = arm.obstacles
+    rows, boxes, tris, ranges = obstacles.packed
+    lo = np.asarray(arm.world.scene.bounds_min, dtype=float)
+    hi = np.asarray(arm.world.scene.bounds_max, dtype=float)
+    k_rrt = REWIRE_FACTOR * math.e * (1.0 + 1.0 / 3.0)
+    tree = _Tree(np.asarray(start, dtype=float))
+    g = np.asarray(goal, dtype=float)
+    while time.perf_counter() < deadline:
+        tree.reserve(CHUNK)
+        if grow(tree.pos, tree.parent, tree.cost, tree.inc, tree.child, tree.sibling, tree.goals, tree.state, g, lo,
+                hi, float(range_mm), float(goal_bias), k_rrt, int(improve), CHUNK, rows, boxes, tris, ranges,
+                float(radius), obstacles.evaluations):
+            break
+    pts = tree.path()
+    if pts is not None:
+        pts[0], pts[-1] = start, goal
+    return pts, int(tree.state[_N])
