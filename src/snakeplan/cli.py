@@ -396,6 +396,26 @@ def cmd_bench_kernels(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def cmd_bench_speed(args: argparse.Namespace) -> int:
+    from snakeplan.bench.speed import run_speed_bench, speed_markdown, write_speed
+
+    out = check_output(args.out, "--out", (".md",))
+    for field, value in (("--seeds", args.seeds), ("--station-seeds", args.station_seeds), ("--repeats", args.repeats)):
+        if value < 1:
+            raise UsageError(f"{field}: expected a positive integer, got {value}")
+    if args.station_baseline_seeds < 0:
+        raise UsageError(f"--station-baseline-seeds: expected a non-negative integer, got {args.station_baseline_seeds}")
+    summary = run_speed_bench(seeds=args.seeds, station_seeds=args.station_seeds,
+                              station_baseline_seeds=args.station_baseline_seeds, repeats=args.repeats,
+                              progress=None if args.json else lambda line: sys.stderr.write(line + "\n"))
+    write_speed(summary, out)
+    if args.json:
+        _print_json(summary)
+    else:
+        sys.stdout.write(speed_markdown(summary) + f"\nwrote {out} and {out.with_suffix('.json')}\n")
+    return EXIT_OK
+
+
 def cmd_bench_rl(args: argparse.Namespace) -> int:
     require_training("bench rl")
     from snakeplan.bench.rl import rl_markdown, run_rl_bench
@@ -629,7 +649,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--out", action="append", required=True, metavar="FILE", help=TRAJECTORY_HELP)
     p.set_defaults(func=cmd_trajectory)
 
-    bench = sub.add_parser("bench", help="benchmarks: kernels, table2, station, sscc",
+    bench = sub.add_parser("bench", help="benchmarks: kernels, speed, table2, station, sscc",
                            description="Benchmarks that reproduce the papers' figures and measure speed.")
     bsub = bench.add_subparsers(dest="bench", required=True, parser_class=_Parser, metavar="BENCH")
     p = bsub.add_parser("kernels", help="speed of the collision and follow-the-leader kernels",
@@ -640,6 +660,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=_seed, default=0, help="seed for scenes and configurations")
     p.add_argument("--json", action="store_true", help="also print the figures as JSON")
     p.set_defaults(func=cmd_bench_kernels)
+
+    p = bsub.add_parser("speed", help="planning times against their baselines: station, RRT*, learned, start-up, judge",
+                        description="Time every planner row of the speed table (median and worst case over seeds) "
+                                    "beside the implementation it replaced, in the same process; the station "
+                                    "missions run beside a busy process; the load average is recorded. Writes a "
+                                    "markdown table (--out) and its figures as JSON beside it.")
+    p.add_argument("--seeds", type=int, default=100, help="seeds per planner and scene (default 100)")
+    p.add_argument("--station-seeds", type=int, default=20, help="station missions (default 20)")
+    p.add_argument("--station-baseline-seeds", type=int, default=2,
+                   help="station missions also flown by the previous implementation (default 2: it is slow)")
+    p.add_argument("--repeats", type=int, default=5, help="runs of the plan command (default 5)")
+    p.add_argument("--out", default="bench-speed.md", help="markdown table to write (default bench-speed.md)")
+    p.add_argument("--json", action="store_true", help="print the figures as JSON")
+    p.set_defaults(func=cmd_bench_speed)
 
     p = bsub.add_parser("rl", help="training throughput of the learned planners",
                         description="Environment steps, SAC-HER training steps and actor calls per second, each "
