@@ -109,3 +109,30 @@ def test_commands_that_train_say_in_one_line_how_to_install_the_extra():
         assert result["stderr"] == expected + "\n"
     assert out["written"] == []
     assert out["library"] == 'snakeplan.rl: needs the training extra: pip install "snakeplan[train]"'
+
+
+#: Libraries a plain plan never needs (the start-up rule): importing them costs a command seconds.
+HEAVY = ("torch", "stable_baselines3", "gymnasium", "ompl", "trimesh", "matplotlib", "cma", "scipy.ndimage",
+         "snakeplan.trajectory", "snakeplan.viz")
+
+PLAN_COMMAND = '''
+import contextlib, io, json, sys
+import snakeplan.cli
+after_import = sorted(m for m in HEAVY if m in sys.modules)
+with contextlib.redirect_stdout(io.StringIO()):
+    code = snakeplan.cli.main(["plan", "--scene", "fuel-tank", "--seed", "1"])
+print(json.dumps({"code": code, "after_import": after_import,
+                  "after_plan": sorted(m for m in HEAVY if m in sys.modules)}))
+'''
+
+
+def test_the_plan_command_imports_no_heavy_library():
+    """``import snakeplan.cli`` and a whole ``snakeplan plan`` (learned planner, judge) load none of the heavy
+    libraries: sys.modules of a fresh interpreter, checked after each."""
+    env = {**os.environ, "PYTHONPATH": str(Path(snakeplan.__file__).parents[1])}
+    proc = subprocess.run([sys.executable, "-c", f"HEAVY = {HEAVY!r}\n" + PLAN_COMMAND], capture_output=True,
+                          text=True, env=env, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert out["code"] in (0, 1)  # planned and judged (1: the judge found the plan infeasible)
+    assert out["after_import"] == [] and out["after_plan"] == []

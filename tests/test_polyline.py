@@ -15,6 +15,7 @@ from snakeplan.geometry.polyline import (
     point_at,
     resample,
     resample_with_arclength,
+    gaussian_filter_nearest,
     smooth,
     validate_path,
 )
@@ -195,3 +196,14 @@ def test_smooth_keeps_ends_and_pins_in_order(path, sigma, picks):
         hits = np.flatnonzero(np.all(out[at:] == pin, axis=1))
         assert hits.size
         at += int(hits[0])
+
+
+@settings(max_examples=60, deadline=None)
+@given(arrays(np.float64, st.tuples(st.integers(1, 60), st.integers(1, 3)), elements=st.floats(-1e4, 1e4)),
+       st.floats(0.0, 30.0))
+def test_gaussian_filter_equals_scipy_ndimage(values, sigma):
+    """The NumPy Gaussian filter equals SciPy's gaussian_filter1d with mode 'nearest' (an independent library)."""
+    from scipy.ndimage import gaussian_filter1d
+
+    expected = gaussian_filter1d(values, sigma, axis=0, mode="nearest") if sigma > 0 else values
+    np.testing.assert_allclose(gaussian_filter_nearest(values, sigma), expected, rtol=1e-9, atol=1e-7)

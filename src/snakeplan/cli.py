@@ -276,6 +276,8 @@ def _load_planner(name: str, **options):
 
 def _check_trajectories(filenames: list[str] | None, field: str) -> None:
     """Refuse trajectory files that could not be written or whose name picks no format, before any work."""
+    if not filenames:
+        return
     from snakeplan.trajectory import output_format
 
     for filename in filenames or ():
