@@ -138,6 +138,10 @@ class Plan:
                              f"({' or '.join(STOPPED)}), got {self.details.get('stopped')!r}")
 
 
+#: Planner classes whose :meth:`Planner.warm_up` has run in this process.
+_WARM: set[type] = set()
+
+
 class Planner(ABC):
     """A motion planner for follow-the-leader tip paths. Subclasses set ``name`` and implement ``_solve``.
 
@@ -161,10 +165,18 @@ class Planner(ABC):
             raise ValueError(f"knowledge: planner {self.name} needs the whole scene ('full')")
         problem = replace(problem, world=problem.world.fresh())  # every plan starts knowing only the prior
         with single_threaded():
+            if type(self) not in _WARM:
+                self.warm_up(replace(problem, world=problem.world.fresh()))
+                _WARM.add(type(self))
             t0 = time.perf_counter()
             status, path, details = self._solve(problem, np.random.default_rng(seed), t0 + problem.time_limit_s)
             elapsed = time.perf_counter() - t0
         return Plan(self.name, status, path, elapsed, details)
+
+    def warm_up(self, problem: Problem) -> None:
+        """Load, before a process's first plan of this class is timed, what that plan would otherwise load
+        inside ``compute_time_s`` (numba kernels from the cache, trained weights): a call of each kernel on a
+        tiny input. The default does nothing; the problem given is a fresh copy, free to sense."""
 
     @abstractmethod
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float

@@ -376,6 +376,13 @@ class RRTStar(Planner):
             raise ValueError(f"backend: must be one of {', '.join(BACKENDS)}, got {backend!r}")
         self.backend = backend
 
+    def warm_up(self, problem: Problem) -> None:
+        """The compiled search's kernels (a few iterations of a throw-away leg), outside the timed plan."""
+        if self.backend == "compiled":
+            arm = ValidityChecker(problem.world, problem.robot, PLANNING)
+            tip_rrt_star.warm_up(arm, problem.start + LEAD_MM * arm.direction, problem.goals[0])
+            _crawls(arm, np.array([problem.start, problem.start + LEAD_MM * arm.direction]))
+
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float
                ) -> tuple[Status, np.ndarray | None, dict]:
         if self.backend == "compiled":

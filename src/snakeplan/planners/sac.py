@@ -838,6 +838,15 @@ class SacPlanner(Planner):
                              f"('snakeplan train rl') and pass its policy.npz")
         return load_policy(path)
 
+    def warm_up(self, problem: Problem) -> None:
+        """The policy, one roll-out step (rays, actor), a smoothing and a crawl check, outside the timed plan."""
+        policy = self._policy(problem.scene)
+        path, _ = rollout(policy, problem.scene, problem.robot, max_steps=2, world=problem.world)
+        if len(path) > 2:
+            smoothed = polyline.smooth(path, self.smoothing[0], pins=path[-1:]) if self.smoothing else path
+            path_smoothness(smoothed, float(np.mean(problem.robot.lengths)), problem.robot.k_ul)
+            ValidityChecker(problem.world, problem.robot, PLANNING).first_failure(smoothed)
+
     def _smoothest(self, path: np.ndarray, problem: Problem, model: ValidityChecker
                    ) -> tuple[np.ndarray | None, float, float]:
         """The smoothest of ``path`` and its smoothings (targets kept) that passes the crawl check, with its

@@ -241,11 +241,19 @@ class _Tree:
         return self.pos[chain[::-1]].copy()
 
 
+def warm_up(arm: ValidityChecker, start: np.ndarray, goal: np.ndarray) -> None:
+    """Load the kernels (numba's cache) with a few iterations of a throw-away search; the random stream is
+    seeded again by the plan that follows."""
+    seed_stream(0)
+    plan_leg(arm, start, goal, arm.tip_radius, math.inf, 200.0, 0.05, 0, iterations=4)
+
+
 def plan_leg(arm: ValidityChecker, start: np.ndarray, goal: np.ndarray, radius: float, deadline: float,
-             range_mm: float, goal_bias: float, improve: int) -> tuple[np.ndarray | None, int]:
+             range_mm: float, goal_bias: float, improve: int, iterations: int | None = None
+             ) -> tuple[np.ndarray | None, int]:
     """RRT* from ``start`` to ``goal`` (mm) with tip clearance ``radius`` (mm) until ``deadline`` (a perf_counter
-    value) or ``improve`` iterations after the first solution; (waypoints or None, tree size). Seed the stream
-    (:func:`seed_stream`) before a plan's first leg."""
+    value) or ``improve`` iterations after the first solution (or after ``iterations`` in all, when given);
+    (waypoints or None, tree size). Seed the stream (:func:`seed_stream`) before a plan's first leg."""
     obstacles = arm.obstacles
     rows, boxes, tris, ranges = obstacles.packed
     lo = np.asarray(arm.world.scene.bounds_min, dtype=float)
@@ -253,10 +261,13 @@ def plan_leg(arm: ValidityChecker, start: np.ndarray, goal: np.ndarray, radius: 
     k_rrt = REWIRE_FACTOR * math.e * (1.0 + 1.0 / 3.0)
     tree = _Tree(np.asarray(start, dtype=float))
     g = np.asarray(goal, dtype=float)
-    while time.perf_counter() < deadline:
-        tree.reserve(CHUNK)
+    left = math.inf if iterations is None else int(iterations)
+    while time.perf_counter() < deadline and left > 0:
+        chunk = int(min(CHUNK, left))
+        left -= chunk
+        tree.reserve(chunk)
         if grow(tree.pos, tree.parent, tree.cost, tree.inc, tree.child, tree.sibling, tree.goals, tree.state, g, lo,
-                hi, float(range_mm), float(goal_bias), k_rrt, int(improve), CHUNK, rows, boxes, tris, ranges,
+                hi, float(range_mm), float(goal_bias), k_rrt, int(improve), chunk, rows, boxes, tris, ranges,
                 float(radius), obstacles.evaluations):
             break
     pts = tree.path()
