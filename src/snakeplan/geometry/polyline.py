@@ -203,7 +203,8 @@ def gaussian_filter_nearest(values: np.ndarray, sigma: float, truncate: float = 
     x = np.arange(-r, r + 1, dtype=float)
     w = np.exp(-0.5 * (x / sigma) ** 2)
     padded = np.pad(np.asarray(values, dtype=float), ((r, r), (0, 0)), mode="edge")
-    return np.lib.stride_tricks.sliding_window_view(padded, 2 * r + 1, axis=0) @ (w / w.sum())
+    w /= w.sum()
+    return np.stack([np.convolve(padded[:, k], w, mode="valid") for k in range(padded.shape[1])], axis=1)
 
 
 def smooth(path: ArrayLike, sigma: float, pins: ArrayLike = (), step: float = 5.0) -> np.ndarray:
