@@ -243,3 +243,15 @@ def test_bench_ablation_trains_both_variants_and_reports(capsys, tmp_path):
 def test_bench_rl_rejects_bad_repeats(capsys):
     code, _, err = run(capsys, "bench", "rl", "--repeats", "0")
     assert code == 2 and "--repeats" in err
+
+
+@pytest.mark.parametrize(("argv", "expected"), [
+    (["--seeds", "0"], "snakeplan: error: --seeds: expected a positive integer, got 0\n"),
+    (["--station-seeds", "-1"], "snakeplan: error: --station-seeds: expected a positive integer, got -1\n"),
+    (["--out", "speed.txt"], "snakeplan: error: --out: expected a .md file, got 'speed.txt'\n"),
+])
+def test_bench_speed_refuses_bad_options_before_any_work(capsys, tmp_path, monkeypatch, argv, expected):
+    monkeypatch.chdir(tmp_path)
+    code, out, err = run(capsys, "bench", "speed", *argv)
+    assert code == 2 and err == expected and out == ""
+    assert list(tmp_path.iterdir()) == []
