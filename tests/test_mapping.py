@@ -132,8 +132,9 @@ def test_cheap_gain_equals_explicit_trace_drop(sphere):
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_blockwise_gain_equals_full_product(sphere, seed):
-    """The gain from each candidate's block of P W P equals tr(S^-1 (P W P)_{idx,idx}) with the full n x n
-    product P W P and an explicit inverse, on a posterior covariance (after fusing other measurements)."""
+    """The gain of every candidate equals tr(S^-1 (P W P)_{idx,idx}) with the full n x n product P W P and an
+    explicit inverse, on a posterior covariance (after fusing other measurements), both while the evaluator
+    solves per candidate and after it has switched to reading blocks of its own product."""
     V, F = sphere
     prior = surface_prior(V, F, sigma_f=3.0, length_scale=2500.0)
     rng = np.random.default_rng(seed)
@@ -141,16 +142,19 @@ def test_blockwise_gain_equals_full_product(sphere, seed):
     gmap.update(rng.choice(len(V), 30), None, rng.uniform(0.01, 0.2, 30))
     P = gmap.cov
     w = rng.uniform(0.0, 1.0, len(V))
-    idx = rng.choice(len(V), int(rng.integers(1, 80)))
-    r = rng.uniform(0.01, 0.2, len(idx))
     for weights in (None, w):
         full = P @ ((np.ones(len(V)) if weights is None else weights)[:, None] * P)
-        nodes = np.unique(idx)
-        prec = np.zeros(len(V))
-        np.add.at(prec, idx, 1.0 / r)
-        S = P[np.ix_(nodes, nodes)] + np.diag(1.0 / prec[nodes])
-        expected = float(np.trace(np.linalg.inv(S) @ full[np.ix_(nodes, nodes)]))
-        assert GainEvaluator(P, weights).gain(idx, r) == pytest.approx(expected, rel=1e-10)
+        ev = GainEvaluator(P, weights)
+        for _ in range(40):
+            idx = rng.choice(len(V), int(rng.integers(1, 80)))
+            r = rng.uniform(0.01, 0.2, len(idx))
+            nodes = np.unique(idx)
+            prec = np.zeros(len(V))
+            np.add.at(prec, idx, 1.0 / r)
+            S = P[np.ix_(nodes, nodes)] + np.diag(1.0 / prec[nodes])
+            expected = float(np.trace(np.linalg.inv(S) @ full[np.ix_(nodes, nodes)]))
+            assert ev.gain(idx, r) == pytest.approx(expected, rel=1e-9)
+        assert ev._PWP is not None  # both ways were exercised
 
 
 # ---------------------------------------------------------------------------------------------- camera

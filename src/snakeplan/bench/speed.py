@@ -203,6 +203,7 @@ def run_speed_bench(seeds: int = 100, station_seeds: int = 20, station_baseline_
     if station_baseline_seeds < 0:
         raise ValueError(f"station_baseline_seeds: must be >= 0, got {station_baseline_seeds!r}")
     say = progress or (lambda _: None)
+    import scipy.linalg  # noqa: F401  (its BLAS is loaded lazily; list it with NumPy's)
     from threadpoolctl import threadpool_info
 
     summary: dict = {"schema": SCHEMA, "python": platform.python_version(), "cpus": os.cpu_count(),

@@ -10,7 +10,7 @@ measurements at once from the prior this equals the batch GP posterior of eqs. 4
 
 Information gain (eq. 13) is the drop in covariance trace, tr(P-) - tr(P+) = tr(P H^T S^-1 H P)
 = tr(S^-1 (P P)_{idx, idx}). :class:`GainEvaluator` scores a candidate with one m x m Cholesky factor of S
-(m = distinct nodes seen) and the m x m block of P P it needs, never an n x n update.
+(m = distinct nodes seen) and one triangular solve, never an n x n update.
 Repeated measurements of one node are first merged (precisions add), which is exact for independent noise.
 """
 
@@ -35,12 +35,21 @@ def fuse_repeats(idx: ArrayLike, noise_var: ArrayLike, y: ArrayLike | None = Non
     return nodes, 1.0 / total, merged_y
 
 
+def _cholesky(S: np.ndarray) -> np.ndarray:
+    """Lower Cholesky factor of S (LAPACK potrf); LinAlgError when S is not positive definite."""
+    c, info = lapack.dpotrf(S, lower=1)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"H P H^T + R is not positive definite (potrf info {info})")
+    return c
+
+
 class GaussianMap:
     """The surface map: mean (n,) K and covariance (n, n) K^2, updated in place by Kalman fusion."""
 
     def __init__(self, mean: ArrayLike, covariance: ArrayLike) -> None:
         self.mean = np.array(mean, dtype=float)
-        self.cov = np.array(covariance, dtype=float)
+        cov = np.asarray(covariance, dtype=float)
+        self.cov = 0.5 * (cov + cov.T)
 
     @property
     def trace(self) -> float:
@@ -54,32 +63,37 @@ class GaussianMap:
     def update(self, idx: ArrayLike, y: ArrayLike | None, noise_var: ArrayLike) -> None:
         """Fuse measurements ``y`` (K) of nodes ``idx`` with variances ``noise_var`` (K^2), eqs. 9-10 with
         P+ = P- - K H P-. Repeats of a node are merged first (exact). With ``y`` None only the covariance is
-        updated (planning needs no values)."""
+        updated (planning needs no values). With S = L L^T and X = L^-1 H P: K H P = X^T X and K (y - H mu) =
+        X^T L^-1 (y - H mu); X^T X is formed by BLAS syrk, so P stays exactly symmetric at half a general
+        product's cost."""
         idx, r, y = fuse_repeats(idx, noise_var, y)
         if idx.size == 0:
             return
-        PH = self.cov[:, idx]
-        S = PH[idx] + np.diag(r)
-        c = cho_factor(S, lower=True)
-        G = cho_solve(c, PH.T)
+        L = _cholesky(self.cov[np.ix_(idx, idx)] + np.diag(r))
+        X, _ = lapack.dtrtrs(L, self.cov[idx], lower=1)
         if y is not None:
-            self.mean += G.T @ (np.asarray(y, dtype=float) - self.mean[idx])
-        self.cov -= PH @ G
-        self.cov = 0.5 * (self.cov + self.cov.T)
+            z, _ = lapack.dtrtrs(L, np.asarray(y, dtype=float) - self.mean[idx], lower=1)
+            self.mean += X.T @ z
+        self.cov -= X.T @ X
+
+
+#: A gain evaluator forms the full product P W P once its per-candidate solves have cost this share of it (n^3):
+#: a CMA-ES plan's ~150 trajectories of a few hundred nodes then read blocks after a handful of solves, while a
+#: greedy step's ~100 candidates of tens of nodes stay well below it. Chosen between 1 and 1/4 by the compute
+#: time of one mission (station seed 3: 10 % less CPU); both ways are exact, so plans do not depend on it.
+PRODUCT_SHARE = 0.25
 
 
 class GainEvaluator:
     """Scores candidate measurements against a fixed covariance P by the trace drop of eq. 13.
 
     ``weights`` (n,) >= 0 turns the trace into tr(W P) (None: every node counts once, eq. 13 as printed).
-    A candidate seeing m distinct nodes costs one m x m Cholesky factor of S = H P H^T + R and its inverse
-    (LAPACK potrf + potri, m^3) and the block (P W P)_{idx, idx}; gain = sum(S^-1 * (P W P)_{idx, idx}).
-    With A = P W^(1/2) (P symmetric, W >= 0), P W P = A A^T: a block is A_{idx,:} A_{idx,:}^T (m^2 n; NumPy
-    hands X X^T to BLAS syrk, half a general product). The block is computed alone until the blocks so far
-    have cost as much as the whole product (n^3); from then on the product is formed once and its blocks
-    are read. A greedy step scores ~100 candidates of tens of nodes (blocks only, a fraction of the product); a
-    CMA-ES plan scores ~150 trajectories of a few hundred nodes (the product, after at most its own cost in
-    blocks). Both ways are exact (see the tests), so the choice changes rounding only.
+    A candidate seeing m distinct nodes costs one m x m Cholesky factor S = H P H^T + R = L L^T (LAPACK potrf,
+    m^3 / 3); the gain is tr(S^-1 (P W P)_{idx, idx}). With A = P W^(1/2) (P symmetric, W >= 0), P W P = A A^T,
+    so the gain is ||L^-1 A_{idx,:}||_F^2: one triangular solve (trtrs, m^2 n), no n x n product. Once these
+    solves have cost ``PRODUCT_SHARE`` of the whole product (n^3), the product is formed once and each candidate
+    reads its block instead: gain = sum(S^-1 * (P W P)_{idx, idx}) with S^-1 from potri (m^3). Both ways are
+    exact (see the tests), so the choice changes rounding only.
     """
 
     def __init__(self, cov: np.ndarray, weights: ArrayLike | None = None) -> None:
@@ -88,17 +102,16 @@ class GainEvaluator:
         self._PWP: np.ndarray | None = None
         self._block_work = 0.0
 
-    def _block(self, nodes: np.ndarray) -> np.ndarray:
-        """(P W P)_{nodes, nodes}: from the full product once the blocks have cost as much as it (class docs)."""
-        if self._PWP is not None:
-            return self._PWP[np.ix_(nodes, nodes)]
-        n = self.cov.shape[0]
-        self._block_work += float(nodes.size) ** 2 * n
-        if self._block_work >= float(n) ** 3:
+    def _use_product(self, m: int) -> bool:
+        """Whether to read the block from the full product P W P (formed here once the per-candidate work so far
+        has cost as much as it; class docs)."""
+        if self._PWP is None:
+            n = self.cov.shape[0]
+            self._block_work += float(m) ** 2 * n
+            if self._block_work < PRODUCT_SHARE * float(n) ** 3:
+                return False
             self._PWP = self._A @ self._A.T
-            return self._PWP[np.ix_(nodes, nodes)]
-        rows = self._A[nodes]
-        return rows @ rows.T
+        return True
 
     def gain(self, idx: ArrayLike, noise_var: ArrayLike) -> float:
         """tr(W P-) - tr(W P+) (K^2) for measuring nodes ``idx`` with variances ``noise_var`` (repeats allowed)."""
@@ -106,9 +119,9 @@ class GainEvaluator:
         if nodes.size == 0:
             return 0.0
         S = self.cov[np.ix_(nodes, nodes)] + np.diag(r)
-        c, info = lapack.dpotrf(S, lower=1)
-        if info != 0:
-            raise np.linalg.LinAlgError(f"H P H^T + R is not positive definite (potrf info {info})")
-        inv, _ = lapack.dpotri(c, lower=1)
-        Q = self._block(nodes)
+        if not self._use_product(nodes.size):
+            X, _ = lapack.dtrtrs(_cholesky(S), self._A[nodes], lower=1)
+            return float(np.vdot(X, X))
+        inv, _ = lapack.dpotri(_cholesky(S), lower=1)
+        Q = self._PWP[np.ix_(nodes, nodes)]
         return float(2.0 * np.sum(np.tril(inv, -1) * Q) + np.sum(np.diag(inv) * np.diag(Q)))
