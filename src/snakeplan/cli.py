@@ -399,15 +399,17 @@ def cmd_bench_kernels(args: argparse.Namespace) -> int:
 
 
 def cmd_bench_speed(args: argparse.Namespace) -> int:
-    from snakeplan.bench.speed import run_speed_bench, speed_markdown, write_speed
+    from snakeplan.bench.speed import ROWS, run_speed_bench, speed_markdown, write_speed
 
     out = check_output(args.out, "--out", (".md",))
     for field, value in (("--seeds", args.seeds), ("--station-seeds", args.station_seeds), ("--repeats", args.repeats)):
         if value < 1:
             raise UsageError(f"{field}: expected a positive integer, got {value}")
     if args.station_baseline_seeds < 0:
-        raise UsageError(f"--station-baseline-seeds: expected a non-negative integer, got {args.station_baseline_seeds}")
-    summary = run_speed_bench(seeds=args.seeds, station_seeds=args.station_seeds,
+        raise UsageError(f"--station-baseline-seeds: expected a non-negative integer, "
+                         f"got {args.station_baseline_seeds}")
+    rows = ROWS if args.rows is None else _name_list(args.rows, list(ROWS), "--rows")
+    summary = run_speed_bench(seeds=args.seeds, station_seeds=args.station_seeds, rows=rows,
                               station_baseline_seeds=args.station_baseline_seeds, repeats=args.repeats,
                               progress=None if args.json else lambda line: sys.stderr.write(line + "\n"))
     write_speed(summary, out)
@@ -673,6 +675,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--station-baseline-seeds", type=int, default=2,
                    help="station missions also flown by the previous implementation (default 2: it is slow)")
     p.add_argument("--repeats", type=int, default=5, help="runs of the plan command (default 5)")
+    p.add_argument("--rows", help="comma-separated rows to measure (default all: rrt-star,sp-rrt,as-rrt,sac-her,"
+                                  "command,judge,station)")
     p.add_argument("--out", default="bench-speed.md", help="markdown table to write (default bench-speed.md)")
     p.add_argument("--json", action="store_true", help="print the figures as JSON")
     p.set_defaults(func=cmd_bench_speed)
