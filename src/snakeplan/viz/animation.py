@@ -115,6 +115,7 @@ def crawl_frames_rgb(frames: CrawlFrames, title: str, size: tuple[int, int] = DE
                      progress: bool = True) -> Iterator[np.ndarray]:
     """The video's RGB frames ``(h, w, 3)`` uint8, one per crawl frame, rendered as they are asked for."""
     from matplotlib.collections import LineCollection
+    from matplotlib.lines import Line2D
     from matplotlib.figure import Figure
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from mpl_toolkits.mplot3d import proj3d
@@ -124,42 +125,43 @@ def crawl_frames_rgb(frames: CrawlFrames, title: str, size: tuple[int, int] = DE
     scene = frames.scene
     w, h = size
     dpi = 100.0
+    scale = min(w / DEFAULT_SIZE[0], h / DEFAULT_SIZE[1])  # text and lines shrink with the frame
     fig = Figure(figsize=(w / dpi, h / dpi), dpi=dpi)
     canvas = FigureCanvasAgg(fig)
     ax3 = fig.add_axes((0.0, 0.1, 0.56, 0.8), projection="3d")
     axf = fig.add_axes((0.56, 0.1, 0.44, 0.8), projection="3d")
     for ax in (ax3, axf):
         draw_scene(ax, scene, legend=False)
-        ax.tick_params(labelsize=6)
+        ax.tick_params(labelsize=6 * scale)
         for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
-            axis.label.set_size(7)
+            axis.label.set_size(7 * scale)
     ax3.view_init(elev=35, azim=-60)
     set_flat_view(axf, scene)
-    fig.text(0.5, 0.965, title, ha="center", va="center", fontsize=10)
+    fig.text(0.5, 0.965, title, ha="center", va="center", fontsize=10 * scale)
     bar = fig.add_axes((0.08, 0.035, 0.84, 0.025))
     bar.set_xlim(0.0, 1.0)
     bar.set_ylim(0.0, 1.0)
     bar.set_xticks([])
     bar.set_yticks([])
     fill = bar.axhspan(0.0, 1.0, xmin=0.0, xmax=0.0, color=PATH_COLOR, animated=True)
-    fail_tick = bar.axvline(0.0, color=COLLISION_COLOR, lw=3, animated=True)
+    fail_tick = bar.axvline(0.0, color=COLLISION_COLOR, lw=3 * scale, animated=True)
     fig.text(0.99, 0.075, f"links: red inside an obstacle, orange touching, green {CLEAR_MM:g} mm clear",
-             ha="right", fontsize=7, color="0.3")
+             ha="right", fontsize=7 * scale, color="0.3")
     canvas.draw()
     background = canvas.copy_from_bbox(fig.bbox)
 
     # moving artists: 2-D collections in each 3-D axes' projected coordinates, redrawn per frame
     moving = []
     for ax in (ax3, axf):
-        links = LineCollection([], linewidths=4.0, capstyle="round", animated=True)
-        travelled = LineCollection([], linewidths=1.6, colors=[PATH_COLOR], animated=True)
-        cross = ax.plot([], [], marker="X", ms=14, color=COLLISION_COLOR, mec="black", mew=1.2, ls="",
-                        animated=True)[0]
-        ax.add_artist(links)
-        ax.add_artist(travelled)
+        links = LineCollection([], linewidths=max(4.0 * scale, 3.5), capstyle="round", animated=True)
+        travelled = LineCollection([], linewidths=1.6 * scale, colors=[PATH_COLOR], animated=True)
+        cross = Line2D([], [], marker="X", ms=14 * scale, color=COLLISION_COLOR, mec="black", mew=1.2, ls="",
+                       animated=True)
+        for artist in (links, travelled, cross):
+            ax.add_artist(artist)
         moving.append((ax, links, travelled, cross))
-    label = fig.text(0.01, 0.075, "", fontsize=8, animated=True)
-    banner = fig.text(0.5, 0.915, "", ha="center", fontsize=11, color="white", fontweight="bold", animated=True,
+    label = fig.text(0.01, 0.075, "", fontsize=8 * scale, animated=True)
+    banner = fig.text(0.5, 0.915, "", ha="center", fontsize=11 * scale, color="white", fontweight="bold", animated=True,
                       bbox=dict(facecolor=COLLISION_COLOR, edgecolor="none", pad=3.0))
 
     path = frames.path
