@@ -436,8 +436,15 @@ def _plan_inspection(args: argparse.Namespace, scene, robot, default: str) -> in
     if name not in INSPECTION_PLANNERS:
         raise UsageError(f"--planner: unknown inspection planner {name!r} (known: "
                          f"{', '.join(INSPECTION_PLANNERS.names())})")
-    mission = run_mission(InspectionProblem(scene, robot), name, seed=args.planner_seed)
+    record = None
+    if args.animate is not None or args.html is not None:
+        from snakeplan.viz.mission import MissionRecord
+
+        record = MissionRecord()
+    problem = InspectionProblem(scene, robot)
+    mission = run_mission(problem, name, seed=args.planner_seed, on_measure=record)
     result = mission.result
+    _write_mission_views(args, problem, result, record)
     if args.json:
         _print_json(mission.to_dict())
     else:
@@ -445,6 +452,34 @@ def _plan_inspection(args: argparse.Namespace, scene, robot, default: str) -> in
                          f"{result.rmse[-1]:.3f} K, covariance trace {result.trace[-1]:.1f} K^2, "
                          f"{len(result.times)} measurements, planning {result.compute_time_s:.2f} s\n")
     return EXIT_OK
+
+
+def _write_mission_views(args: argparse.Namespace, problem, result, record) -> None:
+    """The pictures of an inspection mission: --plot its maps (true field, mean with the camera path, variance),
+    --animate the flight with the map filling in, --html the station with the map at every measurement."""
+    scene = problem.scene
+    title = (f"{scene.name} seed {scene.seed}, {problem.robot.name}, {result.planner}: final RMSE "
+             f"{result.rmse[-1]:.2f} K, covariance trace {result.trace[-1]:.0f} K^2")
+    if args.plot:
+        from snakeplan.viz.figures import save_figure
+        from snakeplan.viz.maps import inspection_figure
+        from snakeplan.viz.mission import station_mesh
+
+        nodes, _ = station_mesh(scene)
+        save_figure(inspection_figure(nodes, problem.truth, result.final_map.mean, np.diag(result.final_map.cov),
+                                      result.path, title), args.plot)
+        sys.stderr.write(f"wrote {args.plot}\n")
+    if args.animate is not None:
+        from snakeplan.viz.mission import save_mission_video
+
+        save_mission_video(args.animate, scene, result, record, args.frames, args.fps, args.frame_size, title,
+                           progress=sys.stderr.isatty())
+        sys.stderr.write(f"wrote {args.animate} ({args.frames} frames at {args.fps:g} fps)\n")
+    if args.html is not None:
+        from snakeplan.viz.mission import save_mission_page
+
+        save_mission_page(args.html, scene, result, record, title)
+        sys.stderr.write(f"wrote {args.html}\n")
 
 
 def cmd_bench_kernels(args: argparse.Namespace) -> int:

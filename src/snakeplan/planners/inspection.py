@@ -36,6 +36,7 @@ import json
 import math
 import time
 from abc import ABC, abstractmethod
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import ClassVar
 
@@ -549,9 +550,12 @@ class InspectionPlanner(ABC):
     def next_trajectory(self, state: MissionState) -> Trajectory | None:
         """The trajectory to fly next from ``state.position`` (None: nothing more to do)."""
 
-    def plan(self, problem: InspectionProblem, seed: int = 0) -> InspectionResult:
+    def plan(self, problem: InspectionProblem, seed: int = 0,
+             on_measure: Callable[[float, np.ndarray, GaussianMap], None] | None = None) -> InspectionResult:
         """Fly the mission within the budget; same seed, same mission. Measurements are simulated from the
-        scene's field with noise from a generator seeded by ``seed`` (independent of the planner's)."""
+        scene's field with noise from a generator seeded by ``seed`` (independent of the planner's).
+        ``on_measure(t, pose, map)`` is called after each measurement is fused (pictures of the map filling in);
+        it must not change the map."""
         world = problem.world()
         truth = problem.truth
         planner_rng, noise_rng = (np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(2))
@@ -569,6 +573,8 @@ class InspectionPlanner(ABC):
             times.append(t)
             rmse.append(gmap.rmse(truth))
             trace.append(gmap.trace)
+            if on_measure is not None:
+                on_measure(t, p, gmap)
 
         measure(pos, 0.0)
         now, compute, cpu, plans = 0.0, 0.0, 0.0, 0
