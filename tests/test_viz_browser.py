@@ -89,3 +89,27 @@ def test_report_page_shows_its_table_and_figure(tmp_path, browser):
     assert _near(shot, "#ff00ff", 10) > 100  # the figure is drawn
     assert browser.errors() == []
     assert [url.split(":", 1)[0] for url in browser.requests()] == ["file", "data"]  # the figure is inside the page
+
+
+def test_mission_page_colours_the_station_by_the_map(tmp_path, browser):
+    from snakeplan.episode import run_mission
+    from snakeplan.planners.inspection import InspectionProblem
+    from snakeplan.scenes import make_scene
+    from snakeplan.viz.mission import MissionRecord, save_mission_page
+
+    scene = make_scene("station", 0)
+    record = MissionRecord()
+    result = run_mission(InspectionProblem(scene, load_robot("hsr-10"), budget_s=12.0), "random", 0,
+                         on_measure=record).result
+    page = save_mission_page(tmp_path / "mission.html", scene, result, record, "station")
+    browser.events.clear()
+    browser.open(page, READY)
+    browser.evaluate("document.getElementById('panel').style.visibility = 'hidden'")
+    end = browser.screenshot()
+    assert end.std() > 10 and _near(end, "#d62728", 6) > 30  # the station drawn, the flight over it
+    browser.evaluate("window.snakeplan.setFrame(0)")
+    start = browser.screenshot()
+    assert (np.abs(end.astype(int) - start.astype(int)).max(axis=2) > 30).sum() > 500  # the map changed
+    browser.evaluate("document.querySelector('input[value=variance]').click()")
+    assert (np.abs(browser.screenshot().astype(int) - start.astype(int)).max(axis=2) > 30).sum() > 500
+    assert browser.errors() == []
