@@ -25,6 +25,8 @@ DEFAULT_SIZE = (960, 540)
 DEFAULT_FRAMES, DEFAULT_FPS = 120, 30.0
 #: Clearance (mm) at and above which a link is drawn fully green.
 CLEAR_MM = 30.0
+#: Colours of a GIF's one palette.
+GIF_COLORS = 128
 VIDEO_INSTALL = 'pip install "snakeplan[video]"'
 
 
@@ -70,7 +72,12 @@ def write_video(filename: str | Path, frames: Iterator[np.ndarray], count: int, 
         if out.suffix.lower() == ".gif":
             from PIL import Image
 
-            images = [Image.fromarray(f).quantize(colors=128, dither=Image.Dither.NONE) for f in frames]
+            rgb = list(frames)
+            # one palette for the whole video (from a few frames side by side), so that Pillow stores each frame
+            # as its change from the one before: the scene's pixels never change
+            sample = np.hstack([f[::2, ::2] for f in rgb[:: max(1, len(rgb) // 8)]] + [rgb[-1][::2, ::2]])
+            palette = Image.fromarray(sample).quantize(colors=GIF_COLORS, dither=Image.Dither.NONE)
+            images = [Image.fromarray(f).quantize(palette=palette, dither=Image.Dither.NONE) for f in rgb]
             images[0].save(tmp, format="GIF", save_all=True, append_images=images[1:], loop=0,
                            duration=int(round(1000.0 / fps)), optimize=False)
         else:
