@@ -121,10 +121,10 @@ def _stderr_console():
 def crawl_frames_rgb(frames: CrawlFrames, title: str, size: tuple[int, int] = DEFAULT_SIZE,
                      progress: bool = True) -> Iterator[np.ndarray]:
     """The video's RGB frames ``(h, w, 3)`` uint8, one per crawl frame, rendered as they are asked for."""
-    from matplotlib.collections import LineCollection
-    from matplotlib.lines import Line2D
-    from matplotlib.figure import Figure
     from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.collections import LineCollection
+    from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
     from mpl_toolkits.mplot3d import proj3d
 
     from snakeplan.viz.scene_plot import COLLISION_COLOR, PATH_COLOR, draw_scene, set_flat_view
