@@ -151,3 +151,9 @@ class Browser:
         os.close(self._to_child)
         os.close(self._from_child)
         shutil.rmtree(self.profile, ignore_errors=True)
+
+
+def near(img: np.ndarray, hex_color: str, tol: int) -> int:
+    """Pixels of ``img`` within ``tol`` of ``hex_color`` on every channel."""
+    rgb = np.array([int(hex_color[i:i + 2], 16) for i in (1, 3, 5)])
+    return int(np.sum(np.abs(img.astype(int) - rgb).max(axis=2) <= tol))
