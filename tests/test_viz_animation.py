@@ -116,3 +116,17 @@ def test_bad_video_options_are_one_line_and_write_nothing(tmp_path, monkeypatch,
 def test_show_animate_needs_a_path(tmp_path, capsys):
     assert main(["show", "--out", str(tmp_path / "s.png"), "--animate", str(tmp_path / "a.mp4")]) == 2
     assert "--animate: needs --path" in capsys.readouterr().err
+
+
+def test_show_path_writes_the_page(tmp_path, capsys):
+    scene_file, path_file = tmp_path / "corridor.json", tmp_path / "path.json"
+    scene_file.write_text(__import__("json").dumps(corridor().to_dict()))
+    path_file.write_text(__import__("json").dumps({"path": straight(900.0).tolist()}))
+    page = tmp_path / "crawl.html"
+    assert main(["show", "--scene-file", str(scene_file), "--robot", "sjtu-snake-iii", "--path", str(path_file),
+                 "--out", str(tmp_path / "s.png"), "--html", str(page)]) == 0
+    data = page.read_text().split('id="snakeplan-data">', 1)[1].split("</script>", 1)[0]
+    doc = __import__("json").loads(data.replace("<\\/", "</"))
+    assert doc["failure"]["kind"] == "collision" and doc["failure"]["depth"] == COLLISION_DEPTH_MM
+    assert len(doc["joints"]) == len(doc["depths"]) and len(doc["joints"][0]) == 13
+    assert doc["closest"]["clearance"] == pytest.approx(float(np.min(doc["clearance"])))
