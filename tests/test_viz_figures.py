@@ -40,3 +40,14 @@ def test_check_plot_writes_a_picture_of_a_collision(tmp_path, capsys):
     assert im.size[0] > 1500
     red = (rgb[..., 0] > 230) & (rgb[..., 1] < 30) & (rgb[..., 2] < 30)
     assert red.sum() > 50  # the first collision's cross
+
+
+@pytest.mark.parametrize("family", ["fuel-tank", "oil-tank", "concentric-pipe", "station"])
+def test_obstacle_meshes_lie_on_the_exact_surfaces(family):
+    from snakeplan.scenes import make_scene
+    from snakeplan.viz.meshes import obstacle_mesh
+
+    for o in make_scene(family, 2).obstacles:
+        m = obstacle_mesh(o)
+        assert m.is_watertight
+        assert np.abs(o.signed_distance(m.vertices)).max() < 1e-6  # every vertex on the obstacle's surface
