@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from snakeplan.files import atomic_write
+from snakeplan.jsonable import jsonable
 from snakeplan.scenes import Scene
 from snakeplan.viz.crawl import CrawlFrames
 
@@ -61,7 +62,7 @@ def page_html(title: str, data: dict, glb: bytes, script: str) -> str:
     tail = "init();</script>"
     if page.count(tail) != 1 or page.count("<title>") != 1 or '<div id="container"></div>' not in page:
         raise RuntimeError("trimesh's viewer template changed: snakeplan.viz.page needs updating")
-    payload = dict(data, glb=base64.b64encode(glb).decode("ascii"))
+    payload = jsonable(dict(data, glb=base64.b64encode(glb).decode("ascii")))  # non-finite numbers as null
     blob = json.dumps(payload, separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
     page = page.replace(tail, f'</script>\n<script type="application/json" id="snakeplan-data">{blob}</script>\n'
                               f"<script>(function () {{\n{script}\n}})();</script>")
@@ -73,9 +74,11 @@ def _round(a, digits: int = 2) -> list:
     return np.round(np.asarray(a, dtype=float), digits).tolist()
 
 
-def _closest(frames: CrawlFrames) -> dict:
+def _closest(frames: CrawlFrames) -> dict | None:
     """The closest approach over the crawl: frame, link, clearance (mm) and the point on the link's axis nearest
-    an obstacle."""
+    an obstacle; None in a scene with no obstacle."""
+    if not np.isfinite(np.min(frames.link_clearance)):
+        return None
     k, i = np.unravel_index(int(np.argmin(frames.link_clearance)), frames.link_clearance.shape)
     a, b = frames.joints[k, i], frames.joints[k, i + 1]
     pts = a + np.linspace(0.0, 1.0, LINK_SAMPLES)[:, None] * (b - a)
@@ -216,7 +219,7 @@ const balls = D.radii.concat([D.radii[n - 1]]).map(function (r) {
   const m = new THREE.Mesh(new THREE.SphereGeometry(r, 16, 12), new THREE.MeshLambertMaterial({color: 0x666666}));
   scene.add(m); return m;
 });
-const closest = mark(D.closest.point, D.colors.closest, 0.6 * Math.max.apply(null, D.radii));
+const closest = D.closest && mark(D.closest.point, D.colors.closest, 0.6 * Math.max.apply(null, D.radii));
 const hit = D.failure && D.failure.point ? mark(D.failure.point, D.colors.collision, 0.8 * Math.max.apply(null, D.radii)) : null;
 const panel = document.createElement('div');
 panel.id = 'panel';
@@ -224,7 +227,7 @@ const metrics = Object.keys(D.metrics).map(function (k) { return esc(k) + ' ' + 
 panel.innerHTML = '<b>' + esc(D.title) + '</b><br>verdict: ' + esc(D.verdict) + '<br><small>' + metrics + '</small>' +
   '<br><label for="depth">insertion depth</label><input type="range" id="depth" min="0" max="' + (F - 1) +
   '" step="1" value="' + (F - 1) + '"><div id="readout"></div>' +
-  '<button id="go-closest">closest approach</button>' + (D.failure ? '<button id="go-failure">first ' +
+  '<button id="go-closest"' + (D.closest ? '' : ' disabled') + '>closest approach</button>' + (D.failure ? '<button id="go-failure">first ' +
   esc(D.failure.kind.replace('_', ' ')) + '</button>' : '') + '<br><small>' + swatch(D.colors.path, 'tip path') +
   swatch(D.colors.entrance, 'entrance') + swatch(D.colors.target, 'targets') +
   swatch(D.colors.closest, 'closest approach') + (D.failure ? swatch(D.colors.collision, 'first collision') : '') +
@@ -246,20 +249,20 @@ function setFrame(k) {
     balls[i].position.copy(V(J[i]));
     balls[i].material.color.set(D.link_colors[k][Math.min(i, n - 1)]);
   }
-  const c = Math.min.apply(null, D.clearance[k]);
+  const c = Math.min.apply(null, D.clearance[k].map(function (v) { return v === null ? Infinity : v; }));
   const failed = D.failure && k >= D.failure.frame;
   if (hit) hit.visible = failed;
   readout.innerHTML = (D.times ? 't = ' + D.times[k].toFixed(2) + ' s, ' : '') + 'insertion ' +
     D.depths[k].toFixed(1) + ' mm, min link clearance ' + c.toFixed(1) + ' mm' + (failed ? ' <span class="bad">' +
     esc(D.failure.kind.replace('_', ' ')) + ' at ' + D.failure.depth + ' mm</span>' : '') +
-    '<br><small>closest approach ' + D.closest.clearance.toFixed(1) + ' mm (link ' + D.closest.link + ', at ' +
-    D.depths[D.closest.frame].toFixed(0) + ' mm)</small>';
+    (D.closest ? '<br><small>closest approach ' + D.closest.clearance.toFixed(1) + ' mm (link ' + D.closest.link +
+    ', at ' + D.depths[D.closest.frame].toFixed(0) + ' mm)</small>' : '');
   slider.value = k;
   window.snakeplan.frame = k;
   render();
 }
 slider.addEventListener('input', function () { setFrame(parseInt(slider.value, 10)); });
-document.getElementById('go-closest').addEventListener('click', function () { setFrame(D.closest.frame); });
+if (D.closest) document.getElementById('go-closest').addEventListener('click', function () { setFrame(D.closest.frame); });
 if (D.failure) document.getElementById('go-failure').addEventListener('click', function () { setFrame(D.failure.frame); });
 window.snakeplan.setFrame = setFrame;
 setFrame(F - 1);
