@@ -132,3 +132,17 @@ def test_show_path_writes_the_page(tmp_path, capsys):
     # the deepest a link gets: its axis through the middle of the 20 mm wall, 10 mm + the radius 27.5 mm deep
     assert doc["closest"]["clearance"] == pytest.approx(-37.5, abs=0.06)
     assert doc["closest"]["clearance"] == pytest.approx(float(np.min(doc["clearance"])), abs=0.01)
+
+
+def test_a_scene_without_obstacles_has_no_closest_approach():
+    import json
+
+    from snakeplan.scenes import Scene
+    from snakeplan.viz.page import crawl_page
+
+    c = corridor()
+    empty = Scene("empty", 0, c.bounds_min, c.bounds_max, c.entrance, c.targets, ())
+    page = crawl_page(crawl_frames(empty, ROBOT, straight(600.0), 5))
+    doc = json.loads(page.split('id="snakeplan-data">', 1)[1].split("</script>", 1)[0].replace("<\\/", "</"))
+    assert doc["closest"] is None and doc["failure"] is None and doc["glb"] == ""
+    assert doc["clearance"][0] == [None] * 12  # nothing to be near: no number, not infinity
