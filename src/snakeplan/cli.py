@@ -23,6 +23,8 @@ from snakeplan.interrupt import interruption, report as report_interrupt
 from snakeplan.jsonable import jsonable
 
 EXIT_OK, EXIT_INFEASIBLE, EXIT_USAGE = 0, 1, 2
+#: Insertion depths the interactive page's slider steps through.
+HTML_FRAMES = 121
 DEFAULT_SCENE = "fuel-tank"
 #: Planning budget (s) of `snakeplan demo`, per call.
 DEMO_TIME_LIMIT_S = 30.0
@@ -182,12 +184,14 @@ def cmd_check(args: argparse.Namespace) -> int:
     from snakeplan.evaluation import evaluate
 
     _check_picture(args.plot, "--plot")
+    _check_views(args)
     scene = _load_scene(args)
     robot = _robot_for(args, scene)
     path = load_path_file(args.path_file)
     report = evaluate(scene, robot, path)
     if args.plot:
         _write_plot(args.plot, scene, robot, path, report)
+    _write_views(args, scene, robot, path, report)
     if args.json:
         _print_json(check_document(scene, robot, report))
     else:
@@ -207,8 +211,63 @@ def _check_picture(filename: str | None, field: str) -> None:
         check_output(filename, field, (".png",))
 
 
+def _frame_size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected WIDTHxHEIGHT in pixels, e.g. 960x540, got {text!r}") from None
+    return w, h
+
+
+def _view_args(p: argparse.ArgumentParser, what: str) -> None:
+    """--animate, --html and the video's options, on the commands that show a crawl."""
+    p.add_argument("--animate", metavar="FILE", help=f"also write a video of {what}: .mp4 (H.264) or .gif")
+    p.add_argument("--frames", type=int, default=120, help="frames in the video (default 120)")
+    p.add_argument("--fps", type=_finite, default=30.0, help="frames per second of the video (default 30)")
+    p.add_argument("--frame-size", type=_frame_size, default=(960, 540), metavar="WxH",
+                   help="the video's frame size in pixels, both even (default 960x540)")
+    p.add_argument("--html", metavar="FILE", help=f"also write an interactive 3-D page of {what} (.html: one "
+                                                  "self-contained file that opens offline in any browser)")
+
+
+def _check_views(args: argparse.Namespace) -> None:
+    """Refuse a video or page that could not be written, before any work is done."""
+    if args.animate is not None:
+        from snakeplan.viz.animation import check_video_options
+
+        check_output(args.animate, "--animate", (".mp4", ".gif"))
+        check_video_options(args.animate, args.frames, args.fps, args.frame_size, "--animate")
+    if args.html is not None:
+        check_output(args.html, "--html", (".html", ".htm"))
+
+
+def _write_views(args: argparse.Namespace, scene, robot, path, report, planner: str = "") -> None:
+    """Write the video and the page a command was asked for (each says on stderr what it wrote, or why not)."""
+    if args.animate is None and args.html is None:
+        return
+    if path is None:
+        sys.stderr.write("snakeplan: no video or page: there is no path to show\n")
+        return
+    from snakeplan.viz.crawl import crawl_frames
+
+    if args.animate is not None:
+        from snakeplan.viz.animation import save_crawl_video
+
+        frames = crawl_frames(scene, robot, path, args.frames, report)
+        save_crawl_video(args.animate, frames, args.fps, args.frame_size, planner, progress=sys.stderr.isatty())
+        sys.stderr.write(f"wrote {args.animate} ({len(frames.depths)} frames at {args.fps:g} fps)\n")
+    if args.html is not None:
+        from snakeplan.viz.page import save_crawl_page
+
+        save_crawl_page(args.html, crawl_frames(scene, robot, path, HTML_FRAMES, report), planner)
+        sys.stderr.write(f"wrote {args.html}\n")
+
+
 def cmd_show(args: argparse.Namespace) -> int:
     _check_picture(args.out, "--out")
+    if args.path is None and (args.animate or args.html):
+        raise UsageError(f"{'--animate' if args.animate else '--html'}: needs --path (a crawl to show)")
+    _check_views(args)
     scene = _load_scene(args)
     robot = _robot_for(args, scene)
     path = load_path_file(args.path) if args.path else None
@@ -219,6 +278,7 @@ def cmd_show(args: argparse.Namespace) -> int:
         report = evaluate(scene, robot, path)
     _write_plot(args.out, scene, robot, path, report)
     sys.stdout.write(f"wrote {args.out}\n")
+    _write_views(args, scene, robot, path, report)
     return EXIT_OK
 
 
@@ -307,6 +367,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
     from snakeplan.scenes import spec_for
 
     _check_picture(args.plot, "--plot")
+    _check_views(args)
     _check_trajectories(args.trajectory, "--trajectory")
     scene = _load_scene(args)
     robot = _robot_for(args, scene)
@@ -325,6 +386,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
     plan = episode.plan
     if args.plot:
         _write_plot(args.plot, scene, robot, plan.path, episode.report, plan.planner)
+    _write_views(args, scene, robot, plan.path, episode.report, plan.planner)
     if args.json:
         _print_json(episode.to_dict())
     else:
@@ -376,8 +438,15 @@ def _plan_inspection(args: argparse.Namespace, scene, robot, default: str) -> in
     if name not in INSPECTION_PLANNERS:
         raise UsageError(f"--planner: unknown inspection planner {name!r} (known: "
                          f"{', '.join(INSPECTION_PLANNERS.names())})")
-    mission = run_mission(InspectionProblem(scene, robot), name, seed=args.planner_seed)
+    record = None
+    if args.animate is not None or args.html is not None:
+        from snakeplan.viz.mission import MissionRecord
+
+        record = MissionRecord()
+    problem = InspectionProblem(scene, robot)
+    mission = run_mission(problem, name, seed=args.planner_seed, on_measure=record)
     result = mission.result
+    _write_mission_views(args, problem, result, record)
     if args.json:
         _print_json(mission.to_dict())
     else:
@@ -385,6 +454,34 @@ def _plan_inspection(args: argparse.Namespace, scene, robot, default: str) -> in
                          f"{result.rmse[-1]:.3f} K, covariance trace {result.trace[-1]:.1f} K^2, "
                          f"{len(result.times)} measurements, planning {result.compute_time_s:.2f} s\n")
     return EXIT_OK
+
+
+def _write_mission_views(args: argparse.Namespace, problem, result, record) -> None:
+    """The pictures of an inspection mission: --plot its maps (true field, mean with the camera path, variance),
+    --animate the flight with the map filling in, --html the station with the map at every measurement."""
+    scene = problem.scene
+    title = (f"{scene.name} seed {scene.seed}, {problem.robot.name}, {result.planner}: final RMSE "
+             f"{result.rmse[-1]:.2f} K, covariance trace {result.trace[-1]:.0f} K^2")
+    if args.plot:
+        from snakeplan.viz.figures import save_figure
+        from snakeplan.viz.maps import inspection_figure
+        from snakeplan.viz.mission import station_mesh
+
+        nodes, _ = station_mesh(scene)
+        save_figure(inspection_figure(nodes, problem.truth, result.final_map.mean, np.diag(result.final_map.cov),
+                                      result.path, title), args.plot)
+        sys.stderr.write(f"wrote {args.plot}\n")
+    if args.animate is not None:
+        from snakeplan.viz.mission import save_mission_video
+
+        save_mission_video(args.animate, scene, result, record, args.frames, args.fps, args.frame_size, title,
+                           progress=sys.stderr.isatty())
+        sys.stderr.write(f"wrote {args.animate} ({args.frames} frames at {args.fps:g} fps)\n")
+    if args.html is not None:
+        from snakeplan.viz.mission import save_mission_page
+
+        save_mission_page(args.html, scene, result, record, title)
+        sys.stderr.write(f"wrote {args.html}\n")
 
 
 def cmd_bench_kernels(args: argparse.Namespace) -> int:
@@ -604,6 +701,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--robot", help=ROBOT_HELP)
     p.add_argument("--json", action="store_true", help="print the verdict as JSON")
     p.add_argument("--plot", help="also write a PNG picture of the judged path")
+    _view_args(p, "the arm crawling along the path")
     p.add_argument("path_file", metavar="PATH.json", help="the tip path file ('-' reads standard input)")
     p.set_defaults(func=cmd_check)
 
@@ -613,6 +711,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--robot", help=ROBOT_HELP)
     p.add_argument("--path", help="a tip path JSON file to draw and judge")
     p.add_argument("--out", default="scene.png", help="output PNG (default scene.png)")
+    _view_args(p, "the arm crawling along --path")
     p.set_defaults(func=cmd_show)
 
     p = sub.add_parser("demo", help="the main job: plan the arm into a fuel tank, judge it, draw it",
@@ -636,7 +735,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--knowledge", choices=("full", "sensed"), default="full",
                    help="what the planner may know: the whole scene, or what its sensor revealed")
     p.add_argument("--json", action="store_true", help="print snakeplan.plan/1 JSON")
-    p.add_argument("--plot", help="also write a PNG picture of the plan")
+    p.add_argument("--plot", help="also write a PNG picture of the plan (an inspection mission: its maps)")
+    _view_args(p, "the plan (an inspection mission: the camera's flight and the map filling in)")
     p.add_argument("--trajectory", action="append", metavar="FILE", help=TRAJECTORY_HELP)
     p.set_defaults(func=cmd_plan)
 

@@ -85,8 +85,9 @@ class Mission:
                          "robot": self.problem.robot.name, **self.result.to_dict()})
 
 
-def run_mission(problem: InspectionProblem, planner: str, seed: int = 0) -> Mission:
-    """Fly the inspection mission ``problem`` with the registered inspection planner ``planner`` from ``seed``."""
+def run_mission(problem: InspectionProblem, planner: str, seed: int = 0, on_measure=None) -> Mission:
+    """Fly the inspection mission ``problem`` with the registered inspection planner ``planner`` from ``seed``;
+    ``on_measure(t, pose, map)`` sees the map after each measurement (see ``InspectionPlanner.plan``)."""
     from snakeplan.planners.inspection import get_inspection_planner
 
-    return Mission(problem, get_inspection_planner(planner).plan(problem, seed=seed))
+    return Mission(problem, get_inspection_planner(planner).plan(problem, seed=seed, on_measure=on_measure))

@@ -36,6 +36,7 @@ import json
 import math
 import time
 from abc import ABC, abstractmethod
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import ClassVar
 
@@ -550,14 +551,17 @@ class InspectionPlanner(ABC):
     def next_trajectory(self, state: MissionState) -> Trajectory | None:
         """The trajectory to fly next from ``state.position`` (None: nothing more to do)."""
 
-    def plan(self, problem: InspectionProblem, seed: int = 0) -> InspectionResult:
+    def plan(self, problem: InspectionProblem, seed: int = 0,
+             on_measure: Callable[[float, np.ndarray, GaussianMap], None] | None = None) -> InspectionResult:
         """Fly the mission within the budget; same seed, same mission. Measurements are simulated from the
-        scene's field with noise from a generator seeded by ``seed`` (independent of the planner's). BLAS and
-        OpenMP run on one thread throughout (:mod:`snakeplan.threads`)."""
+        scene's field with noise from a generator seeded by ``seed`` (independent of the planner's).
+        ``on_measure(t, pose, map)`` is called after each measurement is fused (pictures of the map filling in);
+        it must not change the map. BLAS and OpenMP run on one thread throughout (:mod:`snakeplan.threads`)."""
         with single_threaded():
-            return self._fly(problem, seed)
+            return self._fly(problem, seed, on_measure)
 
-    def _fly(self, problem: InspectionProblem, seed: int) -> InspectionResult:
+    def _fly(self, problem: InspectionProblem, seed: int,
+             on_measure: Callable[[float, np.ndarray, GaussianMap], None] | None) -> InspectionResult:
         """The mission loop of :meth:`plan`."""
         world = problem.world()
         truth = problem.truth
@@ -576,6 +580,8 @@ class InspectionPlanner(ABC):
             times.append(t)
             rmse.append(gmap.rmse(truth))
             trace.append(gmap.trace)
+            if on_measure is not None:
+                on_measure(t, p, gmap)
 
         measure(pos, 0.0)
         now, compute, cpu, plans = 0.0, 0.0, 0.0, 0

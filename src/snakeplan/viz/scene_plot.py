@@ -12,6 +12,10 @@ from snakeplan.scenes import Scene
 OBSTACLE_COLOR = (0.55, 0.6, 0.68)
 BODY_COLOR = "tab:orange"
 PATH_COLOR = "tab:blue"
+ENTRANCE_COLOR = "tab:purple"
+TARGET_COLOR = "tab:green"
+#: Pure red is kept for collisions: the first collision's marker, a colliding link, the video's banner.
+COLLISION_COLOR = (1.0, 0.0, 0.0)
 
 
 def _box_faces(center: np.ndarray, half: np.ndarray, R: np.ndarray) -> list[np.ndarray]:
@@ -67,27 +71,56 @@ def draw_obstacle(ax: Axes, o: Obstacle, alpha: float = 0.18) -> None:
                                          linewidths=0.2, alpha=alpha))
 
 
-def draw_scene(ax: Axes, scene: Scene, path=None, body=None) -> None:
-    """Draw obstacles, entrance, targets and optionally a tip path ``(m, 3)`` and a body's joints ``(n+1, 3)``."""
+def draw_scene(ax: Axes, scene: Scene, path=None, body=None, *, collision=None, frame: bool = True,
+               legend: bool = True) -> None:
+    """Draw obstacles, entrance, targets and optionally a tip path ``(m, 3)`` and a body's joints ``(n+1, 3)``.
+
+    The tip path is drawn above the body, and ``collision`` (a point, mm) as a red cross labelled in the legend.
+    ``frame=False`` leaves the limits, aspect and labels to the caller."""
+    ax.computed_zorder = False  # draw in the order below: obstacles, body, path, markers
     for o in scene.obstacles:
         draw_obstacle(ax, o)
     e, d = scene.entrance.position, scene.entrance.direction
     span = float(np.max(scene.size))
-    ax.quiver(*e, *(d * 0.08 * span), color="tab:red", lw=2)
-    ax.scatter(*e, color="tab:red", s=30, label="entrance")
+    ax.quiver(*e, *(d * 0.08 * span), color=ENTRANCE_COLOR, lw=2, zorder=5)
+    ax.scatter(*e, color=ENTRANCE_COLOR, s=30, label="entrance", zorder=5)
     if len(scene.targets):
-        ax.scatter(*scene.targets.T, color="tab:green", s=50, marker="*", label="targets")
-    if path is not None:
-        ax.plot(*np.asarray(path).T, color=PATH_COLOR, lw=1.5, label="tip path")
+        ax.scatter(*scene.targets.T, color=TARGET_COLOR, s=50, marker="*", label="targets", zorder=5)
     if body is not None:
         b = np.asarray(body)
-        ax.plot(*b.T, color=BODY_COLOR, lw=3, marker="o", ms=3, label="body")
-    lo, hi = scene.bounds_min, scene.bounds_max
-    ax.set_xlim(lo[0], hi[0])
-    ax.set_ylim(lo[1], hi[1])
-    ax.set_zlim(lo[2], hi[2])
-    ax.set_box_aspect(tuple(hi - lo))
-    ax.set_xlabel("x (mm)")
-    ax.set_ylabel("y (mm)")
-    ax.set_zlabel("z (mm)")
-    ax.legend(loc="upper left", fontsize=7)
+        ax.plot(*b.T, color=BODY_COLOR, lw=3, marker="o", ms=3, label="body", zorder=3)
+    if path is not None:
+        ax.plot(*np.asarray(path).T, color=PATH_COLOR, lw=1.5, label="tip path", zorder=4)
+    if collision is not None:
+        ax.scatter(*np.asarray(collision), color=COLLISION_COLOR, s=120, marker="X", label="first collision",
+                   zorder=6)
+    if frame:
+        lo, hi = scene.bounds_min, scene.bounds_max
+        ax.set_xlim(lo[0], hi[0])
+        ax.set_ylim(lo[1], hi[1])
+        ax.set_zlim(lo[2], hi[2])
+        ax.set_box_aspect(tuple(hi - lo))
+        ax.set_xlabel("x (mm)")
+        ax.set_ylabel("y (mm)")
+        ax.set_zlabel("z (mm)")
+    if legend:
+        ax.legend(loc="upper left", fontsize=7)
+
+
+def flat_view(scene: Scene) -> tuple[float, float, str]:
+    """(elev, azim, name) of the orthographic view that looks along the scene's shortest extent: from above for a
+    flat tank, so every passage between bays shows where the path crosses a wall, and from the side for a pipe."""
+    axis = int(np.argmin(scene.size))
+    return {0: (0.0, 0.0, "view along x"), 1: (0.0, -90.0, "view along y"), 2: (90.0, -90.0, "top view")}[axis]
+
+
+def set_flat_view(ax: Axes, scene: Scene) -> str:
+    """Turn a 3-D axes drawn by :func:`draw_scene` into the orthographic :func:`flat_view`, without the ticks of
+    the axis it looks along; returns the view's name."""
+    elev, azim, name = flat_view(scene)
+    ax.set_proj_type("ortho")
+    ax.view_init(elev=elev, azim=azim)
+    along = "xyz"[int(np.argmin(scene.size))]
+    getattr(ax, f"set_{along}ticks")([])
+    getattr(ax, f"set_{along}label")("")
+    return name
