@@ -60,11 +60,17 @@ def _load_scene(args: argparse.Namespace):
     from snakeplan.scenes import Scene, make_scene
 
     if getattr(args, "scene_file", None):
-        return Scene.from_json(_read_text(args.scene_file, "--scene-file"), "--scene-file")
+        return Scene.from_json(_read_text(args.scene_file, "--scene-file"), "--scene-file",
+                               _scene_dir(args.scene_file))
     try:
         return make_scene(args.scene, args.seed)
     except KeyError as exc:
         raise UsageError(f"--scene: {exc.args[0]}") from None
+
+
+def _scene_dir(filename: str) -> Path:
+    """The folder a scene file's mesh files are read relative to (the working directory for standard input)."""
+    return Path(".") if filename == "-" else Path(filename).parent
 
 
 def _robot_for(args: argparse.Namespace, scene):
@@ -348,7 +354,8 @@ def cmd_trajectory(args: argparse.Namespace) -> int:
     _check_trajectories(args.out, "-o")
     plan = read_plan(_read_text(args.plan_file, "PLAN"))
     if args.scene_file:
-        scene = Scene.from_json(_read_text(args.scene_file, "--scene-file"), "--scene-file")
+        scene = Scene.from_json(_read_text(args.scene_file, "--scene-file"), "--scene-file",
+                                _scene_dir(args.scene_file))
     else:
         name = args.scene or plan["scene"]["name"]
         seed = args.seed if args.seed is not None else plan["scene"]["seed"]
@@ -751,7 +758,9 @@ def main(argv: list[str] | None = None) -> int:
         if extra and not getattr(args, "takes_options", False):
             raise UsageError(f"unrecognized arguments: {' '.join(extra)}")
         args.extra = extra
-        return int(args.func(args))
+        with warnings.catch_warnings():
+            warnings.showwarning = _warning_line
+            return int(args.func(args))
     except BrokenPipeError:
         return EXIT_OK
     except BaseException as exc:

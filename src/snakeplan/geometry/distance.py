@@ -16,7 +16,7 @@ import numpy as np
 from numba import njit
 
 from snakeplan.geometry import bvh
-from snakeplan.geometry.mesh_distance import mesh_sdf
+from snakeplan.geometry.mesh_distance import mesh_sdf, mesh_segment, triangle_balls
 from snakeplan.geometry.primitives import (
     _P,
     PACK_WIDTH,
@@ -146,9 +146,10 @@ def _sdf_row(row, W, p, walk):
 
 @njit(cache=True)
 def workspace(W):
-    """Scratch arrays of the kernels for the packed set W: (candidates, interval stack, tree stacks)."""
+    """Scratch arrays of the kernels for the packed set W: (candidates, interval stack, tree stacks, the
+    candidates' distances at the segment's midpoint)."""
     return (np.empty(W[0].shape[0], dtype=np.int64), np.empty((256, 2)),
-            np.empty((2, bvh.STACK_SIZE), dtype=np.int64))
+            np.empty((2, bvh.STACK_SIZE), dtype=np.int64), np.empty(W[0].shape[0]))
 
 
 @njit(cache=True)
@@ -196,7 +197,7 @@ def _scene_sdf(W, p, walk, stats):
 
 @njit(cache=True)
 def _sdf_points(W, pts, stats):
-    _, _, walk = workspace(W)
+    walk = workspace(W)[2]
     out = np.empty(pts.shape[0])
     for i in range(pts.shape[0]):
         out[i] = _scene_sdf(W, pts[i], walk, stats)
@@ -211,7 +212,7 @@ def _candidates(W, a, b, cutoff, work, stats):
     ``cutoff`` from, so a link only evaluates obstacles near it, whatever the size of the scene.
     """
     rows, boxes, nodes, links, order = W[0], W[1], W[7], W[8], W[9]
-    cand, _, walk = work
+    cand, _, walk, value = work
     if rows.shape[0] == 0:
         return 0
     mid = 0.5 * (a + b)
@@ -239,10 +240,49 @@ def _candidates(W, a, b, cutoff, work, stats):
             if outside > 0.0 and outside - half >= cutoff:
                 continue
             stats[0] += 1
-            if _sdf_row(rows[k], W, mid, walk) - half < cutoff:
+            d = _sdf_row(rows[k], W, mid, walk)
+            if d - half < cutoff:
                 cand[n] = k
+                value[n] = d
                 n += 1
     return n
+
+
+@njit(cache=True)
+def _meshes_exact(W, a, b, n, bound, work, stats):
+    """Settle the mesh candidates of segment ab exactly, by segment-to-surface distance: returns (the least
+    signed distance along ab among the settled meshes, or ``bound`` when none comes nearer, and how many
+    candidates remain), moving the rest (primitives, and closed meshes the segment may enter) to the front of
+    the candidate list. A closed mesh is settled when its midpoint value is positive and the closest point is
+    outside (then the segment does not cross the surface and its least distance is the exact one); a shell is
+    always settled (unsigned distance - half thickness)."""
+    rows, ranges = W[0], W[3]
+    cand, _, walk, value = work
+    best = bound
+    keep = 0
+    for j in range(n):
+        k = cand[j]
+        row = rows[k]
+        if int(row[0]) != KIND_MESH or (row[_P + 2] == 0.0 and value[j] <= 0.0):
+            cand[keep] = k
+            value[keep] = value[j]
+            keep += 1
+            continue
+        stats[0] += 1
+        half = row[_P + 2]
+        m = int(row[_P + 1])
+        d, outside = mesh_segment(W[2], W[4], W[10], W[5], W[6], ranges[m, 2], a, b, best + half, walk[1])
+        if half > 0.0:
+            best = min(best, d - half)
+        elif d == np.inf:
+            continue
+        elif d > 0.0 and outside:
+            best = min(best, d)
+        else:
+            cand[keep] = k
+            value[keep] = value[j]
+            keep += 1
+    return best, keep
 
 
 @njit(cache=True)
@@ -264,10 +304,13 @@ def _segment_min(W, a, b, cutoff, tol, radius, work, stats):
     n = _candidates(W, a, b, cutoff, work, stats)
     if n == 0:
         return cutoff
-    cand, stack, walk = work
+    best, n = _meshes_exact(W, a, b, n, cutoff, work, stats)
+    if n == 0:
+        return best
+    cand, stack, walk, _ = work
     contact = radius - CONTACT_RESOLUTION_MM
     length = math.sqrt(((b - a) ** 2).sum())
-    best = min(cutoff, _min_over(W, cand, n, a, walk, stats), _min_over(W, cand, n, b, walk, stats))
+    best = min(best, _min_over(W, cand, n, a, walk, stats), _min_over(W, cand, n, b, walk, stats))
     stack[0, 0] = 0.0
     stack[0, 1] = 1.0
     top = 1
@@ -300,8 +343,13 @@ def _segment_hits(W, a, b, radius, work, stats):
     n = _candidates(W, a, b, radius, work, stats)
     if n == 0:
         return False
-    cand, stack, walk = work
     contact = radius - CONTACT_RESOLUTION_MM
+    nearest, n = _meshes_exact(W, a, b, n, contact, work, stats)
+    if nearest < contact:
+        return True
+    if n == 0:
+        return False
+    cand, stack, walk, _ = work
     length = math.sqrt(((b - a) ** 2).sum())
     stack[0, 0] = 0.0
     stack[0, 1] = 1.0
@@ -331,18 +379,21 @@ def _chains_clearance(W, joints, radii, tol, stats):
     out = np.empty(B)
     work = workspace(W)
     walk = work[2]
+    mids = np.empty(n)
     for i in range(B):
         # Link midpoints give an attained value, an upper bound on the minimum, so every link's search is
         # pruned from the start instead of refining distances to far obstacles.
         best = np.inf
         for k in range(n):
-            d = _scene_sdf(W, 0.5 * (joints[i, k] + joints[i, k + 1]), walk, stats) - radii[k]
-            if d < best:
-                best = d
+            mids[k] = _scene_sdf(W, 0.5 * (joints[i, k] + joints[i, k + 1]), walk, stats) - radii[k]
+            if mids[k] < best:
+                best = mids[k]
         if best == np.inf:
             out[i] = best
             continue
-        for k in range(n):
+        # the nearest links first: the least clearance found falls fastest, so the later links' searches are cut
+        # off soonest (a mesh link's exact search costs about the triangles within its cutoff)
+        for k in np.argsort(mids):
             cutoff = best + radii[k]
             d = _segment_min(W, joints[i, k], joints[i, k + 1], cutoff, tol, radii[k], work, stats)
             d -= radii[k]
@@ -415,7 +466,7 @@ def _raycast(W, origins, dirs, max_dist, eps, stats):
     costs a few obstacles' distances per step instead of the whole scene's."""
     rows, boxes = W[0], W[1]
     out = np.full(origins.shape[0], np.inf)
-    cand, _, walk = workspace(W)
+    cand, _, walk, _ = workspace(W)
     for i in range(origins.shape[0]):
         n = 0
         for k in range(rows.shape[0]):
@@ -463,13 +514,13 @@ class ObstacleSet:
         self._rows = np.array(rows, dtype=float).reshape(len(rows), width)
         self._boxes = np.array([np.concatenate(o.aabb()) for o in self.obstacles], dtype=float).reshape(-1, 6)
         order, onodes, olinks = bvh.build(self._boxes)
-        self._packed = (self._rows, self._boxes,
-                        np.concatenate(tris) if tris else np.zeros((0, 3, 3)),
+        all_tris = np.concatenate(tris) if tris else np.zeros((0, 3, 3))
+        self._packed = (self._rows, self._boxes, all_tris,
                         np.array(ranges, dtype=np.int64).reshape(len(ranges), 3),
                         np.concatenate(normals) if normals else np.zeros((0, 7, 3)),
                         np.concatenate(nodes) if nodes else np.zeros((0, 6)),
                         np.concatenate(links) if links else np.zeros((0, 2), dtype=np.int64),
-                        onodes, olinks, order)
+                        onodes, olinks, order, triangle_balls(all_tris))
         #: Point-to-obstacle distance evaluations made by this set's queries so far (a cost measure for tests and
         #: benchmarks, independent of the machine's speed).
         self.evaluations = np.zeros(1, dtype=np.int64)
@@ -481,7 +532,7 @@ class ObstacleSet:
     def packed(self) -> tuple[np.ndarray, ...]:
         """The packed arrays jitted kernels take as one argument, as :func:`chain_hit` (with a :func:`workspace`):
         (rows, boxes, triangles, mesh ranges (first triangle, stop, root node), triangle normals, triangle tree
-        nodes and links, obstacle tree nodes, links and order)."""
+        nodes and links, obstacle tree nodes, links and order, triangle balls)."""
         return self._packed
 
     def signed_distance(self, points) -> np.ndarray:

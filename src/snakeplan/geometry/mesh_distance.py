@@ -242,3 +242,190 @@ def reference_sdf(vertices, faces, points, thickness: float | None = None) -> np
     pts = np.ascontiguousarray(np.asarray(points, dtype=float).reshape(-1, 3))
     half = 0.0 if thickness is None else thickness / 2.0
     return _reference(tris, pts, thickness is None, half)
+
+
+@njit(cache=True)
+def _segments_closest(p1, q1, p2, q2):
+    """(squared distance, s, t) of the closest points p1 + s (q1 - p1) and p2 + t (q2 - p2) of two segments
+    (Ericson, Real-Time Collision Detection, 5.1.9)."""
+    d1 = q1 - p1
+    d2 = q2 - p2
+    r = p1 - p2
+    a = (d1 * d1).sum()
+    e = (d2 * d2).sum()
+    f = (d2 * r).sum()
+    if a <= 1e-300 and e <= 1e-300:
+        return (r * r).sum(), 0.0, 0.0
+    if a <= 1e-300:
+        s = 0.0
+        t = min(max(f / e, 0.0), 1.0)
+    else:
+        c = (d1 * r).sum()
+        if e <= 1e-300:
+            t = 0.0
+            s = min(max(-c / a, 0.0), 1.0)
+        else:
+            b = (d1 * d2).sum()
+            denom = a * e - b * b
+            s = min(max((b * f - c * e) / denom, 0.0), 1.0) if denom > 0.0 else 0.0
+            t = (b * s + f) / e
+            if t < 0.0:
+                t = 0.0
+                s = min(max(-c / a, 0.0), 1.0)
+            elif t > 1.0:
+                t = 1.0
+                s = min(max((b - c) / a, 0.0), 1.0)
+    x = p1 + s * d1 - (p2 + t * d2)
+    return (x * x).sum(), s, t
+
+
+@njit(cache=True)
+def segment_triangle(a, b, t0, t1, t2):
+    """(squared distance, feature, s, closest triangle point x, y, z) between segment a + s (b - a) and triangle
+    t0 t1 t2 (features as :func:`closest_on_triangle`; a crossing is distance 0 on the face)."""
+    # crossing: the segment meets the triangle (Moller-Trumbore on the segment)
+    d = b - a
+    e1 = t1 - t0
+    e2 = t2 - t0
+    h0 = d[1] * e2[2] - d[2] * e2[1]
+    h1 = d[2] * e2[0] - d[0] * e2[2]
+    h2 = d[0] * e2[1] - d[1] * e2[0]
+    det = e1[0] * h0 + e1[1] * h1 + e1[2] * h2
+    if det != 0.0:
+        inv = 1.0 / det
+        sx, sy, sz = a[0] - t0[0], a[1] - t0[1], a[2] - t0[2]
+        u = (sx * h0 + sy * h1 + sz * h2) * inv
+        if 0.0 <= u <= 1.0:
+            qx = sy * e1[2] - sz * e1[1]
+            qy = sz * e1[0] - sx * e1[2]
+            qz = sx * e1[1] - sy * e1[0]
+            v = (d[0] * qx + d[1] * qy + d[2] * qz) * inv
+            if v >= 0.0 and u + v <= 1.0:
+                s = (e2[0] * qx + e2[1] * qy + e2[2] * qz) * inv
+                if 0.0 <= s <= 1.0:
+                    return 0.0, 0, s, a[0] + s * d[0], a[1] + s * d[1], a[2] + s * d[2]
+    best, feature, x, y, z = closest_on_triangle(a, t0, t1, t2)
+    s_best = 0.0
+    d2, f, xb, yb, zb = closest_on_triangle(b, t0, t1, t2)
+    if d2 < best:
+        best, feature, x, y, z, s_best = d2, f, xb, yb, zb, 1.0
+    for j in range(3):
+        p = t0 if j == 0 else (t1 if j == 1 else t2)
+        q = t1 if j == 0 else (t2 if j == 1 else t0)
+        d2, s, t = _segments_closest(a, b, p, q)
+        if d2 < best:
+            best, s_best = d2, s
+            feature = 4 + j if t <= 0.0 else (4 + (j + 1) % 3 if t >= 1.0 else 1 + j)
+            x, y, z = p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1]), p[2] + t * (q[2] - p[2])
+    return best, feature, s_best, x, y, z
+
+
+def triangle_balls(tris: np.ndarray) -> np.ndarray:
+    """Per triangle ``(T, 4)``: a ball (centre, radius) that holds it: the mean of its corners, radius to the
+    farthest corner."""
+    centre = tris.mean(axis=1)
+    radius = np.linalg.norm(tris - centre[:, None, :], axis=2).max(axis=1)
+    return np.ascontiguousarray(np.concatenate([centre, radius[:, None]], axis=1))
+
+
+@njit(cache=True)
+def _segment_point2(a, b, c):
+    """Squared distance from point c (its first 3 entries) to segment ab."""
+    dx, dy, dz = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+    wx, wy, wz = c[0] - a[0], c[1] - a[1], c[2] - a[2]
+    dd = dx * dx + dy * dy + dz * dz
+    t = 0.0 if dd <= 0.0 else min(max((wx * dx + wy * dy + wz * dz) / dd, 0.0), 1.0)
+    ux, uy, uz = wx - t * dx, wy - t * dy, wz - t * dz
+    return ux * ux + uy * uy + uz * uz
+
+
+@njit(cache=True)
+def _node_gap2(node, a, b, lo, hi):
+    """A lower bound on the squared distance between segment ab (its box lo..hi) and anything inside the box
+    ``node`` [lo(3), hi(3)]: the larger of the gap between the two boxes and the segment's distance to the box's
+    circumscribed ball (tight for small boxes near a slanted segment, where the box gap is loose)."""
+    acc = 0.0
+    cx = 0.5 * (node[0] + node[3])
+    cy = 0.5 * (node[1] + node[4])
+    cz = 0.5 * (node[2] + node[5])
+    r2 = 0.0
+    for k in range(3):
+        g = max(node[k] - hi[k], lo[k] - node[k + 3], 0.0)
+        acc += g * g
+        e = 0.5 * (node[k + 3] - node[k])
+        r2 += e * e
+    ball = math.sqrt(_segment_point2(a, b, (cx, cy, cz))) - math.sqrt(r2)
+    if ball > 0.0 and ball * ball > acc:
+        return ball * ball
+    return acc
+
+
+@njit(cache=True)
+def mesh_segment(tris, normals, spheres, nodes, links, root, a, b, bound, stack):
+    """(distance, outside) between segment ab and the mesh surface when less than ``bound``, else (inf, True).
+    ``outside`` says on which side of a closed mesh the segment's closest point lies (pseudonormal of the closest
+    surface feature, which is that point's nearest); meaningless when the distance is 0 (the segment crosses).
+    ``spheres (T, 4)``: each triangle's bounding ball (:func:`triangle_balls`)."""
+    lo = np.minimum(a, b)
+    hi = np.maximum(a, b)
+    best = bound * bound
+    tri = -1
+    feature = 0
+    s_best = 0.0
+    qx = qy = qz = 0.0
+    stack[0] = root
+    top = 1
+    while top > 0:
+        top -= 1
+        node = stack[top]
+        if _node_gap2(nodes[node], a, b, lo, hi) >= best:
+            continue
+        first = links[node, 0]
+        second = links[node, 1]
+        if second < 0:
+            for t in range(first, first - second):
+                # the triangle's ball (centre = mean of the corners, radius to the farthest) culls it cheaply
+                ball = _segment_point2(a, b, spheres[t])
+                if ball > spheres[t, 3] * spheres[t, 3]:
+                    gap = math.sqrt(ball) - spheres[t, 3]
+                    if gap * gap >= best:
+                        continue
+                d2, f, s, x, y, z = segment_triangle(a, b, tris[t, 0], tris[t, 1], tris[t, 2])
+                if d2 < best:
+                    best, tri, feature, s_best = d2, t, f, s
+                    qx, qy, qz = x, y, z
+            continue
+        dl = _node_gap2(nodes[first], a, b, lo, hi)
+        dr = _node_gap2(nodes[second], a, b, lo, hi)
+        near, far, dnear, dfar = (first, second, dl, dr) if dl <= dr else (second, first, dr, dl)
+        if dfar < best:
+            stack[top] = far
+            top += 1
+        if dnear < best:
+            stack[top] = near
+            top += 1
+    if tri < 0:
+        return np.inf, True
+    n = normals[tri, feature]
+    px = a[0] + s_best * (b[0] - a[0]) - qx
+    py = a[1] + s_best * (b[1] - a[1]) - qy
+    pz = a[2] + s_best * (b[2] - a[2]) - qz
+    return math.sqrt(best), px * n[0] + py * n[1] + pz * n[2] >= 0.0
+
+
+@njit(cache=True)
+def _reference_segments(tris, a, b):
+    out = np.empty(a.shape[0])
+    for i in range(a.shape[0]):
+        best = np.inf
+        for t in range(tris.shape[0]):
+            best = min(best, segment_triangle(a[i], b[i], tris[t, 0], tris[t, 1], tris[t, 2])[0])
+        out[i] = math.sqrt(best)
+    return out
+
+
+def reference_segment_distance(vertices, faces, a, b) -> np.ndarray:
+    """Brute-force distance (every triangle) between segments a->b ``(n, 3)`` and a mesh's surface: the reference
+    for tests."""
+    tris = np.ascontiguousarray(np.asarray(vertices, dtype=float)[np.asarray(faces, dtype=np.int64)])
+    return _reference_segments(tris, np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(b, dtype=float))
