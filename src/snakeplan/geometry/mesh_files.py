@@ -25,7 +25,7 @@ MAX_MESH_FILE_BYTES = 512 * 2**20
 #: triangle once packed (corners, pseudonormals, tree), so 10^6 triangles take about 0.5 GB at most.
 MAX_MESH_TRIANGLES = 2_000_000
 #: Size range (mm, the box diagonal after scaling) a mesh file must fall in: outside it, the units are wrong.
-MESH_SPAN_MM = (1.0, 1e6)
+MESH_SPAN_MM = (10.0, 1e5)
 #: File name endings trimesh reads here.
 MESH_SUFFIXES = (".stl", ".obj", ".ply", ".glb", ".gltf", ".off")
 
