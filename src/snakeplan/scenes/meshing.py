@@ -57,12 +57,14 @@ def solid(o: Obstacle, segments: int = CIRCLE_SEGMENTS):
 
 def to_mesh(solids: Sequence, triangles: int | None = None) -> Mesh:
     """One closed :class:`Mesh` of the union of manifold3d ``solids``; with ``triangles``, its faces split evenly
-    until it has at least that many."""
+    (each edge into n) to come nearest that many."""
     from manifold3d import Manifold, OpType
 
     m = Manifold.batch_boolean(list(solids), OpType.Add)
-    if triangles is not None and m.num_tri() < triangles:
-        m = m.refine(max(2, math.ceil(math.sqrt(triangles / m.num_tri()))))
+    if triangles is not None:
+        n = round(math.sqrt(triangles / m.num_tri()))
+        if n >= 2:
+            m = m.refine(n)
     out = m.to_mesh64() if hasattr(m, "to_mesh64") else m.to_mesh()
     return Mesh(np.asarray(out.vert_properties, float)[:, :3], np.asarray(out.tri_verts, np.int64))
 
@@ -71,3 +73,70 @@ def obstacles_mesh(obstacles: Sequence[Obstacle], triangles: int | None = None,
                    segments: int = CIRCLE_SEGMENTS) -> Mesh:
     """The union of ``obstacles`` as one closed mesh (the same scene as primitives, for comparisons)."""
     return to_mesh([solid(o, segments) for o in obstacles], triangles)
+
+
+def _frame_from_z(z: np.ndarray) -> np.ndarray:
+    """A rotation whose third column is the unit vector ``z``."""
+    from snakeplan.geometry.transforms import any_perpendicular
+
+    x = any_perpendicular(z)
+    return np.stack([x, np.cross(z, x), z], axis=1)
+
+
+def rod(p: np.ndarray, q: np.ndarray, radius: float, segments: int = CIRCLE_SEGMENTS):
+    """A solid round bar from p to q (mm)."""
+    from manifold3d import Manifold
+
+    d = np.asarray(q, float) - np.asarray(p, float)
+    length = float(np.linalg.norm(d))
+    bar = Manifold.cylinder(length, radius, radius, segments, False)
+    return _placed(bar, _frame_from_z(d / length), np.asarray(p, float))
+
+
+def swept(points: Sequence, radius: float, bend_radius: float, segments: int = CIRCLE_SEGMENTS):
+    """A round bar of ``radius`` swept along a polyline whose corners are rounded into circular arcs of
+    ``bend_radius`` (mm; each straight must be long enough for the arcs at its ends)."""
+    from manifold3d import CrossSection, Manifold
+
+    P = np.asarray(points, dtype=float)
+    parts = []
+    start = P[0]
+    for i in range(1, len(P) - 1):
+        u = P[i] - P[i - 1]
+        v = P[i + 1] - P[i]
+        u /= np.linalg.norm(u)
+        v /= np.linalg.norm(v)
+        theta = math.acos(min(max(float(u @ v), -1.0), 1.0))
+        if theta < 1e-9:
+            continue
+        cut = bend_radius * math.tan(theta / 2.0)
+        t1 = P[i] - u * cut
+        n = v - (v @ u) * u
+        n /= np.linalg.norm(n)
+        centre = t1 + bend_radius * n
+        parts.append(rod(start, t1, radius, segments))
+        ring = CrossSection.circle(radius, segments).translate([bend_radius, 0.0])
+        arc = Manifold.revolve(ring, segments, math.degrees(theta))
+        x = -n
+        R = np.stack([x, u, np.cross(x, u)], axis=1)
+        parts.append(_placed(arc, R, centre))
+        start = P[i] + v * cut
+    parts.append(rod(start, P[-1], radius, segments))
+    return Manifold.batch_boolean(parts, _op_add())
+
+
+def _op_add():
+    from manifold3d import OpType
+
+    return OpType.Add
+
+
+def pipe_run(points: Sequence, inner_radius: float, wall: float, bend_radius: float,
+             segments: int = CIRCLE_SEGMENTS):
+    """A pipe (wall ``wall`` mm around a bore of ``inner_radius``) along a polyline with rounded bends, open at
+    both ends."""
+    P = np.asarray(points, dtype=float)
+    head = (P[0] - P[1]) / np.linalg.norm(P[0] - P[1])
+    tail = (P[-1] - P[-2]) / np.linalg.norm(P[-1] - P[-2])
+    bore = np.vstack([P[0] + head * wall, P[1:-1], P[-1] + tail * wall])
+    return swept(P, inner_radius + wall, bend_radius, segments) - swept(bore, inner_radius, bend_radius, segments)
