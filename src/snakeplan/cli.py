@@ -403,6 +403,23 @@ def cmd_bench_kernels(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def cmd_bench_mesh(args: argparse.Namespace) -> int:
+    from snakeplan.bench import mesh
+
+    if args.seeds < 1:
+        raise UsageError(f"--seeds: expected a positive integer, got {args.seeds}")
+    if args.part == "speed":
+        result = mesh.speed(seeds=args.seeds, time_limit=args.time_limit)
+    else:
+        if not Path(args.out).parent.is_dir():
+            raise UsageError(f"--out: folder {str(Path(args.out).parent)!r} does not exist (create it first)")
+        Path(args.out).mkdir(exist_ok=True)
+        check_output(Path(args.out) / "summary.json", "--out")
+        result = mesh.families(Path(args.out), seeds=args.seeds, time_limit=args.time_limit)
+    _print_json(result)
+    return EXIT_OK
+
+
 def cmd_bench_rl(args: argparse.Namespace) -> int:
     require_training("bench rl")
     from snakeplan.bench.rl import rl_markdown, run_rl_bench
@@ -649,6 +666,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=_seed, default=0, help="seed for scenes and configurations")
     p.add_argument("--json", action="store_true", help="also print the figures as JSON")
     p.set_defaults(func=cmd_bench_kernels)
+
+    p = bsub.add_parser("mesh", help="planning on meshes: speed on 100k-triangle scenes, success in mesh families",
+                        description="speed: judge, as-rrt and clearance figures on 100k-triangle watertight "
+                                    "scenes against the same scene from primitives; families: rrt-star, sp-rrt "
+                                    "and as-rrt over seeds of pipework, vessel and engine (resumable runs.jsonl).")
+    p.add_argument("part", choices=("speed", "families"), help="which figures")
+    p.add_argument("--seeds", type=int, default=5, help="seeds (default 5; the families figure uses 20)")
+    p.add_argument("--time-limit", type=_finite, default=10.0, help="budget per plan in seconds (default 10)")
+    p.add_argument("--out", default="bench-mesh", help="families: output folder (default bench-mesh)")
+    p.set_defaults(func=cmd_bench_mesh)
 
     p = bsub.add_parser("rl", help="training throughput of the learned planners",
                         description="Environment steps, SAC-HER training steps and actor calls per second, each "

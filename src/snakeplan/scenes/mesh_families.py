@@ -32,10 +32,10 @@ TARGET_CLEARANCE_MM = 70.0
 #: Draws before a family gives up finding a free target (never reached with these shapes).
 MAX_TARGET_DRAWS = 2000
 #: Pipework: bore radius, wall, bend radius, leg lengths (mm).
-PIPE_BORE_MM = 110.0
+PIPE_BORE_MM = 150.0
 PIPE_WALL_MM = 12.0
-PIPE_BEND_MM = 300.0
-PIPE_LEGS_MM = (650.0, 700.0, 700.0)
+PIPE_BEND_MM = 400.0
+PIPE_LEGS_MM = (600.0, 850.0, 750.0)
 #: Pipework: the directions the second and third legs may turn to (unit vectors picked by the seed).
 PIPE_TURNS = ((0.0, 1.0, 0.0), (0.0, -1.0, 0.0), (0.0, 0.0, 1.0), (0.0, 0.0, -1.0))
 #: Vessel: shell inner radius, wall, height; nozzle bore radius and height; dip pipe radius and offset (mm).
@@ -51,7 +51,7 @@ CASING_RADIUS_MM = 560.0
 CASING_WALL_MM = 14.0
 HUB_RADIUS_MM = 150.0
 ENGINE_LENGTH_MM = 1100.0
-VANES = (10, 140.0, 16.0, 700.0)
+VANES = (10, 140.0, 16.0, 850.0)
 PORT = (110.0, 250.0)
 #: Circle segments of the built meshes (triangles grow with their square).
 SEGMENTS = 128
@@ -91,7 +91,7 @@ def pipework(seed: int) -> Scene:
     mesh, axis = _pipework_mesh(turn1, turn2)
     c, d = axis[2], axis[3]
     leg = (d - c) / np.linalg.norm(d - c)
-    depth = rng.uniform(PIPE_BEND_MM + 50.0, PIPE_LEGS_MM[2] - 120.0)
+    depth = rng.uniform(PIPE_BEND_MM + 50.0, PIPE_LEGS_MM[2] - 150.0)
     target = c + leg * depth
     lo, hi = mesh.aabb()
     margin = 60.0
@@ -173,8 +173,8 @@ def engine(seed: int) -> Scene:
 
     def draw(g):
         phi = g.uniform(-0.5, 0.5)  # around the top (+z), rad
-        rho = g.uniform(HUB_RADIUS_MM + 110.0, R - 110.0)
-        x = g.uniform(PORT[1] + 250.0, VANES[3] - 150.0)
+        rho = g.uniform(HUB_RADIUS_MM + 110.0, R - 150.0)
+        x = g.uniform(PORT[1] + 350.0, VANES[3] - 150.0)
         return [x, rho * math.sin(phi), rho * math.cos(phi)]
 
     target = _free_target(mesh, rng, draw)
