@@ -248,15 +248,14 @@ def test_scene_import_then_plan_from_the_command_line(tmp_path, capsys):
     out = tmp_path / "elbow.json"
     base = ["scene", "import", str(tmp_path / "parts" / "elbow.stl"), "--units", "m", "--entrance", "0,0,0",
             "--direction", "1,0,0", "-o", str(out)]
-    for extra, field in ((["--target", "250,0,108"], "--target[0]: "), (["--target", "500,900,0"], None),
+    for extra, field in ((["--target", "250,0,108"], "--target[0]: "), (["--target", "500,900,0", "--bounds=-100,-200,-200,700,700,200"], "--target[0]: "),
                          (["--target", "1,2"], "--target[0]: "), (["--target", "500,450,0", "--units", "mm"],
                                                                    "--units: ")):
         code = main(base + extra)
         err = capsys.readouterr().err
         assert code == 2 and not out.exists()
         assert err.count("\n") == 1 and err.startswith("snakeplan: error: ")
-        if field:
-            assert err.startswith(f"snakeplan: error: {field}")
+        assert err.startswith(f"snakeplan: error: {field}")
     assert main(base + ["--target", "500,450,0"]) == 0
     doc = json.loads(out.read_text())
     assert doc["obstacles"] == [{"type": "mesh", "file": "parts/elbow.stl", "units": "m"}]

@@ -205,8 +205,10 @@ def _sdf_points(W, pts, stats):
 
 
 @njit(cache=True)
-def _candidates(W, a, b, cutoff, work, stats):
-    """Obstacles that may come within ``cutoff`` of segment ab; returns their count in ``work[0]``.
+def _candidates(W, a, b, cutoff, work, stats, mid_free=False):
+    """Obstacles that may come within ``cutoff`` of segment ab; returns their count in ``work[0]``. With
+    ``mid_free`` (the segment's midpoint is known to lie outside every obstacle) a mesh whose box is near enough
+    is a candidate without a distance evaluation (its exact segment search decides; its midpoint value is +inf).
 
     The obstacle tree culls every box that the segment's bounding ball lies outside of and farther than
     ``cutoff`` from, so a link only evaluates obstacles near it, whatever the size of the scene.
@@ -238,6 +240,11 @@ def _candidates(W, a, b, cutoff, work, stats):
             k = order[j]
             outside = bvh.box_distance(boxes[k], mid)
             if outside > 0.0 and outside - half >= cutoff:
+                continue
+            if mid_free and int(rows[k, 0]) == KIND_MESH:
+                cand[n] = k
+                value[n] = np.inf
+                n += 1
                 continue
             stats[0] += 1
             d = _sdf_row(rows[k], W, mid, walk)
@@ -297,11 +304,11 @@ def _min_over(W, cand, n, p, walk, stats):
 
 
 @njit(cache=True)
-def _segment_min(W, a, b, cutoff, tol, radius, work, stats):
+def _segment_min(W, a, b, cutoff, tol, radius, work, stats, mid_free=False):
     """Minimum signed distance along segment ab (ends included), accurate to ``tol``; values >= ``cutoff`` come
     back as cutoff. Where the minimum may lie below ``radius - CONTACT_RESOLUTION_MM`` while the best found does
     not, the search goes on to the contact resolution, so the sign of the clearance is never decided by ``tol``."""
-    n = _candidates(W, a, b, cutoff, work, stats)
+    n = _candidates(W, a, b, cutoff, work, stats, mid_free)
     if n == 0:
         return cutoff
     best, n = _meshes_exact(W, a, b, n, cutoff, work, stats)
@@ -395,7 +402,8 @@ def _chains_clearance(W, joints, radii, tol, stats):
         # off soonest (a mesh link's exact search costs about the triangles within its cutoff)
         for k in np.argsort(mids):
             cutoff = best + radii[k]
-            d = _segment_min(W, joints[i, k], joints[i, k + 1], cutoff, tol, radii[k], work, stats)
+            d = _segment_min(W, joints[i, k], joints[i, k + 1], cutoff, tol, radii[k], work, stats,
+                             mids[k] + radii[k] > 0.0)
             d -= radii[k]
             if d < best:
                 best = d

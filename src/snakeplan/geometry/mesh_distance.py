@@ -29,9 +29,11 @@ DEFAULT_SHELL_MM = 1.0
 def topology(vertices: np.ndarray, faces: np.ndarray, name: str = "mesh") -> tuple[bool, np.ndarray]:
     """(closed, faces oriented outward) of a mesh; ValueError (``name.faces: ...``) for a non-manifold one.
 
-    Closed means every edge is shared by exactly two faces that run along it in opposite directions; such a mesh
-    whose signed volume is negative has its faces reversed. An edge shared by more than two faces, or two faces
-    that both run along an edge in the same direction on an otherwise closed mesh, is an error."""
+    Closed means every edge is shared by faces that run along it in opposite directions, as many each way: two,
+    or four or more where closed parts touch along an edge (pinched); such a mesh whose signed volume is negative
+    has its faces reversed. An edge shared by an odd number of faces above two, or by more than two faces not
+    half each way, is non-manifold; two faces that both run along an edge in the same direction on an otherwise
+    closed mesh are inconsistently oriented. Both are errors."""
     F = np.asarray(faces, dtype=np.int64)
     if np.any((F[:, 0] == F[:, 1]) | (F[:, 1] == F[:, 2]) | (F[:, 0] == F[:, 2])):
         i = int(np.flatnonzero((F[:, 0] == F[:, 1]) | (F[:, 1] == F[:, 2]) | (F[:, 0] == F[:, 2]))[0])
@@ -40,14 +42,16 @@ def topology(vertices: np.ndarray, faces: np.ndarray, name: str = "mesh") -> tup
     lo, hi = directed.min(axis=1), directed.max(axis=1)
     key = lo * (int(F.max()) + 1) + hi
     _, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
-    if np.any(counts > 2):
-        e = int(np.flatnonzero(counts[inverse] > 2)[0])
-        raise ValueError(f"{name}.faces: non-manifold: the edge {int(lo[e])}-{int(hi[e])} is shared by "
-                         f"{int(counts[inverse[e]])} faces (an edge may border at most two)")
-    if np.any(counts == 1):
-        return False, F
     forward = directed[:, 0] < directed[:, 1]
     balance = np.bincount(inverse, weights=np.where(forward, 1.0, -1.0))
+    bad = (counts > 2) & ((counts % 2 == 1) | (balance != 0.0))
+    if np.any(bad):
+        e = int(np.flatnonzero(bad[inverse])[0])
+        raise ValueError(f"{name}.faces: non-manifold: the edge {int(lo[e])}-{int(hi[e])} is shared by "
+                         f"{int(counts[inverse[e]])} faces (an edge may border two, or an even number half each way "
+                         f"where closed parts touch)")
+    if np.any(counts == 1):
+        return False, F
     if np.any(balance != 0.0):
         e = int(np.flatnonzero(balance[inverse] != 0.0)[0])
         raise ValueError(f"{name}.faces: inconsistently oriented: two faces run along the edge {int(lo[e])}-"
@@ -81,6 +85,7 @@ def pseudonormals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     pos = np.minimum(pos, len(key) - 1)
     found = key[sorter[pos]] == twin
     partner = np.where(found, sorter[pos] // 3, np.repeat(np.arange(len(F)), 3))
+    _pair_pinched(V, F, directed, partner, fn)
     out[:, 1:4] = (np.repeat(fn, 3, axis=0) + fn[partner]).reshape(-1, 3, 3)
     corners = np.stack([a, b, c], axis=1)
     angles = np.empty((len(F), 3))
@@ -93,6 +98,34 @@ def pseudonormals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
         np.add.at(vn, F[:, j], angles[:, j, None] * fn)
     out[:, 4:7] = vn[F]
     return out
+
+
+def _pair_pinched(V, F, directed, partner, fn) -> None:
+    """Where closed parts touch along an edge (four or more faces), pair each face with the face across the
+    material it bounds (the next face around the edge on its inner side), so the edge's pseudonormal is that
+    part's. ``partner`` (per directed edge, the face across it) is corrected in place."""
+    nv = int(F.max()) + 1
+    undirected = np.minimum(directed[:, 0], directed[:, 1]) * nv + np.maximum(directed[:, 0], directed[:, 1])
+    _, inverse, many = np.unique(undirected, return_inverse=True, return_counts=True)
+    for group in np.flatnonzero(many > 2):
+        rows = np.flatnonzero(inverse == group)
+        i, j = directed[rows[0]]
+        axis = V[j] - V[i]
+        axis /= np.linalg.norm(axis)
+        faces = rows // 3
+        third = V[F[faces]].sum(axis=1) - V[i] - V[j]
+        w = third - V[i]
+        w -= np.outer(w @ axis, axis)
+        ref = w[0] / np.linalg.norm(w[0])
+        angle = np.arctan2(np.cross(ref, w) @ axis, w @ ref)
+        order = np.argsort(angle)
+        rank = np.empty_like(order)
+        rank[order] = np.arange(len(order))
+        for r, row in enumerate(rows):
+            # the material lies behind the face (-normal): on the side of increasing angle when -n turns that way
+            ahead = float(np.cross(axis, w[r]) @ -fn[faces[r]]) > 0.0
+            step = 1 if ahead else -1
+            partner[row] = faces[order[(rank[r] + step) % len(rows)]]
 
 
 def prepare(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

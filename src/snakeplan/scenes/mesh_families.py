@@ -173,7 +173,7 @@ def engine(seed: int) -> Scene:
 
     def draw(g):
         phi = g.uniform(-0.5, 0.5)  # around the top (+z), rad
-        rho = g.uniform(HUB_RADIUS_MM + 110.0, R - 150.0)
+        rho = g.uniform(HUB_RADIUS_MM + 110.0, R - 200.0)  # deep enough below the port to turn into
         x = g.uniform(PORT[1] + 350.0, VANES[3] - 150.0)
         return [x, rho * math.sin(phi), rho * math.cos(phi)]
 

@@ -17,6 +17,10 @@ from snakeplan.geometry.primitives import Box, Cylinder, Mesh, Obstacle, Pipe, P
 
 #: Segments around a full circle when a curved primitive is meshed.
 CIRCLE_SEGMENTS = 96
+#: How far (mm) a swept bar's straight parts reach into its bends: end caps that coincide with a bend's would
+#: leave a membrane of two coincident faces once vertices are merged (a file round trip); the overlap bulges the
+#: surface by about overlap^2 / (2 bend radius), well under a micrometre.
+SWEEP_OVERLAP_MM = 0.5
 
 
 def _placed(m, rotation: np.ndarray, center: np.ndarray):
@@ -57,12 +61,12 @@ def solid(o: Obstacle, segments: int = CIRCLE_SEGMENTS):
 
 def to_mesh(solids: Sequence, triangles: int | None = None) -> Mesh:
     """One closed :class:`Mesh` of the union of manifold3d ``solids``; with ``triangles``, its faces split evenly
-    (each edge into n) to come nearest that many."""
+    (each edge into n) until it has at least that many."""
     from manifold3d import Manifold, OpType
 
     m = Manifold.batch_boolean(list(solids), OpType.Add)
     if triangles is not None:
-        n = round(math.sqrt(triangles / m.num_tri()))
+        n = math.ceil(math.sqrt(triangles / m.num_tri()))
         if n >= 2:
             m = m.refine(n)
     out = m.to_mesh64() if hasattr(m, "to_mesh64") else m.to_mesh()
@@ -114,13 +118,13 @@ def swept(points: Sequence, radius: float, bend_radius: float, segments: int = C
         n = v - (v @ u) * u
         n /= np.linalg.norm(n)
         centre = t1 + bend_radius * n
-        parts.append(rod(start, t1, radius, segments))
+        parts.append(rod(start, t1 + SWEEP_OVERLAP_MM * u, radius, segments))
         ring = CrossSection.circle(radius, segments).translate([bend_radius, 0.0])
         arc = Manifold.revolve(ring, segments, math.degrees(theta))
         x = -n
         R = np.stack([x, u, np.cross(x, u)], axis=1)
         parts.append(_placed(arc, R, centre))
-        start = P[i] + v * cut
+        start = P[i] + v * (cut - SWEEP_OVERLAP_MM)
     parts.append(rod(start, P[-1], radius, segments))
     return Manifold.batch_boolean(parts, _op_add())
 
