@@ -21,8 +21,8 @@ from snakeplan.geometry.primitives import Mesh
 UNITS_MM = {"m": 1000.0, "cm": 10.0, "mm": 1.0, "in": 25.4}
 #: Largest mesh file (bytes): a binary STL of 2 million triangles is about 100 MB.
 MAX_MESH_FILE_BYTES = 512 * 2**20
-#: Most triangles a mesh file may hold. Memory: about 0.5 kB per triangle while loading and about 0.3 kB per
-#: triangle once packed (corners, pseudonormals, tree), so 10^6 triangles take about 0.5 GB at most.
+#: Most triangles a mesh file may hold. Memory: about 1.1 kB per triangle at the peak of loading and about 0.3 kB
+#: per triangle once packed (corners, pseudonormals, tree): 1.18 million triangles peaked at 1.3 GB.
 MAX_MESH_TRIANGLES = 2_000_000
 #: Size range (mm, the box diagonal after scaling) a mesh file must fall in: outside it, the units are wrong.
 MESH_SPAN_MM = (10.0, 1e5)
