@@ -27,6 +27,8 @@ from snakeplan.geometry.primitives import Mesh
 from snakeplan.scenes.registry import register_scene
 from snakeplan.scenes.scene import Entrance, Scene
 
+#: The families this module registers.
+MESH_FAMILIES = ("pipework", "vessel", "engine")
 #: Least distance (mm) from a target to the mesh.
 TARGET_CLEARANCE_MM = 70.0
 #: Draws before a family gives up finding a free target (never reached with these shapes).
