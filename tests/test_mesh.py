@@ -20,9 +20,9 @@ trimesh = pytest.importorskip("trimesh")
 @pytest.fixture(scope="module")
 def part() -> Mesh:
     """A closed, non-convex part: a block with a spherical pocket cut into one face and a boss on another."""
-    from snakeplan.scenes.meshing import to_mesh
-
     from manifold3d import Manifold
+
+    from snakeplan.scenes.meshing import to_mesh
 
     block = Manifold.cube([200.0, 120.0, 80.0], center=True)
     pocket = Manifold.sphere(50.0, 48).translate([60.0, 0.0, 40.0])

@@ -64,9 +64,9 @@ def speed(seeds: int = 5, time_limit: float = 30.0, repeats: int = 3) -> dict:
     _ = mesh.obstacle_set
     packed = time.perf_counter() - t0
     pipework = make_scene("pipework", 0)
-    out: dict = {"fuel_tank_mesh": {"triangles": int(len(mesh.obstacles[0].faces)), "build_s": round(built, 3),
+    out: dict = {"fuel_tank_mesh": {"triangles": len(mesh.obstacles[0].faces), "build_s": round(built, 3),
                                     "pack_s": round(packed, 3)},
-                 "pipework": {"triangles": int(len(pipework.obstacles[0].faces))}}
+                 "pipework": {"triangles": len(pipework.obstacles[0].faces)}}
     for key, scene in (("fuel_tank_mesh", mesh), ("pipework", pipework)):
         runs = [_plan(scene, "as-rrt", s, time_limit) for s in range(seeds)]
         times = [r.plan.compute_time_s for r in runs]
@@ -97,7 +97,7 @@ def speed(seeds: int = 5, time_limit: float = 30.0, repeats: int = 3) -> dict:
                                                              / out["clearance_per_s_mesh"], 2)
         out["collides_ratio_primitives_over_mesh"] = round(out["collides_per_s_primitives"]
                                                             / out["collides_per_s_mesh"], 2)
-        out["workload_states"] = int(len(joints))
+        out["workload_states"] = len(joints)
     return out
 
 

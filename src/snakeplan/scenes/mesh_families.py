@@ -99,7 +99,7 @@ def pipework(seed: int) -> Scene:
     margin = 60.0
     bounds_min = np.minimum(lo - margin, [-300.0, lo[1] - margin, lo[2] - margin])
     return Scene("pipework", seed, bounds_min, hi + margin, Entrance(np.zeros(3), [1.0, 0.0, 0.0]), target[None],
-                 (mesh,), {"mesh_family": {"turns": [turn1, turn2], "triangles": int(len(mesh.faces))}})
+                 (mesh,), {"mesh_family": {"turns": [turn1, turn2], "triangles": len(mesh.faces)}})
 
 
 @lru_cache(maxsize=1)
@@ -139,7 +139,7 @@ def vessel(seed: int) -> Scene:
     lo, hi = mesh.aabb()
     entrance = Entrance([0.0, 0.0, top], [0.0, 0.0, -1.0])
     return Scene("vessel", seed, lo - 60.0, hi + [60.0, 60.0, 400.0], entrance, target[None], (mesh,),
-                 {"mesh_family": {"triangles": int(len(mesh.faces))}})
+                 {"mesh_family": {"triangles": len(mesh.faces)}})
 
 
 @lru_cache(maxsize=1)
@@ -183,4 +183,4 @@ def engine(seed: int) -> Scene:
     lo, hi = mesh.aabb()
     entrance = Entrance([PORT[1], 0.0, R + CASING_WALL_MM], [0.0, 0.0, -1.0])
     return Scene("engine", seed, lo - 60.0, hi + [60.0, 60.0, 400.0], entrance, target[None], (mesh,),
-                 {"mesh_family": {"triangles": int(len(mesh.faces))}})
+                 {"mesh_family": {"triangles": len(mesh.faces)}})

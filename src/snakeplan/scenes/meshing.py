@@ -13,7 +13,15 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from snakeplan.geometry.primitives import Box, Cylinder, Mesh, Obstacle, Pipe, Plate, Sphere
+from snakeplan.geometry.primitives import (
+    Box,
+    Cylinder,
+    Mesh,
+    Obstacle,
+    Pipe,
+    Plate,
+    Sphere,
+)
 
 #: Segments around a full circle when a curved primitive is meshed.
 CIRCLE_SEGMENTS = 96
@@ -100,7 +108,7 @@ def rod(p: np.ndarray, q: np.ndarray, radius: float, segments: int = CIRCLE_SEGM
 def swept(points: Sequence, radius: float, bend_radius: float, segments: int = CIRCLE_SEGMENTS):
     """A round bar of ``radius`` swept along a polyline whose corners are rounded into circular arcs of
     ``bend_radius`` (mm; each straight must be long enough for the arcs at its ends)."""
-    from manifold3d import CrossSection, Manifold
+    from manifold3d import CrossSection, Manifold, OpType
 
     P = np.asarray(points, dtype=float)
     parts = []
@@ -126,13 +134,7 @@ def swept(points: Sequence, radius: float, bend_radius: float, segments: int = C
         parts.append(_placed(arc, R, centre))
         start = P[i] + v * (cut - SWEEP_OVERLAP_MM)
     parts.append(rod(start, P[-1], radius, segments))
-    return Manifold.batch_boolean(parts, _op_add())
-
-
-def _op_add():
-    from manifold3d import OpType
-
-    return OpType.Add
+    return Manifold.batch_boolean(parts, OpType.Add)
 
 
 def pipe_run(points: Sequence, inner_radius: float, wall: float, bend_radius: float,
