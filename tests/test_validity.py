@@ -13,6 +13,7 @@ from snakeplan.geometry.primitives import Box, Plate, Sphere
 from snakeplan.robots import Chain, get_robot
 from snakeplan.robots.chain import Section
 from snakeplan.scenes import Entrance, Scene, make_scene, scene_names
+from snakeplan.scenes.mesh_families import MESH_FAMILIES
 from snakeplan.world import JUDGE, PLANNING, ROLLOUT, FullView, Tolerances, ValidityChecker, targets_reached
 
 CRAWL_FAILURES = ("collision", "bend_limit", "insertion", "out_of_bounds")
@@ -205,8 +206,11 @@ def random_path(scene, robot, rng):
     return np.array(pts)
 
 
-#: Every scene family whose task is to reach targets through the entrance (the crawl's whole domain).
-FAMILIES = [(name, scene) for name, scene in ((n, make_scene(n, 1)) for n in scene_names()) if len(scene.targets)]
+#: Every scene family whose task is to reach targets through the entrance (the crawl's whole domain), but the mesh
+#: families: their pipes and ports are too confined for random paths to pass (their judged plans are tested in
+#: test_mesh.py) and each costs tens of seconds here.
+FAMILIES = [(name, scene) for name, scene in ((n, make_scene(n, 1)) for n in scene_names() if n not in MESH_FAMILIES)
+            if len(scene.targets)]
 
 
 @pytest.mark.parametrize("name, scene", FAMILIES, ids=[n for n, _ in FAMILIES])

@@ -62,11 +62,17 @@ def _load_scene(args: argparse.Namespace):
     from snakeplan.scenes import Scene, make_scene
 
     if getattr(args, "scene_file", None):
-        return Scene.from_json(_read_text(args.scene_file, "--scene-file"), "--scene-file")
+        return Scene.from_json(_read_text(args.scene_file, "--scene-file"), "--scene-file",
+                               _scene_dir(args.scene_file))
     try:
         return make_scene(args.scene, args.seed)
     except KeyError as exc:
         raise UsageError(f"--scene: {exc.args[0]}") from None
+
+
+def _scene_dir(filename: str) -> Path:
+    """The folder a scene file's mesh files are read relative to (the working directory for standard input)."""
+    return Path(".") if filename == "-" else Path(filename).parent
 
 
 def _robot_for(args: argparse.Namespace, scene):
@@ -412,7 +418,8 @@ def cmd_trajectory(args: argparse.Namespace) -> int:
     _check_trajectories(args.out, "-o")
     plan = read_plan(_read_text(args.plan_file, "PLAN"))
     if args.scene_file:
-        scene = Scene.from_json(_read_text(args.scene_file, "--scene-file"), "--scene-file")
+        scene = Scene.from_json(_read_text(args.scene_file, "--scene-file"), "--scene-file",
+                                _scene_dir(args.scene_file))
     else:
         name = args.scene or plan["scene"]["name"]
         seed = args.seed if args.seed is not None else plan["scene"]["seed"]
@@ -514,6 +521,21 @@ def cmd_bench_speed(args: argparse.Namespace) -> int:
         _print_json(summary)
     else:
         sys.stdout.write(speed_markdown(summary) + f"\nwrote {out} and {out.with_suffix('.json')}\n")
+
+def cmd_bench_mesh(args: argparse.Namespace) -> int:
+    from snakeplan.bench import mesh
+
+    if args.seeds < 1:
+        raise UsageError(f"--seeds: expected a positive integer, got {args.seeds}")
+    if args.part == "speed":
+        result = mesh.speed(seeds=args.seeds, time_limit=args.time_limit)
+    else:
+        if not Path(args.out).parent.is_dir():
+            raise UsageError(f"--out: folder {str(Path(args.out).parent)!r} does not exist (create it first)")
+        Path(args.out).mkdir(exist_ok=True)
+        check_output(Path(args.out) / "summary.json", "--out")
+        result = mesh.families(Path(args.out), seeds=args.seeds, time_limit=args.time_limit)
+    _print_json(result)
     return EXIT_OK
 
 
@@ -680,12 +702,14 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--seed", type=_seed, default=0, help="scene seed (default 0)")
         p.add_argument("--scene-file", help="a scene JSON file (snakeplan.scene/1) instead of --scene/--seed")
 
-    p = sub.add_parser("scene", help="generate a scene and print it", description="Generate a scene from a seed.")
-    p.add_argument("name", nargs="?", help="scene name; omit (or --list) to list them")
+    p = sub.add_parser("scene", help="generate a scene and print it, or import one from CAD meshes",
+                       description="Generate a scene from a seed; 'snakeplan scene import MESH... -o scene.json' "
+                                   "makes one from mesh files (see 'snakeplan scene import --help').")
+    p.add_argument("name", nargs="?", help="scene name, or import; omit (or --list) to list them")
     p.add_argument("--seed", type=_seed, default=0, help="scene seed (default 0)")
     p.add_argument("--json", action="store_true", help="print snakeplan.scene/1 JSON")
     p.add_argument("--list", action="store_true", help="list the scene names")
-    p.set_defaults(func=cmd_scene_entry)
+    p.set_defaults(func=cmd_scene_entry, takes_options=True)
 
     p = sub.add_parser("robot", help="print a robot preset or what a robot file describes",
                        description="Print a robot (mm, rad, s): a preset, or a URDF, DH YAML or robot/1 JSON file "
@@ -780,6 +804,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="bench-speed.md", help="markdown table to write (default bench-speed.md)")
     p.add_argument("--json", action="store_true", help="print the figures as JSON")
     p.set_defaults(func=cmd_bench_speed)
+
+    p = bsub.add_parser("mesh", help="planning on meshes: speed on 100k-triangle scenes, success in mesh families",
+                        description="speed: judge, as-rrt and clearance figures on 100k-triangle watertight "
+                                    "scenes against the same scene from primitives; families: rrt-star, sp-rrt "
+                                    "and as-rrt over seeds of pipework, vessel and engine (resumable runs.jsonl).")
+    p.add_argument("part", choices=("speed", "families"), help="which figures")
+    p.add_argument("--seeds", type=int, default=5, help="seeds (default 5; the families figure uses 20)")
+    p.add_argument("--time-limit", type=_finite, default=10.0, help="budget per plan in seconds (default 10)")
+    p.add_argument("--out", default="bench-mesh", help="families: output folder (default bench-mesh)")
+    p.set_defaults(func=cmd_bench_mesh)
 
     p = bsub.add_parser("rl", help="training throughput of the learned planners",
                         description="Environment steps, SAC-HER training steps and actor calls per second, each "
@@ -877,11 +911,56 @@ def build_parser() -> argparse.ArgumentParser:
 def cmd_scene_entry(args: argparse.Namespace) -> int:
     from snakeplan.scenes import scene_names
 
+    if args.name == "import":
+        return cmd_scene_import(args.extra)
+    if args.extra:
+        raise UsageError(f"unrecognized arguments: {' '.join(args.extra)}")
     if args.list or args.name is None:
         sys.stdout.write("\n".join(scene_names()) + "\n")
         return EXIT_OK
     args.scene, args.scene_file = args.name, None
     return cmd_scene(args)
+
+
+def _import_parser() -> argparse.ArgumentParser:
+    p = _Parser(prog="snakeplan scene import",
+                description="Make a scene/1 file from CAD meshes (STL, OBJ, PLY, GLB/GLTF, OFF): the meshes are "
+                            "referred to by their path relative to the scene file. The entrance and every target "
+                            "must lie in free space inside the bounds.")
+    p.add_argument("meshes", nargs="+", metavar="MESH", help="mesh files; closed meshes are solids, open ones "
+                                                             "shells (see --thickness)")
+    p.add_argument("--units", required=True, choices=("m", "cm", "mm", "in"), help="the unit the files are in")
+    p.add_argument("--entrance", required=True, metavar="X,Y,Z", help="where the arm enters (mm)")
+    p.add_argument("--direction", required=True, metavar="DX,DY,DZ", help="feed direction into the scene")
+    p.add_argument("--target", action="append", default=[], metavar="X,Y,Z", help="a target (mm); may be repeated")
+    p.add_argument("--bounds", default="auto", metavar="auto|X0,Y0,Z0,X1,Y1,Z1",
+                   help="workspace box (mm); auto: around the meshes, entrance and targets with a 50 mm margin")
+    p.add_argument("--thickness", type=float, help="take every mesh as a shell this thick (mm)")
+    p.add_argument("--name", help="scene name (default: the first mesh's file name)")
+    p.add_argument("-o", "--out", required=True, help="the scene JSON file to write")
+    return p
+
+
+def cmd_scene_import(argv: list[str]) -> int:
+    """``snakeplan scene import MESH... -o scene.json``: check everything, then write the scene atomically."""
+    from snakeplan.files import atomic_write
+    from snakeplan.inputs import length, unit
+    from snakeplan.scenes.importing import import_scene, parse_bounds, parse_triple
+
+    args = _import_parser().parse_args(argv)
+    check_output(args.out, "-o", (".json",))
+    entrance = parse_triple(args.entrance, "--entrance")
+    direction = unit(parse_triple(args.direction, "--direction"), "--direction")
+    targets = [parse_triple(t, f"--target[{i}]") for i, t in enumerate(args.target)]
+    thickness = None if args.thickness is None else length(args.thickness, "--thickness")
+    scene = import_scene(args.meshes, args.units, entrance, direction, targets, args.out,
+                         parse_bounds(args.bounds), args.name, thickness)
+    atomic_write(args.out, scene.to_json(indent=1) + "\n")
+    triangles = sum(len(o.faces) for o in scene.obstacles)
+    sys.stdout.write(f"wrote {args.out}: {len(scene.obstacles)} meshes, {triangles} triangles, "
+                     f"{len(scene.targets)} targets, bounds {scene.bounds_min.round(1).tolist()} .. "
+                     f"{scene.bounds_max.round(1).tolist()} mm\n")
+    return EXIT_OK
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -891,7 +970,9 @@ def main(argv: list[str] | None = None) -> int:
         if extra and not getattr(args, "takes_options", False):
             raise UsageError(f"unrecognized arguments: {' '.join(extra)}")
         args.extra = extra
-        return int(args.func(args))
+        with warnings.catch_warnings():
+            warnings.showwarning = _warning_line
+            return int(args.func(args))
     except BrokenPipeError:
         return EXIT_OK
     except BaseException as exc:

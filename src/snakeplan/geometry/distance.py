@@ -15,8 +15,11 @@ from collections.abc import Sequence
 import numpy as np
 from numba import njit
 
+from snakeplan.geometry import bvh
+from snakeplan.geometry.mesh_distance import mesh_sdf, mesh_segment, triangle_balls
 from snakeplan.geometry.primitives import (
     _P,
+    PACK_WIDTH,
     KIND_BOX,
     KIND_CYLINDER,
     KIND_MESH,
@@ -97,82 +100,8 @@ def _ellipse_distance(px: float, py: float, a: float, b: float) -> float:
 
 
 @njit(cache=True)
-def _triangle_distance2(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> float:
-    """Squared distance from point p to triangle abc (closest point by Voronoi regions)."""
-    abx, aby, abz = b[0] - a[0], b[1] - a[1], b[2] - a[2]
-    acx, acy, acz = c[0] - a[0], c[1] - a[1], c[2] - a[2]
-    apx, apy, apz = p[0] - a[0], p[1] - a[1], p[2] - a[2]
-    d1 = abx * apx + aby * apy + abz * apz
-    d2 = acx * apx + acy * apy + acz * apz
-    if d1 <= 0.0 and d2 <= 0.0:
-        return apx * apx + apy * apy + apz * apz
-    bpx, bpy, bpz = p[0] - b[0], p[1] - b[1], p[2] - b[2]
-    d3 = abx * bpx + aby * bpy + abz * bpz
-    d4 = acx * bpx + acy * bpy + acz * bpz
-    if d3 >= 0.0 and d4 <= d3:
-        return bpx * bpx + bpy * bpy + bpz * bpz
-    vc = d1 * d4 - d3 * d2
-    if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
-        v = d1 / (d1 - d3)
-        qx, qy, qz = a[0] + v * abx - p[0], a[1] + v * aby - p[1], a[2] + v * abz - p[2]
-        return qx * qx + qy * qy + qz * qz
-    cpx, cpy, cpz = p[0] - c[0], p[1] - c[1], p[2] - c[2]
-    d5 = abx * cpx + aby * cpy + abz * cpz
-    d6 = acx * cpx + acy * cpy + acz * cpz
-    if d6 >= 0.0 and d5 <= d6:
-        return cpx * cpx + cpy * cpy + cpz * cpz
-    vb = d5 * d2 - d1 * d6
-    if vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
-        w = d2 / (d2 - d6)
-        qx, qy, qz = a[0] + w * acx - p[0], a[1] + w * acy - p[1], a[2] + w * acz - p[2]
-        return qx * qx + qy * qy + qz * qz
-    va = d3 * d6 - d5 * d4
-    if va <= 0.0 and (d4 - d3) >= 0.0 and (d5 - d6) >= 0.0:
-        w = (d4 - d3) / ((d4 - d3) + (d5 - d6))
-        qx = b[0] + w * (c[0] - b[0]) - p[0]
-        qy = b[1] + w * (c[1] - b[1]) - p[1]
-        qz = b[2] + w * (c[2] - b[2]) - p[2]
-        return qx * qx + qy * qy + qz * qz
-    denom = 1.0 / (va + vb + vc)
-    v = vb * denom
-    w = vc * denom
-    qx = a[0] + abx * v + acx * w - p[0]
-    qy = a[1] + aby * v + acy * w - p[1]
-    qz = a[2] + abz * v + acz * w - p[2]
-    return qx * qx + qy * qy + qz * qz
-
-
-@njit(cache=True)
-def _solid_angle(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> float:
-    """Signed solid angle of triangle abc seen from p (Van Oosterom-Strackee)."""
-    ax, ay, az = a[0] - p[0], a[1] - p[1], a[2] - p[2]
-    bx, by, bz = b[0] - p[0], b[1] - p[1], b[2] - p[2]
-    cx, cy, cz = c[0] - p[0], c[1] - p[1], c[2] - p[2]
-    la = math.sqrt(ax * ax + ay * ay + az * az)
-    lb = math.sqrt(bx * bx + by * by + bz * bz)
-    lc = math.sqrt(cx * cx + cy * cy + cz * cz)
-    det = ax * (by * cz - bz * cy) - ay * (bx * cz - bz * cx) + az * (bx * cy - by * cx)
-    div = la * lb * lc + (ax * bx + ay * by + az * bz) * lc + (ax * cx + ay * cy + az * cz) * lb
-    div += (bx * cx + by * cy + bz * cz) * la
-    return 2.0 * math.atan2(det, div)
-
-
-@njit(cache=True)
-def _mesh_sdf(tris: np.ndarray, start: int, stop: int, p: np.ndarray) -> float:
-    best = np.inf
-    winding = 0.0
-    for t in range(start, stop):
-        d2 = _triangle_distance2(p, tris[t, 0], tris[t, 1], tris[t, 2])
-        if d2 < best:
-            best = d2
-        winding += _solid_angle(p, tris[t, 0], tris[t, 1], tris[t, 2])
-    d = math.sqrt(best)
-    return -d if winding > 2.0 * math.pi else d
-
-
-@njit(cache=True)
-def _sdf_row(row: np.ndarray, tris: np.ndarray, ranges: np.ndarray, p: np.ndarray) -> float:
-    """Signed distance from p to the obstacle packed in ``row``."""
+def _sdf_row(row, W, p, walk):
+    """Signed distance from p to the obstacle packed in ``row`` (W: the packed set, walk: tree stacks)."""
     kind = int(row[0])
     dx = p[0] - row[1]
     dy = p[1] - row[2]
@@ -181,7 +110,7 @@ def _sdf_row(row: np.ndarray, tris: np.ndarray, ranges: np.ndarray, p: np.ndarra
         return math.sqrt(dx * dx + dy * dy + dz * dz) - row[_P]
     if kind == KIND_MESH:
         k = int(row[_P + 1])
-        return _mesh_sdf(tris, ranges[k, 0], ranges[k, 1], p)
+        return mesh_sdf(W[2], W[4], W[5], W[6], W[3][k, 2], row[_P + 2], p, walk[1])
     # local = R^T (p - c); R stored row-major at row[4:13]
     lx = row[4] * dx + row[7] * dy + row[10] * dz
     ly = row[5] * dx + row[8] * dy + row[11] * dz
@@ -216,76 +145,179 @@ def _sdf_row(row: np.ndarray, tris: np.ndarray, ranges: np.ndarray, p: np.ndarra
 
 
 @njit(cache=True)
-def _scene_sdf(rows: np.ndarray, tris: np.ndarray, ranges: np.ndarray, p: np.ndarray) -> float:
+def workspace(W):
+    """Scratch arrays of the kernels for the packed set W: (candidates, interval stack, tree stacks, the
+    candidates' distances at the segment's midpoint)."""
+    return (np.empty(W[0].shape[0], dtype=np.int64), np.empty((256, 2)),
+            np.empty((2, bvh.STACK_SIZE), dtype=np.int64), np.empty(W[0].shape[0]))
+
+
+@njit(cache=True)
+def _scene_sdf(W, p, walk, stats):
+    """Signed distance from p to the nearest obstacle: a best-first walk of the obstacle tree that skips every
+    box p lies outside of and farther than the best obstacle so far (outside its box, an obstacle is at least as
+    far as the box)."""
+    rows, nodes, links, order = W[0], W[7], W[8], W[9]
     best = np.inf
-    for k in range(rows.shape[0]):
-        d = _sdf_row(rows[k], tris, ranges, p)
-        if d < best:
-            best = d
+    if rows.shape[0] == 0:
+        return best
+    st = walk[0]
+    st[0] = 0
+    top = 1
+    while top > 0:
+        top -= 1
+        node = st[top]
+        out = bvh.box_distance(nodes[node], p)
+        if out > 0.0 and out >= best:
+            continue
+        first = links[node, 0]
+        second = links[node, 1]
+        if second < 0:
+            for j in range(first, first - second):
+                k = order[j]
+                out = bvh.box_distance(W[1][k], p)
+                if out > 0.0 and out >= best:
+                    continue
+                stats[0] += 1
+                d = _sdf_row(rows[k], W, p, walk)
+                if d < best:
+                    best = d
+            continue
+        dl = bvh.box_distance(nodes[first], p)
+        dr = bvh.box_distance(nodes[second], p)
+        if dl <= dr:
+            st[top] = second
+            st[top + 1] = first
+        else:
+            st[top] = first
+            st[top + 1] = second
+        top += 2
     return best
 
 
 @njit(cache=True)
-def _sdf_points(rows: np.ndarray, tris: np.ndarray, ranges: np.ndarray, pts: np.ndarray) -> np.ndarray:
+def _sdf_points(W, pts, stats):
+    walk = workspace(W)[2]
     out = np.empty(pts.shape[0])
     for i in range(pts.shape[0]):
-        out[i] = _scene_sdf(rows, tris, ranges, pts[i])
+        out[i] = _scene_sdf(W, pts[i], walk, stats)
     return out
 
 
 @njit(cache=True)
-def _box_distance(box: np.ndarray, p: np.ndarray) -> float:
-    """Distance from p to an axis-aligned box [lo(3), hi(3)]: a cheap lower bound on an obstacle's distance."""
-    acc = 0.0
-    for i in range(3):
-        d = max(box[i] - p[i], p[i] - box[i + 3], 0.0)
-        acc += d * d
-    return math.sqrt(acc)
+def _candidates(W, a, b, cutoff, work, stats, mid_free=False):
+    """Obstacles that may come within ``cutoff`` of segment ab; returns their count in ``work[0]``. With
+    ``mid_free`` (the segment's midpoint is known to lie outside every obstacle) a mesh whose box is near enough
+    is a candidate without a distance evaluation (its exact segment search decides; its midpoint value is +inf).
 
-
-@njit(cache=True)
-def _candidates(rows, boxes, tris, ranges, a, b, cutoff, cand, stats):
-    """Obstacles that may come within ``cutoff`` of segment ab; returns their count in ``cand``.
-
-    The bounding-box distance culls far obstacles before their exact distance is evaluated.
+    The obstacle tree culls every box that the segment's bounding ball lies outside of and farther than
+    ``cutoff`` from, so a link only evaluates obstacles near it, whatever the size of the scene.
     """
+    rows, boxes, nodes, links, order = W[0], W[1], W[7], W[8], W[9]
+    cand, _, walk, value = work
+    if rows.shape[0] == 0:
+        return 0
     mid = 0.5 * (a + b)
     half = 0.5 * math.sqrt(((b - a) ** 2).sum())
     n = 0
-    for k in range(rows.shape[0]):
-        outside = _box_distance(boxes[k], mid)  # a lower bound on the distance only outside the box
+    st = walk[0]
+    st[0] = 0
+    top = 1
+    while top > 0:
+        top -= 1
+        node = st[top]
+        outside = bvh.box_distance(nodes[node], mid)  # a lower bound on the distance only outside the box
         if outside > 0.0 and outside - half >= cutoff:
             continue
-        stats[0] += 1
-        if _sdf_row(rows[k], tris, ranges, mid) - half < cutoff:
-            cand[n] = k
-            n += 1
+        first = links[node, 0]
+        second = links[node, 1]
+        if second >= 0:
+            st[top] = first
+            st[top + 1] = second
+            top += 2
+            continue
+        for j in range(first, first - second):
+            k = order[j]
+            outside = bvh.box_distance(boxes[k], mid)
+            if outside > 0.0 and outside - half >= cutoff:
+                continue
+            if mid_free and int(rows[k, 0]) == KIND_MESH:
+                cand[n] = k
+                value[n] = np.inf
+                n += 1
+                continue
+            stats[0] += 1
+            d = _sdf_row(rows[k], W, mid, walk)
+            if d - half < cutoff:
+                cand[n] = k
+                value[n] = d
+                n += 1
     return n
 
 
 @njit(cache=True)
-def _min_over(rows, tris, ranges, cand, n, p, stats):
+def _meshes_exact(W, a, b, n, bound, work, stats):
+    """Settle the mesh candidates of segment ab exactly, by segment-to-surface distance: returns (the least
+    signed distance along ab among the settled meshes, or ``bound`` when none comes nearer, and how many
+    candidates remain), moving the rest (primitives, and closed meshes the segment may enter) to the front of
+    the candidate list. A closed mesh is settled when its midpoint value is positive and the closest point is
+    outside (then the segment does not cross the surface and its least distance is the exact one); a shell is
+    always settled (unsigned distance - half thickness)."""
+    rows, ranges = W[0], W[3]
+    cand, _, walk, value = work
+    best = bound
+    keep = 0
+    for j in range(n):
+        k = cand[j]
+        row = rows[k]
+        if int(row[0]) != KIND_MESH or (row[_P + 2] == 0.0 and value[j] <= 0.0):
+            cand[keep] = k
+            value[keep] = value[j]
+            keep += 1
+            continue
+        stats[0] += 1
+        half = row[_P + 2]
+        m = int(row[_P + 1])
+        d, outside = mesh_segment(W[2], W[4], W[10], W[5], W[6], ranges[m, 2], a, b, best + half, walk[1])
+        if half > 0.0:
+            best = min(best, d - half)
+        elif d == np.inf:
+            continue
+        elif d > 0.0 and outside:
+            best = min(best, d)
+        else:
+            cand[keep] = k
+            value[keep] = value[j]
+            keep += 1
+    return best, keep
+
+
+@njit(cache=True)
+def _min_over(W, cand, n, p, walk, stats):
     stats[0] += n
     best = np.inf
     for j in range(n):
-        d = _sdf_row(rows[cand[j]], tris, ranges, p)
+        d = _sdf_row(W[0][cand[j]], W, p, walk)
         if d < best:
             best = d
     return best
 
 
 @njit(cache=True)
-def _segment_min(rows, boxes, tris, ranges, a, b, cutoff, tol, radius, cand, stack, stats):
+def _segment_min(W, a, b, cutoff, tol, radius, work, stats, mid_free=False):
     """Minimum signed distance along segment ab (ends included), accurate to ``tol``; values >= ``cutoff`` come
     back as cutoff. Where the minimum may lie below ``radius - CONTACT_RESOLUTION_MM`` while the best found does
     not, the search goes on to the contact resolution, so the sign of the clearance is never decided by ``tol``."""
-    n = _candidates(rows, boxes, tris, ranges, a, b, cutoff, cand, stats)
+    n = _candidates(W, a, b, cutoff, work, stats, mid_free)
     if n == 0:
         return cutoff
+    best, n = _meshes_exact(W, a, b, n, cutoff, work, stats)
+    if n == 0:
+        return best
+    cand, stack, walk, _ = work
     contact = radius - CONTACT_RESOLUTION_MM
     length = math.sqrt(((b - a) ** 2).sum())
-    best = min(cutoff, _min_over(rows, tris, ranges, cand, n, a, stats),
-               _min_over(rows, tris, ranges, cand, n, b, stats))
+    best = min(best, _min_over(W, cand, n, a, walk, stats), _min_over(W, cand, n, b, walk, stats))
     stack[0, 0] = 0.0
     stack[0, 1] = 1.0
     top = 1
@@ -294,7 +326,7 @@ def _segment_min(rows, boxes, tris, ranges, a, b, cutoff, tol, radius, cand, sta
         t0 = stack[top, 0]
         t1 = stack[top, 1]
         tm = 0.5 * (t0 + t1)
-        f = _min_over(rows, tris, ranges, cand, n, a + tm * (b - a), stats)
+        f = _min_over(W, cand, n, a + tm * (b - a), walk, stats)
         if f < best:
             best = f
         h = 0.5 * (t1 - t0) * length
@@ -309,16 +341,22 @@ def _segment_min(rows, boxes, tris, ranges, a, b, cutoff, tol, radius, cand, sta
 
 
 @njit(cache=True)
-def _segment_hits(rows, boxes, tris, ranges, a, b, radius, cand, stack, stats):
+def _segment_hits(W, a, b, radius, work, stats):
     """True when some point of segment ab is closer than ``radius - CONTACT_RESOLUTION_MM`` to an obstacle.
 
     Intervals are halved only while their bound could hide such a point and they are longer than the contact
     resolution, so a link grazing a surface (tangent contact) costs length / resolution evaluations at most.
     """
-    n = _candidates(rows, boxes, tris, ranges, a, b, radius, cand, stats)
+    n = _candidates(W, a, b, radius, work, stats)
     if n == 0:
         return False
     contact = radius - CONTACT_RESOLUTION_MM
+    nearest, n = _meshes_exact(W, a, b, n, contact, work, stats)
+    if nearest < contact:
+        return True
+    if n == 0:
+        return False
+    cand, stack, walk, _ = work
     length = math.sqrt(((b - a) ** 2).sum())
     stack[0, 0] = 0.0
     stack[0, 1] = 1.0
@@ -328,7 +366,7 @@ def _segment_hits(rows, boxes, tris, ranges, a, b, radius, cand, stack, stats):
         t0 = stack[top, 0]
         t1 = stack[top, 1]
         tm = 0.5 * (t0 + t1)
-        f = _min_over(rows, tris, ranges, cand, n, a + tm * (b - a), stats)
+        f = _min_over(W, cand, n, a + tm * (b - a), walk, stats)
         if f < contact:
             return True
         h = 0.5 * (t1 - t0) * length
@@ -342,28 +380,30 @@ def _segment_hits(rows, boxes, tris, ranges, a, b, radius, cand, stack, stats):
 
 
 @njit(cache=True)
-def _chains_clearance(rows, boxes, tris, ranges, joints, radii, tol, stats):
+def _chains_clearance(W, joints, radii, tol, stats):
     B = joints.shape[0]
     n = radii.shape[0]
     out = np.empty(B)
-    cand = np.empty(rows.shape[0], dtype=np.int64)
-    stack = np.empty((256, 2))
+    work = workspace(W)
+    walk = work[2]
+    mids = np.empty(n)
     for i in range(B):
         # Link midpoints give an attained value, an upper bound on the minimum, so every link's search is
         # pruned from the start instead of refining distances to far obstacles.
         best = np.inf
         for k in range(n):
-            stats[0] += rows.shape[0]
-            d = _scene_sdf(rows, tris, ranges, 0.5 * (joints[i, k] + joints[i, k + 1])) - radii[k]
-            if d < best:
-                best = d
+            mids[k] = _scene_sdf(W, 0.5 * (joints[i, k] + joints[i, k + 1]), walk, stats) - radii[k]
+            if mids[k] < best:
+                best = mids[k]
         if best == np.inf:
             out[i] = best
             continue
-        for k in range(n):
+        # the nearest links first: the least clearance found falls fastest, so the later links' searches are cut
+        # off soonest (a mesh link's exact search costs about the triangles within its cutoff)
+        for k in np.argsort(mids):
             cutoff = best + radii[k]
-            d = _segment_min(rows, boxes, tris, ranges, joints[i, k], joints[i, k + 1], cutoff, tol, radii[k], cand,
-                             stack, stats)
+            d = _segment_min(W, joints[i, k], joints[i, k + 1], cutoff, tol, radii[k], work, stats,
+                             mids[k] + radii[k] > 0.0)
             d -= radii[k]
             if d < best:
                 best = d
@@ -372,46 +412,43 @@ def _chains_clearance(rows, boxes, tris, ranges, joints, radii, tol, stats):
 
 
 @njit(cache=True)
-def chain_hit(rows, boxes, tris, ranges, joints, radii, cand, stack, stats):
+def chain_hit(W, joints, radii, work, stats):
     """Index of a link of one chain ``(n+1, 3)`` that touches an obstacle (tip first), or -1 (jitted; higher layers'
-    kernels call it with :attr:`ObstacleSet.packed`)."""
+    kernels call it with :attr:`ObstacleSet.packed` and a :func:`workspace` of it)."""
     # Tip first: in follow-the-leader motion the leading links meet obstacles first, so exits come early.
     for k in range(radii.shape[0] - 1, -1, -1):
-        if _segment_hits(rows, boxes, tris, ranges, joints[k], joints[k + 1], radii[k], cand, stack, stats):
+        if _segment_hits(W, joints[k], joints[k + 1], radii[k], work, stats):
             return k
     return -1
 
 
 @njit(cache=True)
-def _chains_collide(rows, boxes, tris, ranges, joints, radii, stats):
+def _chains_collide(W, joints, radii, stats):
     B = joints.shape[0]
     out = np.zeros(B, dtype=np.bool_)
-    cand = np.empty(rows.shape[0], dtype=np.int64)
-    stack = np.empty((256, 2))
+    work = workspace(W)
     for i in range(B):
-        out[i] = chain_hit(rows, boxes, tris, ranges, joints[i], radii, cand, stack, stats) >= 0
+        out[i] = chain_hit(W, joints[i], radii, work, stats) >= 0
     return out
 
 
 @njit(cache=True)
-def _first_hit(rows, boxes, tris, ranges, joints, radii, stats):
+def _first_hit(W, joints, radii, stats):
     """(chain, link) of the first chain in order that touches an obstacle, or (-1, -1): the crawl's early exit."""
-    cand = np.empty(rows.shape[0], dtype=np.int64)
-    stack = np.empty((256, 2))
+    work = workspace(W)
     for i in range(joints.shape[0]):
-        k = chain_hit(rows, boxes, tris, ranges, joints[i], radii, cand, stack, stats)
+        k = chain_hit(W, joints[i], radii, work, stats)
         if k >= 0:
             return i, k
     return -1, -1
 
 
 @njit(cache=True)
-def _segments_clear(rows, boxes, tris, ranges, a, b, radius, stats):
+def _segments_clear(W, a, b, radius, stats):
     out = np.empty(a.shape[0], dtype=np.bool_)
-    cand = np.empty(rows.shape[0], dtype=np.int64)
-    stack = np.empty((256, 2))
+    work = workspace(W)
     for i in range(a.shape[0]):
-        out[i] = not _segment_hits(rows, boxes, tris, ranges, a[i], b[i], radius, cand, stack, stats)
+        out[i] = not _segment_hits(W, a[i], b[i], radius, work, stats)
     return out
 
 
@@ -431,12 +468,13 @@ def _ray_meets_box(box, origin, d, max_dist, eps):
 
 
 @njit(cache=True)
-def _raycast(rows, boxes, tris, ranges, origins, dirs, max_dist, eps, stats):
+def _raycast(W, origins, dirs, max_dist, eps, stats):
     """Sphere tracing of each ray against only the obstacles whose bounding box (grown by ``eps``) its segment
     [0, max_dist] meets: an obstacle the segment misses can neither stop the ray nor be entered by it, so a ray
     costs a few obstacles' distances per step instead of the whole scene's."""
+    rows, boxes = W[0], W[1]
     out = np.full(origins.shape[0], np.inf)
-    cand = np.empty(rows.shape[0], dtype=np.int64)
+    cand, _, walk, _ = workspace(W)
     for i in range(origins.shape[0]):
         n = 0
         for k in range(rows.shape[0]):
@@ -445,7 +483,7 @@ def _raycast(rows, boxes, tris, ranges, origins, dirs, max_dist, eps, stats):
                 n += 1
         t = 0.0
         while n > 0 and t <= max_dist:
-            step = _min_over(rows, tris, ranges, cand, n, origins[i] + t * dirs[i], stats)
+            step = _min_over(W, cand, n, origins[i] + t * dirs[i], walk, stats)
             if step < eps:
                 out[i] = t
                 break
@@ -454,24 +492,43 @@ def _raycast(rows, boxes, tris, ranges, origins, dirs, max_dist, eps, stats):
 
 
 class ObstacleSet:
-    """A packed, immutable set of obstacles with batched exact queries (mm)."""
+    """A packed, immutable set of obstacles with batched exact queries (mm).
+
+    The packed form (:attr:`packed`) is a tuple of arrays the jitted kernels take as one argument: obstacle rows
+    and boxes, mesh triangles and their trees, and a tree over the obstacles' boxes (the broad phase).
+    """
 
     def __init__(self, obstacles: Sequence[Obstacle]):
         self.obstacles = tuple(obstacles)
         rows = [o.pack() for o in self.obstacles]
-        tris, ranges, start = [], [], 0
+        tris, normals, nodes, links, ranges = [], [], [], [], []
+        tri_start = node_start = 0
         for o, row in zip(self.obstacles, rows):
             if isinstance(o, Mesh):
-                t = o.triangles()
-                tris.append(t)
+                t, nrm, nd, lk = o.distance_data()
+                lk = lk.copy()
+                inner = lk[:, 1] > 0
+                lk[inner] += node_start
+                lk[~inner, 0] += tri_start
                 row[_P + 1] = len(ranges)
-                ranges.append((start, start + len(t)))
-                start += len(t)
-        width = rows[0].shape[0] if rows else 24
+                ranges.append((tri_start, tri_start + len(t), node_start))
+                tris.append(t)
+                normals.append(nrm)
+                nodes.append(nd)
+                links.append(lk)
+                tri_start += len(t)
+                node_start += len(nd)
+        width = rows[0].shape[0] if rows else PACK_WIDTH
         self._rows = np.array(rows, dtype=float).reshape(len(rows), width)
-        self._tris = np.concatenate(tris) if tris else np.zeros((0, 3, 3))
-        self._ranges = np.array(ranges, dtype=np.int64).reshape(len(ranges), 2)
         self._boxes = np.array([np.concatenate(o.aabb()) for o in self.obstacles], dtype=float).reshape(-1, 6)
+        order, onodes, olinks = bvh.build(self._boxes)
+        all_tris = np.concatenate(tris) if tris else np.zeros((0, 3, 3))
+        self._packed = (self._rows, self._boxes, all_tris,
+                        np.array(ranges, dtype=np.int64).reshape(len(ranges), 3),
+                        np.concatenate(normals) if normals else np.zeros((0, 7, 3)),
+                        np.concatenate(nodes) if nodes else np.zeros((0, 6)),
+                        np.concatenate(links) if links else np.zeros((0, 2), dtype=np.int64),
+                        onodes, olinks, order, triangle_balls(all_tris))
         #: Point-to-obstacle distance evaluations made by this set's queries so far (a cost measure for tests and
         #: benchmarks, independent of the machine's speed).
         self.evaluations = np.zeros(1, dtype=np.int64)
@@ -480,16 +537,17 @@ class ObstacleSet:
         return len(self.obstacles)
 
     @property
-    def packed(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """(rows, boxes, triangles, mesh ranges): the packed arrays jitted kernels take, as :func:`chain_hit`."""
-        return self._rows, self._boxes, self._tris, self._ranges
+    def packed(self) -> tuple[np.ndarray, ...]:
+        """The packed arrays jitted kernels take as one argument, as :func:`chain_hit` (with a :func:`workspace`):
+        (rows, boxes, triangles, mesh ranges (first triangle, stop, root node), triangle normals, triangle tree
+        nodes and links, obstacle tree nodes, links and order, triangle balls)."""
+        return self._packed
 
     def signed_distance(self, points) -> np.ndarray:
         """Signed distance (mm) from points ``(..., 3)`` to the nearest obstacle (+inf with no obstacles)."""
         p = np.asarray(points, dtype=float)
         flat = np.ascontiguousarray(p.reshape(-1, 3))
-        self.evaluations[0] += flat.shape[0] * len(self.obstacles)
-        return _sdf_points(self._rows, self._tris, self._ranges, flat).reshape(p.shape[:-1])
+        return _sdf_points(self._packed, flat, self.evaluations).reshape(p.shape[:-1])
 
     def chain_clearance(self, joints, radii, tol: float = CLEARANCE_TOLERANCE_MM) -> np.ndarray:
         """Minimum clearance (mm) between obstacles and chains of capsules.
@@ -502,8 +560,7 @@ class ObstacleSet:
         J = np.asarray(joints, dtype=float)
         r = np.ascontiguousarray(radii, dtype=float)
         flat = np.ascontiguousarray(J.reshape(-1, J.shape[-2], 3))
-        return _chains_clearance(self._rows, self._boxes, self._tris, self._ranges, flat, r, tol,
-                                 self.evaluations).reshape(J.shape[:-2])
+        return _chains_clearance(self._packed, flat, r, tol, self.evaluations).reshape(J.shape[:-2])
 
     def chain_collides(self, joints, radii) -> np.ndarray:
         """True where any capsule of a chain ``(..., n+1, 3)`` penetrates an obstacle by more than
@@ -511,15 +568,13 @@ class ObstacleSet:
         J = np.asarray(joints, dtype=float)
         r = np.ascontiguousarray(radii, dtype=float)
         flat = np.ascontiguousarray(J.reshape(-1, J.shape[-2], 3))
-        return _chains_collide(self._rows, self._boxes, self._tris, self._ranges, flat, r,
-                               self.evaluations).reshape(J.shape[:-2])
+        return _chains_collide(self._packed, flat, r, self.evaluations).reshape(J.shape[:-2])
 
     def first_hit(self, joints, radii) -> tuple[int, int] | None:
         """(chain, link) of the first chain of ``(B, n+1, 3)``, in order, that :meth:`chain_collides`, or None;
         the chains after it are not examined."""
         flat = np.ascontiguousarray(np.asarray(joints, dtype=float).reshape(-1, np.shape(joints)[-2], 3))
-        i, k = _first_hit(self._rows, self._boxes, self._tris, self._ranges, flat,
-                          np.ascontiguousarray(radii, dtype=float), self.evaluations)
+        i, k = _first_hit(self._packed, flat, np.ascontiguousarray(radii, dtype=float), self.evaluations)
         return None if i < 0 else (int(i), int(k))
 
     def segments_clear(self, a, b, radius: float = 0.0) -> np.ndarray:
@@ -529,8 +584,7 @@ class ObstacleSet:
         A, Bp = np.broadcast_arrays(A, Bp)
         fa = np.ascontiguousarray(A.reshape(-1, 3))
         fb = np.ascontiguousarray(Bp.reshape(-1, 3))
-        return _segments_clear(self._rows, self._boxes, self._tris, self._ranges, fa, fb, float(radius),
-                               self.evaluations).reshape(A.shape[:-1])
+        return _segments_clear(self._packed, fa, fb, float(radius), self.evaluations).reshape(A.shape[:-1])
 
     def line_of_sight(self, a, b) -> np.ndarray:
         """True where the straight segment a->b passes through no obstacle's interior."""
@@ -544,8 +598,7 @@ class ObstacleSet:
         d = d / np.linalg.norm(d, axis=-1, keepdims=True)
         fo = np.ascontiguousarray(o.reshape(-1, 3))
         fd = np.ascontiguousarray(d.reshape(-1, 3))
-        return _raycast(self._rows, self._boxes, self._tris, self._ranges, fo, fd, float(max_distance),
-                        float(eps), self.evaluations).reshape(o.shape[:-1])
+        return _raycast(self._packed, fo, fd, float(max_distance), float(eps), self.evaluations).reshape(o.shape[:-1])
 
 
 def sampled_chain_clearance(obstacles: ObstacleSet, joints, radii, step: float = 1.0) -> np.ndarray:

@@ -15,6 +15,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from snakeplan import inputs
+from snakeplan.geometry import mesh_distance
 from snakeplan.geometry.transforms import any_perpendicular
 
 # Packed row layout shared with the numba kernels: [kind, center(3), R row-major(9), params...].
@@ -277,45 +278,84 @@ class Plate(Obstacle):
 
 @dataclass(frozen=True, eq=False)
 class Mesh(Obstacle):
-    """Closed triangle mesh (vertices in mm, faces as vertex indices); inside = winding number > 1/2."""
+    """Triangle mesh (vertices in mm, faces as vertex indices).
+
+    Closed (every edge shared by two faces running along it in opposite directions): a solid, signed distance
+    negative inside; its faces are reversed if they face inward. Open (some edge borders one face): a shell, the
+    points within ``thickness / 2`` of the surface (``thickness`` default :data:`DEFAULT_SHELL_MM`; a closed mesh
+    given a ``thickness`` is a shell too). An edge shared by more than two faces is an error. ``source`` is the
+    file form it was loaded from (:mod:`snakeplan.geometry.mesh_files`), written back by :meth:`to_dict`.
+    """
 
     vertices: np.ndarray
     faces: np.ndarray
+    thickness: float | None = None
+    source: dict | None = field(default=None, compare=False)
     type: ClassVar[str] = "mesh"
     kind: ClassVar[int] = KIND_MESH
 
     def __post_init__(self) -> None:
         V = inputs.rows(self.vertices, "mesh.vertices", 3, min_rows=4)
-        F = inputs.index_rows(self.faces, "mesh.faces", 3, len(V), min_rows=4)
+        F = inputs.index_rows(self.faces, "mesh.faces", 3, len(V), min_rows=1)
+        if self.thickness is not None:
+            object.__setattr__(self, "thickness", inputs.length(self.thickness, "mesh.thickness"))
+        closed, F = mesh_distance.topology(V, F)
+        V.setflags(write=False)
+        F.setflags(write=False)
         object.__setattr__(self, "vertices", V)
         object.__setattr__(self, "faces", F)
+        object.__setattr__(self, "closed", closed)
 
     @property
     def center(self) -> np.ndarray:  # type: ignore[override]
         return (self.vertices.min(axis=0) + self.vertices.max(axis=0)) / 2
 
+    @property
+    def shell_thickness(self) -> float | None:
+        """Thickness (mm) of the shell this mesh stands for, or None for a solid."""
+        if self.thickness is not None:
+            return self.thickness
+        return None if self.closed else mesh_distance.DEFAULT_SHELL_MM
+
     def triangles(self) -> np.ndarray:
         """Face corners, shape (F, 3, 3)."""
         return self.vertices[self.faces]
 
+    def distance_data(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(triangles in leaf order, normals, nodes, links) of :func:`mesh_distance.prepare`, built once."""
+        data = self.__dict__.get("_distance_data")
+        if data is None:
+            data = mesh_distance.prepare(self.vertices, self.faces)
+            object.__setattr__(self, "_distance_data", data)
+        return data
+
     def _pack_params(self, row: np.ndarray) -> None:
         row[_P] = self.bounding_radius()
+        shell = self.shell_thickness
+        row[_P + 2] = 0.0 if shell is None else shell / 2
 
     def bounding_radius(self) -> float:
         return float(np.max(np.linalg.norm(self.vertices - self.center, axis=1)))
 
     def aabb(self) -> tuple[np.ndarray, np.ndarray]:
-        return self.vertices.min(axis=0), self.vertices.max(axis=0)
+        grow = 0.0 if self.shell_thickness is None else self.shell_thickness / 2
+        return self.vertices.min(axis=0) - grow, self.vertices.max(axis=0) + grow
 
     def to_dict(self) -> dict:
-        return {"type": "mesh", "vertices": _list(self.vertices), "faces": self.faces.tolist()}
+        if self.source is not None:
+            return {"type": "mesh", **self.source}
+        out = {"type": "mesh", "vertices": _list(self.vertices), "faces": self.faces.tolist()}
+        if self.thickness is not None:
+            out["thickness"] = self.thickness
+        return out
 
 
 OBSTACLE_TYPES: dict[str, type[Obstacle]] = {c.type: c for c in (Box, Sphere, Cylinder, Pipe, Plate, Mesh)}
 
 
-def obstacle_from_dict(d: Any, where: str = "obstacle") -> Obstacle:
-    """Build an obstacle from its ``snakeplan.scene/1`` dict; ValueError names the bad field's JSON path."""
+def obstacle_from_dict(d: Any, where: str = "obstacle", base_dir: str | None = None) -> Obstacle:
+    """Build an obstacle from its ``snakeplan.scene/1`` dict; ValueError names the bad field's JSON path. A mesh
+    given by ``file`` is read relative to ``base_dir`` (default: the working directory)."""
     d = inputs.mapping(d, where, required=("type",))
     kind = d["type"]
     if not isinstance(kind, str):
@@ -323,7 +363,11 @@ def obstacle_from_dict(d: Any, where: str = "obstacle") -> Obstacle:
     cls = OBSTACLE_TYPES.get(kind)
     if cls is None:
         raise ValueError(f"{where}.type: unknown obstacle type {inputs.show(kind)} (known: {', '.join(OBSTACLE_TYPES)})")
-    names = [f.name for f in fields(cls)]
+    if cls is Mesh and "file" in d:
+        from snakeplan.geometry.mesh_files import mesh_from_file_spec
+
+        return mesh_from_file_spec(d, where, base_dir)
+    names = [f.name for f in fields(cls) if f.name != "source"]
     required = tuple(f.name for f in fields(cls) if f.default is MISSING and f.default_factory is MISSING)
     inputs.mapping(d, where, required=required, allowed=("type", *names))
     try:

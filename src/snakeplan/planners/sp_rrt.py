@@ -90,6 +90,7 @@ from snakeplan.world import PLANNING, Failure, ValidityChecker
 from snakeplan.scenes.reach import (
     DEFAULT_FEED_MM,
     SDF_HORIZON_MM,
+    FieldDeadline,
     Grid,
     free_space,
     geodesic_from_sdf,
@@ -263,7 +264,13 @@ class SpRRT(Planner):
 
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float
                ) -> tuple[Status, np.ndarray | None, dict]:
-        return _Search(self, problem, rng, deadline).run()
+        t0 = time.perf_counter()
+        try:
+            search = _Search(self, problem, rng, deadline)
+        except FieldDeadline:
+            return Status.TIMEOUT, None, {"setup_s": round(time.perf_counter() - t0, 4),
+                                          "reason": "the budget ran out while building the geodesic field"}
+        return search.run()
 
 
 class _Search:
@@ -321,7 +328,7 @@ class _Search:
                 self.source_depth = float(a)
                 break
         grid = Grid.covering(scene.bounds_min, scene.bounds_max, cell_mm)
-        sdf = free_space(self.model.obstacles, grid, self.radius + SDF_HORIZON_MM)
+        sdf = free_space(self.model.obstacles, grid, self.radius + SDF_HORIZON_MM, self.deadline)
         source = Entrance(self.entrance + self.source_depth * self.u, self.u)
         self.field = geodesic_from_sdf(grid, sdf, source, self.radius, DEFAULT_FEED_MM)
 

@@ -36,6 +36,9 @@ BUILTIN_SCENES = {
     "pipe": "snakeplan.scenes.pipe:pipe",
     "concentric-pipe": "snakeplan.scenes.pipe:concentric_pipe",
     "station": "snakeplan.scenes.station:station",
+    "pipework": "snakeplan.scenes.mesh_families:pipework",
+    "vessel": "snakeplan.scenes.mesh_families:vessel",
+    "engine": "snakeplan.scenes.mesh_families:engine",
 }
 
 

@@ -9,6 +9,8 @@ reader of scene files, also checks the metadata that code reads and where the en
 from __future__ import annotations
 
 import json
+import os
+import warnings
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any
@@ -17,6 +19,7 @@ import numpy as np
 
 from snakeplan import inputs
 from snakeplan.geometry.distance import CONTACT_RESOLUTION_MM, ObstacleSet
+from snakeplan.geometry.mesh_files import open_mesh_note
 from snakeplan.geometry.primitives import Mesh, Obstacle, obstacle_from_dict
 
 SCHEMA = "snakeplan.scene/1"
@@ -25,6 +28,10 @@ ENTRANCE_TOLERANCE_MM = CONTACT_RESOLUTION_MM
 #: Most obstacles in a scene file (the generated scenes have at most about 50; `snakeplan show` draws 10,000 in
 #: well under a minute).
 MAX_OBSTACLES = 10_000
+
+
+class MeshWarning(UserWarning):
+    """A scene's mesh is taken in a way its author may not expect (an open mesh becomes a shell)."""
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:
@@ -129,8 +136,10 @@ class Scene:
         return json.dumps(self.to_dict(), indent=indent, allow_nan=False)
 
     @classmethod
-    def from_dict(cls, d: Any) -> Scene:
+    def from_dict(cls, d: Any, base_dir: str | os.PathLike | None = None) -> Scene:
         """Parse and check a ``snakeplan.scene/1`` object; ValueError names the first bad field's JSON path.
+        Mesh files are read relative to ``base_dir`` (the scene file's folder; default the working directory), and
+        an open mesh without a ``thickness`` gives a :class:`MeshWarning`.
 
         Beyond the constructor's checks: at most :data:`MAX_OBSTACLES` obstacles, each object with exactly its
         type's fields; the metadata is plain JSON and the keys code reads are well formed (:func:`check_metadata`);
@@ -148,7 +157,11 @@ class Scene:
         raw = inputs.items(d.get("obstacles", []), "obstacles")
         if len(raw) > MAX_OBSTACLES:
             raise ValueError(f"obstacles: more than {MAX_OBSTACLES} obstacles ({len(raw)}); join small ones into a mesh")
-        obstacles = [obstacle_from_dict(o, f"obstacles[{i}]") for i, o in enumerate(raw)]
+        obstacles = [obstacle_from_dict(o, f"obstacles[{i}]", base_dir) for i, o in enumerate(raw)]
+        for i, o in enumerate(obstacles):
+            note = open_mesh_note(o) if isinstance(o, Mesh) else None
+            if note is not None:
+                warnings.warn(f"obstacles[{i}]: {note}", MeshWarning, stacklevel=2)
         metadata = d.get("metadata")
         metadata = {} if metadata is None else inputs.mapping(metadata, "metadata")
         inputs.plain_json(metadata, "metadata")
@@ -160,10 +173,10 @@ class Scene:
         return scene
 
     @classmethod
-    def from_json(cls, text: str, source: str = "scene") -> Scene:
+    def from_json(cls, text: str, source: str = "scene", base_dir: str | os.PathLike | None = None) -> Scene:
         """Parse scene JSON ``text`` (:func:`snakeplan.inputs.load_json`'s limits; ``source`` names the file in a
-        message about the file as a whole)."""
-        return cls.from_dict(inputs.load_json(text, source))
+        message about the file as a whole; mesh files are read relative to ``base_dir``)."""
+        return cls.from_dict(inputs.load_json(text, source), base_dir)
 
 
 def check_placement(scene: Scene) -> None:

@@ -28,7 +28,7 @@ import numpy as np
 from numba import njit
 
 from snakeplan import ftl
-from snakeplan.geometry.distance import CONTACT_RESOLUTION_MM, ObstacleSet, chain_hit
+from snakeplan.geometry.distance import CONTACT_RESOLUTION_MM, ObstacleSet, chain_hit, workspace
 from snakeplan.geometry.polyline import arclength_grid, cumulative_length, validate_path
 from snakeplan.robots import Chain
 from snakeplan.world.knowledge import KnowledgeView
@@ -69,7 +69,7 @@ _COLLISION, _BEND, _INSERTION = 0, 1, 2
 
 
 @njit(cache=True)
-def _scan(p, cum, lengths, u, depths, max_bends, radii, rows, boxes, tris, ranges, stats):
+def _scan(p, cum, lengths, u, depths, max_bends, radii, W, stats):
     """The first failing depth of a crawl, scanned in order: (depth index, kind code, link) or (-1, -1, -1).
 
     Each depth is fitted, then its bends, insertion and links are checked; nothing past the first failure is
@@ -79,11 +79,10 @@ def _scan(p, cum, lengths, u, depths, max_bends, radii, rows, boxes, tris, range
     joints = np.empty((n + 1, 3))
     arc = np.empty(n + 1)
     bends = np.empty(n)
-    cand = np.empty(rows.shape[0], dtype=np.int64)
-    stack = np.empty((256, 2))
+    work = workspace(W)
     for i in range(depths.shape[0]):
         ftl.fit_into(p, cum, lengths, u, depths[i], joints, arc)
-        link = chain_hit(rows, boxes, tris, ranges, joints, radii, cand, stack, stats)
+        link = chain_hit(W, joints, radii, work, stats)
         if link >= 0:
             return i, _COLLISION, link
         ftl.bends_into(u, joints, bends)
@@ -240,7 +239,7 @@ class ValidityChecker:
             return out
         obstacles = self.obstacles
         i, code, link = _scan(p, cum, self.lengths, self.direction, depths, self.max_bends, self.radii,
-                              *obstacles.packed, obstacles.evaluations)
+                              obstacles.packed, obstacles.evaluations)
         if i < 0 or (out is not None and out.depth_mm < depths[i]):
             return out
         return Failure(float(depths[i]), FAILURE_KINDS[code], None if link < 0 else int(link))

@@ -1,0 +1,89 @@
+"""A scene from CAD mesh files: the meshes, where the arm enters, the targets and the bounds (``snakeplan scene
+import``).
+
+The written scene refers to the mesh files by their path relative to the scene file (scene/1 ``file`` form), so
+the scene and its parts move together. Every check names the command-line option it is about.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from snakeplan import inputs
+from snakeplan.geometry.mesh_files import read_mesh_file
+from snakeplan.geometry.primitives import Mesh
+from snakeplan.scenes.scene import Entrance, Scene, check_placement
+
+#: Margin (mm) added around the meshes, entrance and targets by ``--bounds auto``.
+AUTO_BOUNDS_MARGIN_MM = 50.0
+
+
+def parse_triple(text: str, field: str) -> np.ndarray:
+    """``"X,Y,Z"`` as a 3-vector (mm)."""
+    parts = text.split(",")
+    try:
+        values = [float(p) for p in parts]
+    except ValueError:
+        raise ValueError(f"{field}: expected X,Y,Z numbers, got {text!r}") from None
+    return inputs.vector(values, field, 3, shape="X,Y,Z")
+
+
+def parse_bounds(text: str) -> tuple[np.ndarray, np.ndarray] | None:
+    """``auto`` (None) or ``X0,Y0,Z0,X1,Y1,Z1`` (mm)."""
+    if text == "auto":
+        return None
+    try:
+        values = [float(p) for p in text.split(",")]
+    except ValueError:
+        raise ValueError(f"--bounds: expected auto or X0,Y0,Z0,X1,Y1,Z1, got {text!r}") from None
+    v = inputs.vector(values, "--bounds", 6, shape="X0,Y0,Z0,X1,Y1,Z1")
+    return inputs.corners(v[:3], v[3:], "--bounds")
+
+
+def import_scene(meshes: Sequence[str], units: str, entrance: np.ndarray, direction: np.ndarray,
+                 targets: Sequence[np.ndarray], out: str | os.PathLike, bounds: tuple | None = None,
+                 name: str | None = None, thickness: float | None = None) -> Scene:
+    """The scene of mesh files (read in ``units``), entrance (mm), unit feed ``direction`` and ``targets`` (mm),
+    inside ``bounds`` (default: around everything with :data:`AUTO_BOUNDS_MARGIN_MM`), whose mesh references are
+    relative to ``out``'s folder. ValueError names the option: ``MESH``, ``--entrance``, ``--target[i]``..."""
+    if not meshes:
+        raise ValueError("MESH: give at least one mesh file")
+    here = Path(out).resolve().parent
+    obstacles = []
+    for i, file in enumerate(meshes):
+        field = "MESH" if len(meshes) == 1 else f"MESH[{i}]"
+        try:
+            vertices, faces = read_mesh_file(file, field, units)
+        except ValueError as exc:
+            msg = str(exc)
+            if "are its units" in msg:
+                raise ValueError(f"--units: {file}:{msg.split(':', 1)[1]}") from None
+            raise
+        source = {"file": os.path.relpath(Path(file).resolve(), here), "units": units}
+        if thickness is not None:
+            source["thickness"] = thickness
+        try:
+            obstacles.append(Mesh(vertices, faces, thickness, source=source))
+        except ValueError as exc:
+            raise ValueError(f"{field}: {file}: {str(exc).split(': ', 1)[-1]}") from None
+    targets = np.asarray(targets, dtype=float).reshape(-1, 3)
+    if bounds is None:
+        pts = np.vstack([*(m.vertices for m in obstacles), entrance[None], targets])
+        bounds = (pts.min(axis=0) - AUTO_BOUNDS_MARGIN_MM, pts.max(axis=0) + AUTO_BOUNDS_MARGIN_MM)
+    scene = Scene(name=name or Path(meshes[0]).stem or "imported", seed=None, bounds_min=bounds[0],
+                  bounds_max=bounds[1], entrance=Entrance(entrance, direction), targets=targets,
+                  obstacles=tuple(obstacles), metadata={"source": "snakeplan scene import"})
+    try:
+        check_placement(scene)
+    except ValueError as exc:
+        msg = str(exc)
+        if msg.startswith("entrance.position"):
+            raise ValueError("--entrance" + msg[len("entrance.position"):]) from None
+        if msg.startswith("targets["):
+            raise ValueError("--target[" + msg[len("targets["):]) from None
+        raise
+    return scene

@@ -1,0 +1,264 @@
+"""Mesh obstacles: the tree-walk distance against brute force, collisions against coal, open meshes, mesh files,
+scene import and the mesh scene families."""
+
+from __future__ import annotations
+
+import json
+import warnings
+
+import numpy as np
+import pytest
+
+from snakeplan.geometry import mesh_distance
+from snakeplan.geometry.distance import ObstacleSet
+from snakeplan.geometry.primitives import Box, Mesh
+from snakeplan.scenes.scene import MeshWarning, Scene
+
+trimesh = pytest.importorskip("trimesh")
+
+
+@pytest.fixture(scope="module")
+def part() -> Mesh:
+    """A closed, non-convex part: a block with a spherical pocket cut into one face and a boss on another."""
+    from manifold3d import Manifold
+
+    from snakeplan.scenes.meshing import to_mesh
+
+    block = Manifold.cube([200.0, 120.0, 80.0], center=True)
+    pocket = Manifold.sphere(50.0, 48).translate([60.0, 0.0, 40.0])
+    boss = Manifold.cylinder(60.0, 25.0, 25.0, 40).translate([-60.0, 0.0, 40.0])
+    return to_mesh([(block - pocket) + boss], triangles=5000)
+
+
+def _points(mesh: Mesh, n: int, rng: np.random.Generator) -> np.ndarray:
+    """Half uniform in a box around the mesh, half near the surface (within 5 mm on either side)."""
+    lo, hi = mesh.aabb()
+    far = rng.uniform(lo - 40.0, hi + 40.0, (n // 2, 3))
+    tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
+    surf, face = trimesh.sample.sample_surface(tm, n - n // 2, seed=int(rng.integers(2**31)))
+    near = surf + rng.uniform(-5.0, 5.0, (len(surf), 1)) * tm.face_normals[face]
+    return np.vstack([far, near])
+
+
+def test_closed_mesh_distance_matches_brute_force(part):
+    """10,000 points near and far: the tree walk with pseudonormal signs equals every-triangle distance with a winding-number
+    sign to 1e-6 mm."""
+    assert part.closed
+    pts = _points(part, 10_000, np.random.default_rng(1))
+    fast = ObstacleSet([part]).signed_distance(pts)
+    ref = mesh_distance.reference_sdf(part.vertices, part.faces, pts)
+    assert np.abs(fast - ref).max() <= 1e-6
+    assert (ref < 0).sum() > 1000 and (ref > 0).sum() > 1000  # both sides exercised
+
+
+def test_closed_mesh_is_solid_like_the_box_it_tessellates():
+    """A box exported as 12 triangles has the box's exact signed distance, inside and out."""
+    box = Box([10.0, -5.0, 3.0], [80.0, 40.0, 20.0])
+    tm = trimesh.creation.box(extents=box.size, transform=trimesh.transformations.translation_matrix(box.center))
+    mesh = Mesh(tm.vertices, tm.faces)
+    pts = np.random.default_rng(2).uniform(-80.0, 80.0, (5000, 3))
+    assert np.abs(mesh.signed_distance(pts) - box.signed_distance(pts)).max() <= 1e-9
+
+
+def test_inward_faces_are_turned_outward():
+    tm = trimesh.creation.icosphere(2, 50.0)
+    inverted = Mesh(tm.vertices, tm.faces[:, ::-1])
+    assert inverted.signed_distance(np.zeros(3)) == pytest.approx(-Mesh(tm.vertices, tm.faces).signed_distance(
+        np.array([0.0, 0.0, 100.0])) + 50.0 - 100.0 + 50.0, abs=2.0)
+    assert inverted.signed_distance(np.zeros(3)) < -45.0
+
+
+@pytest.mark.parametrize("n", [500, pytest.param(10_000, marks=pytest.mark.slow)])
+def test_capsule_distance_matches_brute_force(part, n):
+    """Random capsules (10,000 in the slow run): a one-link chain's clearance is the exact segment-to-surface
+    distance minus the radius (to 1e-6 mm) for links outside the part, and negative for links that enter it."""
+    rng = np.random.default_rng(3)
+    a = _points(part, n, rng)
+    d = rng.normal(size=(n, 3))
+    b = a + d / np.linalg.norm(d, axis=1, keepdims=True) * rng.uniform(1.0, 120.0, (n, 1))
+    radius = 4.0
+    clearance = ObstacleSet([part]).chain_clearance(np.stack([a, b], axis=1), np.array([radius]))
+    surface = mesh_distance.reference_segment_distance(part.vertices, part.faces, a, b)
+    ends = mesh_distance.reference_sdf(part.vertices, part.faces, np.vstack([a, b]))
+    outside = (surface > 1e-9) & (ends[:n] > 0)
+    assert outside.sum() > 0.3 * n and (~outside).sum() > 0.1 * n
+    assert np.abs(clearance[outside] - (surface[outside] - radius)).max() <= 1e-6
+    assert np.all(clearance[~outside] < 0.0)
+
+
+def test_collisions_agree_with_coal(part):
+    """Capsule against mesh, yes or no, agrees with coal (a surface test: capsules wholly inside the part, which
+    coal does not see, and contacts within the contact resolution are left out)."""
+    coal = pytest.importorskip("coal")
+    model = coal.BVHModelOBBRSS()
+    model.beginModel(len(part.faces), len(part.vertices))
+    model.addVertices(np.asarray(part.vertices, dtype=float))
+    model.addTriangles(np.asarray(part.faces, dtype=np.int64))
+    model.endModel()
+    rng = np.random.default_rng(4)
+    n = 300
+    a = _points(part, n, rng)
+    d = rng.normal(size=(n, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    length = rng.uniform(5.0, 150.0, n)
+    radius = rng.uniform(1.0, 20.0, n)
+    b = a + d * length[:, None]
+    obstacles = ObstacleSet([part])
+    ours = np.array([obstacles.chain_collides(np.stack([a[i], b[i]])[None], radius[i:i + 1])[0] for i in range(n)])
+    surface = mesh_distance.reference_segment_distance(part.vertices, part.faces, a, b)
+    inside = (mesh_distance.reference_sdf(part.vertices, part.faces, a) < 0) & (surface > radius)
+    clear_cut = np.abs(surface - radius) > 0.02
+    theirs = np.empty(n, dtype=bool)
+    for i in range(n):
+        z = d[i]
+        x = np.cross(z, [1.0, 0.0, 0.0] if abs(z[0]) < 0.9 else [0.0, 1.0, 0.0])
+        x /= np.linalg.norm(x)
+        T = coal.Transform3s()
+        T.setRotation(np.stack([x, np.cross(z, x), z], axis=1))
+        T.setTranslation(0.5 * (a[i] + b[i]))
+        result = coal.CollisionResult()
+        theirs[i] = coal.collide(model, coal.Transform3s(), coal.Capsule(radius[i], length[i]), T,
+                                 coal.CollisionRequest(), result) > 0
+    keep = ~inside & clear_cut
+    assert keep.sum() > 0.7 * n and theirs[keep].sum() > 0.1 * n
+    assert np.array_equal(ours[keep], theirs[keep])
+    assert np.all(ours[inside])
+
+
+def test_open_mesh_is_a_shell(part):
+    """An open mesh (a hemisphere) stands for a shell: unsigned distance minus half its thickness, against the
+    brute-force reference; the default thickness is stated and the scene loader warns."""
+    sphere = trimesh.creation.icosphere(3, 80.0)
+    keep = sphere.triangles_center[:, 2] > 0.0
+    V, F = sphere.vertices, sphere.faces[keep]
+    shell = Mesh(V, F, thickness=6.0)
+    assert not shell.closed
+    pts = np.random.default_rng(5).uniform(-120.0, 120.0, (3000, 3))
+    ref = mesh_distance.reference_sdf(V, F, pts, thickness=6.0)
+    assert np.abs(shell.signed_distance(pts) - ref).max() <= 1e-6
+    assert Mesh(V, F).shell_thickness == mesh_distance.DEFAULT_SHELL_MM
+    scene = _scene_dict([{"type": "mesh", "vertices": V.tolist(), "faces": F.tolist()}])
+    with pytest.warns(MeshWarning, match=r"obstacles\[0\]: the mesh is open"):
+        Scene.from_dict(scene)
+
+
+def test_non_manifold_mesh_is_an_error():
+    V = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 0, -1]]
+    F = [[0, 1, 2], [1, 0, 3], [0, 1, 4], [2, 1, 3]]
+    with pytest.raises(ValueError, match=r"^mesh.faces: non-manifold: the edge 0-1 is shared by 3 faces"):
+        Mesh(V, F)
+
+
+def _scene_dict(obstacles: list, targets=([400.0, 0.0, 0.0],)) -> dict:
+    return {"schema": "snakeplan.scene/1", "name": "part", "bounds": {"min": [-500, -500, -500],
+                                                                      "max": [500, 500, 500]},
+            "entrance": {"position": [-450.0, 0.0, 0.0], "direction": [1, 0, 0]}, "targets": list(targets),
+            "obstacles": obstacles}
+
+
+@pytest.mark.parametrize("suffix", [".stl", ".obj", ".ply", ".glb"])
+def test_mesh_file_in_metres_with_a_transform(tmp_path, part, suffix):
+    """A part exported in metres, placed by a transform, is the inline mesh in mm moved by it (to the float32
+    rounding of STL, GLB and PLY coordinates: 1e-4 mm on a 0.2 m part)."""
+    tm = trimesh.Trimesh(part.vertices / 1000.0, part.faces)
+    (tmp_path / "parts").mkdir()
+    tm.export(tmp_path / "parts" / f"part{suffix}")
+    T = np.eye(4)
+    T[:3, :3] = [[0, -1, 0], [1, 0, 0], [0, 0, 1]]
+    T[:3, 3] = [10.0, 20.0, -30.0]
+    d = _scene_dict([{"type": "mesh", "file": f"parts/part{suffix}", "units": "m", "transform": T.tolist()},
+                     {"type": "sphere", "center": [300, 300, 300], "radius": 20}])
+    (tmp_path / "scene.json").write_text(json.dumps(d))
+    scene = Scene.from_json((tmp_path / "scene.json").read_text(), "scene", tmp_path)
+    moved = Mesh(part.vertices @ T[:3, :3].T + T[:3, 3], part.faces)
+    pts = np.random.default_rng(6).uniform(-200.0, 200.0, (500, 3))
+    assert np.abs(scene.obstacles[0].signed_distance(pts) - moved.signed_distance(pts)).max() <= 1e-4
+    again = Scene.from_dict(json.loads(scene.to_json()))
+    assert again.obstacles[0].to_dict()["units"] == "m"
+    assert np.abs(again.signed_distance(pts) - scene.signed_distance(pts)).max() == 0.0
+
+
+@pytest.mark.parametrize("change, field", [
+    ({"file": "missing.stl"}, r"obstacles\[0\]\.file: file not found"),
+    ({"file": "empty.stl"}, r"obstacles\[0\]\.file: .*(no triangles|cannot read)"),
+    ({"file": "part.txt"}, r"obstacles\[0\]\.file: .*not a mesh file"),
+    ({"units": "mm"}, r"obstacles\[0\]\.units: in 'mm' the mesh spans .*are its units 'm'\?"),
+    ({"units": "furlong"}, r"obstacles\[0\]\.units: expected one of"),
+    ({"transform": [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0]]}, r"obstacles\[0\]\.transform: "),
+    ({"transform": (2 * np.eye(4)).tolist()}, r"obstacles\[0\]\.transform\[3\]"),
+])
+def test_bad_mesh_files_name_the_field(tmp_path, part, change, field):
+    trimesh.Trimesh(part.vertices / 1000.0, part.faces).export(tmp_path / "part.stl")
+    (tmp_path / "empty.stl").write_bytes(b"")
+    (tmp_path / "part.txt").write_text("not a mesh")
+    spec = {"type": "mesh", "file": "part.stl", "units": "m", **change}
+    with pytest.raises(ValueError, match=field):
+        Scene.from_dict(_scene_dict([spec]), tmp_path)
+
+
+def test_target_inside_a_mesh_is_an_error(tmp_path, part):
+    trimesh.Trimesh(part.vertices, part.faces).export(tmp_path / "part.stl")
+    spec = {"type": "mesh", "file": "part.stl", "units": "mm"}
+    with pytest.raises(ValueError, match=r"^targets\[0\]: .* deep inside obstacles\[0\]"):
+        Scene.from_dict(_scene_dict([spec], targets=([0.0, 0.0, 0.0],)), tmp_path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        Scene.from_dict(_scene_dict([spec]), tmp_path)
+
+
+@pytest.mark.parametrize("family", ["pipework", "vessel", "engine"])
+def test_mesh_families_are_closed_with_free_targets_and_a_clear_entrance(family):
+    from snakeplan.scenes import make_scene
+    from snakeplan.scenes.mesh_families import TARGET_CLEARANCE_MM
+
+    for seed in (0, 7):
+        s = make_scene(family, seed)
+        (mesh,) = s.obstacles
+        assert mesh.closed
+        assert make_scene(family, seed).targets.tolist() == s.targets.tolist()
+        assert np.all(s.in_bounds(s.targets))
+        # independent of the tree walk: the brute-force distance of the target
+        assert mesh_distance.reference_sdf(mesh.vertices, mesh.faces, s.targets)[0] >= TARGET_CLEARANCE_MM - 1e-9
+        e = s.entrance
+        assert s.obstacle_set.segments_clear(e.position - 300.0 * e.direction, e.position + 100.0 * e.direction,
+                                             27.5)
+
+
+@pytest.mark.parametrize("family", ["pipework", "vessel", "engine"])
+def test_as_rrt_plans_a_judged_path_in_each_mesh_family(family):
+    from snakeplan.episode import run_episode
+    from snakeplan.planners import Problem
+    from snakeplan.robots import get_robot
+    from snakeplan.scenes import make_scene
+
+    s = make_scene(family, 0)
+    episode = run_episode(Problem(s, get_robot("sjtu-snake-iii"), time_limit_s=20.0), "as-rrt", seed=0)
+    assert episode.success, episode.report and episode.report.reason
+
+
+def test_scene_import_then_plan_from_the_command_line(tmp_path, capsys):
+    """An elbow exported in metres: import it with an entrance and a target, plan in it, judge it; bad options are
+    one line naming the option, and nothing is written."""
+    from snakeplan.cli import main
+    from snakeplan.scenes.meshing import pipe_run, to_mesh
+
+    elbow = to_mesh([pipe_run([[0, 0, 0], [500, 0, 0], [500, 500, 0]], 100.0, 15.0, 250.0, 48)])
+    (tmp_path / "parts").mkdir()
+    trimesh.Trimesh(elbow.vertices / 1000.0, elbow.faces).export(tmp_path / "parts" / "elbow.stl")
+    out = tmp_path / "elbow.json"
+    base = ["scene", "import", str(tmp_path / "parts" / "elbow.stl"), "--units", "m", "--entrance", "0,0,0",
+            "--direction", "1,0,0", "-o", str(out)]
+    for extra, field in ((["--target", "250,0,108"], "--target[0]: "), (["--target", "500,900,0", "--bounds=-100,-200,-200,700,700,200"], "--target[0]: "),
+                         (["--target", "1,2"], "--target[0]: "), (["--target", "500,450,0", "--units", "mm"],
+                                                                   "--units: ")):
+        code = main(base + extra)
+        err = capsys.readouterr().err
+        assert code == 2 and not out.exists()
+        assert err.count("\n") == 1 and err.startswith("snakeplan: error: ")
+        assert err.startswith(f"snakeplan: error: {field}")
+    assert main(base + ["--target", "500,450,0"]) == 0
+    doc = json.loads(out.read_text())
+    assert doc["obstacles"] == [{"type": "mesh", "file": "parts/elbow.stl", "units": "m"}]
+    capsys.readouterr()
+    assert main(["plan", "--scene-file", str(out), "--planner", "as-rrt", "--time-limit", "20"]) == 0
+    assert "verdict: feasible" in capsys.readouterr().out
