@@ -521,6 +521,8 @@ def cmd_bench_speed(args: argparse.Namespace) -> int:
         _print_json(summary)
     else:
         sys.stdout.write(speed_markdown(summary) + f"\nwrote {out} and {out.with_suffix('.json')}\n")
+    return EXIT_OK
+
 
 def cmd_bench_mesh(args: argparse.Namespace) -> int:
     from snakeplan.bench import mesh
