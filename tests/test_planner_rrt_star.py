@@ -94,14 +94,13 @@ def test_compiled_tree_is_a_shortest_path_tree_of_free_motions():
     goal = scene.targets[0]
     tip_rrt_star.seed_stream(5)
     tree = tip_rrt_star._Tree(start, capacity=64)  # small: the arrays must grow
-    rows, boxes, tris, ranges = arm.obstacles.packed
     k_rrt = tip_rrt_star.REWIRE_FACTOR * np.e * 4.0 / 3.0
     for _ in range(12):
         tree.reserve(tip_rrt_star.CHUNK)
         tip_rrt_star.grow(tree.pos, tree.parent, tree.cost, tree.inc, tree.child, tree.sibling, tree.goals,
                           tree.state, goal, scene.bounds_min.astype(float), scene.bounds_max.astype(float),
-                          rrt_star.RANGE_MM, rrt_star.GOAL_BIAS, k_rrt, 10**6, tip_rrt_star.CHUNK, rows, boxes, tris,
-                          ranges, arm.tip_radius, arm.obstacles.evaluations)
+                          rrt_star.RANGE_MM, rrt_star.GOAL_BIAS, k_rrt, 10**6, tip_rrt_star.CHUNK, arm.obstacles.packed,
+                          arm.tip_radius, arm.obstacles.evaluations)
     n = int(tree.state[0])
     assert n > 500 and tree.state[3] >= 0
     v = np.arange(1, n)

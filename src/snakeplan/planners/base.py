@@ -25,7 +25,7 @@ from snakeplan.geometry.polyline import validate_path
 from snakeplan.robots import Chain
 from snakeplan.scenes import Scene
 from snakeplan.threads import single_threaded
-from snakeplan.world import DEFAULT_SENSOR_RANGE_MM, KnowledgeView, view_for
+from snakeplan.world import DEFAULT_SENSOR_RANGE_MM, PLANNING, KnowledgeView, ValidityChecker, view_for
 
 #: Default planning budget (s), the same for every planner in a comparison.
 DEFAULT_TIME_LIMIT_S = 30.0
@@ -176,7 +176,9 @@ class Planner(ABC):
     def warm_up(self, problem: Problem) -> None:
         """Load, before a process's first plan of this class is timed, what that plan would otherwise load
         inside ``compute_time_s`` (numba kernels from the cache, trained weights): a call of each kernel on a
-        tiny input. The default does nothing; the problem given is a fresh copy, free to sense."""
+        tiny input. The default warms the validity checker's kernels (:meth:`ValidityChecker.warm_up`); a planner
+        with kernels of its own extends it. The problem given is a fresh copy, free to sense."""
+        ValidityChecker(problem.world, problem.robot, PLANNING).warm_up()
 
     @abstractmethod
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float

@@ -377,7 +377,9 @@ class RRTStar(Planner):
         self.backend = backend
 
     def warm_up(self, problem: Problem) -> None:
-        """The compiled search's kernels (a few iterations of a throw-away leg), outside the timed plan."""
+        """The validity checker's and the compiled search's kernels (a few iterations of a throw-away leg),
+        outside the timed plan."""
+        super().warm_up(problem)
         if self.backend == "compiled":
             arm = ValidityChecker(problem.world, problem.robot, PLANNING)
             tip_rrt_star.warm_up(arm, problem.start + LEAD_MM * arm.direction, problem.goals[0])

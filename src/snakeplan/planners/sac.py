@@ -839,7 +839,9 @@ class SacPlanner(Planner):
         return load_policy(path)
 
     def warm_up(self, problem: Problem) -> None:
-        """The policy, one roll-out step (rays, actor), a smoothing and a crawl check, outside the timed plan."""
+        """The validity checker's kernels, the policy, one roll-out step (rays, actor), a smoothing and a crawl
+        check, outside the timed plan."""
+        super().warm_up(problem)
         policy = self._policy(problem.scene)
         path, _ = rollout(policy, problem.scene, problem.robot, max_steps=2, world=problem.world)
         if len(path) > 2:

@@ -28,6 +28,7 @@ import time
 import numpy as np
 from numba import njit
 
+from snakeplan.geometry.distance import workspace
 from snakeplan.world import ValidityChecker
 from snakeplan.world.validity import motion_free
 
@@ -80,14 +81,13 @@ def _detach(child, sibling, parent_of, v):
 
 @njit(cache=True)
 def grow(pos, parent, cost, inc, child, sibling, goals, state, goal, lo, hi, range_mm, goal_bias, k_rrt, improve,
-         iterations, rows, boxes, tris, ranges, radius, stats):
+         iterations, W, radius, stats):
     """Run up to ``iterations`` RRT* iterations on the tree (arrays with room for that many more vertices);
     True when the search is done (``improve`` iterations after the first solution)."""
     cap = pos.shape[0]
     joints = np.empty((2, 3))
     radii = np.empty(1)
-    cand = np.empty(rows.shape[0], dtype=np.int64)
-    stack = np.empty((256, 2))
+    work = workspace(W)
     kmax = int(math.ceil(k_rrt * math.log(cap + 1.0))) + 1
     kd = np.empty(kmax)
     ki = np.empty(kmax, dtype=np.int64)
@@ -115,8 +115,8 @@ def grow(pos, parent, cost, inc, child, sibling, goals, state, goal, lo, hi, ran
         if dn > range_mm:
             for a in range(3):
                 x[a] = pos[near, a] + (x[a] - pos[near, a]) * (range_mm / dn)
-        if not motion_free(rows, boxes, tris, ranges, lo, hi, pos[near, 0], pos[near, 1], pos[near, 2], x[0], x[1],
-                           x[2], radius, joints, radii, cand, stack, stats):
+        if not motion_free(W, lo, hi, pos[near, 0], pos[near, 1], pos[near, 2], x[0], x[1],
+                           x[2], radius, joints, radii, work, stats):
             continue
         k = min(int(math.ceil(k_rrt * math.log(n + 1.0))), kmax)
         m = 0
@@ -131,9 +131,9 @@ def grow(pos, parent, cost, inc, child, sibling, goals, state, goal, lo, hi, ran
         for o in range(m):
             i = order[o]
             j = ki[i]
-            if j == near or (kd[i] < range_mm and motion_free(rows, boxes, tris, ranges, lo, hi, pos[j, 0], pos[j, 1],
+            if j == near or (kd[i] < range_mm and motion_free(W, lo, hi, pos[j, 0], pos[j, 1],
                                                               pos[j, 2], x[0], x[1], x[2], radius, joints, radii,
-                                                              cand, stack, stats)):
+                                                              work, stats)):
                 valid[i] = 1
                 par = i
                 break
@@ -160,9 +160,9 @@ def grow(pos, parent, cost, inc, child, sibling, goals, state, goal, lo, hi, ran
             if new_cost < cost[j]:
                 ok = valid[i] == 1
                 if valid[i] == 0:
-                    ok = kd[i] < range_mm and motion_free(rows, boxes, tris, ranges, lo, hi, x[0], x[1], x[2],
+                    ok = kd[i] < range_mm and motion_free(W, lo, hi, x[0], x[1], x[2],
                                                           pos[j, 0], pos[j, 1], pos[j, 2], radius, joints, radii,
-                                                          cand, stack, stats)
+                                                          work, stats)
                 if ok:
                     _detach(child, sibling, parent, j)
                     parent[j] = v
@@ -255,7 +255,6 @@ def plan_leg(arm: ValidityChecker, start: np.ndarray, goal: np.ndarray, radius: 
     value) or ``improve`` iterations after the first solution (or after ``iterations`` in all, when given);
     (waypoints or None, tree size). Seed the stream (:func:`seed_stream`) before a plan's first leg."""
     obstacles = arm.obstacles
-    rows, boxes, tris, ranges = obstacles.packed
     lo = np.asarray(arm.world.scene.bounds_min, dtype=float)
     hi = np.asarray(arm.world.scene.bounds_max, dtype=float)
     k_rrt = REWIRE_FACTOR * math.e * (1.0 + 1.0 / 3.0)
@@ -267,7 +266,7 @@ def plan_leg(arm: ValidityChecker, start: np.ndarray, goal: np.ndarray, radius: 
         left -= chunk
         tree.reserve(chunk)
         if grow(tree.pos, tree.parent, tree.cost, tree.inc, tree.child, tree.sibling, tree.goals, tree.state, g, lo,
-                hi, float(range_mm), float(goal_bias), k_rrt, int(improve), chunk, rows, boxes, tris, ranges,
+                hi, float(range_mm), float(goal_bias), k_rrt, int(improve), chunk, obstacles.packed,
                 float(radius), obstacles.evaluations):
             break
     pts = tree.path()

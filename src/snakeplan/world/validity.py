@@ -95,8 +95,7 @@ def _scan(p, cum, lengths, u, depths, max_bends, radii, W, stats):
 
 
 @njit(cache=True)
-def motion_free(rows, boxes, tris, ranges, lo, hi, ax, ay, az, bx, by, bz, radius, joints, radii, cand, stack,
-                 stats):
+def motion_free(W, lo, hi, ax, ay, az, bx, by, bz, radius, joints, radii, work, stats):
     """Whether the capsule of ``radius`` along (ax, ay, az) -> (bx, by, bz) is clear and both ends are in the
     bounds [lo, hi] (one segment, scalars in: the per-motion check of a sampling planner; jitted, so compiled
     planners call it too)."""
@@ -106,7 +105,7 @@ def motion_free(rows, boxes, tris, ranges, lo, hi, ax, ay, az, bx, by, bz, radiu
         if not (lo[k] <= joints[0, k] <= hi[k] and lo[k] <= joints[1, k] <= hi[k]):
             return False
     radii[0] = radius
-    return chain_hit(rows, boxes, tris, ranges, joints, radii, cand, stack, stats) < 0
+    return chain_hit(W, joints, radii, work, stats) < 0
 
 
 def _last(flags: np.ndarray) -> int:
@@ -171,6 +170,15 @@ class ValidityChecker:
         return self.world.obstacle_set
 
     # --- the tip alone ------------------------------------------------------------------------------------------
+    def warm_up(self) -> None:
+        """Compile (or load from numba's cache) every kernel of the checks below on a tiny input, so that a
+        planner can do it before its timed region: a cold first call costs seconds to tens of seconds."""
+        a = self.entrance[None, :]
+        b = a + self.direction[None, :]
+        self.tip_free(a)
+        self.segment_free(a, b)
+        self.first_failure(np.vstack([a, b]))
+
     def tip_free(self, points, radius: float | None = None) -> np.ndarray:
         """True where a ball of ``radius`` (default: the tip's, with margin) at ``points`` is clear and in bounds."""
         p = np.asarray(points, dtype=float)
@@ -189,15 +197,12 @@ class ValidityChecker:
         It checks the obstacles known when it is made (a sensed view's later growth is not seen)."""
         r = self.tip_radius if radius is None else float(radius)
         obstacles = self.obstacles
-        rows, boxes, tris, ranges = obstacles.packed
-        stats = obstacles.evaluations
+        W, stats = obstacles.packed, obstacles.evaluations
         lo, hi = self.world.scene.bounds_min.astype(float), self.world.scene.bounds_max.astype(float)
-        joints, radii = np.empty((2, 3)), np.empty(1)
-        cand, stack = np.empty(rows.shape[0], dtype=np.int64), np.empty((256, 2))
+        joints, radii, work = np.empty((2, 3)), np.empty(1), workspace(W)
 
         def check(ax: float, ay: float, az: float, bx: float, by: float, bz: float) -> bool:
-            return motion_free(rows, boxes, tris, ranges, lo, hi, ax, ay, az, bx, by, bz, r, joints, radii, cand,
-                                stack, stats)
+            return motion_free(W, lo, hi, ax, ay, az, bx, by, bz, r, joints, radii, work, stats)
 
         return check
 
