@@ -437,7 +437,8 @@ def cmd_bench_ablation(args: argparse.Namespace) -> int:
     config = replace(parse_config(args.extra), eval_every=args.eval_every, eval_episodes=args.eval_episodes)
     seeds = list(range(args.seed, args.seed + args.seeds))
     threshold = CONVERGENCE_SUCCESS if args.threshold is None else args.threshold
-    result = run_ablation(args.scene, seeds, args.steps, args.out, args.compare, config, threshold)
+    result = run_ablation(args.scene, seeds, args.steps, args.out, args.compare, config, threshold, _backend(args),
+                          progress=not args.json)
     if args.json:
         _print_json(result)
         return EXIT_OK
@@ -506,6 +507,16 @@ def cmd_train_rl(args: argparse.Namespace) -> int:
     if args.steps < 1:
         raise UsageError(f"--steps: expected a positive integer, got {args.steps}")
     config = parse_config(args.extra)
+    if args.seeds is not None:
+        from snakeplan.rl.sweep import markdown, train_seeds
+
+        if args.fresh:
+            raise UsageError("--fresh: not with --seeds (delete the seed folders in --out to start over)")
+        summary = train_seeds(args.scene, args.algorithm, args.steps, _seed_list(args.seeds, "--seeds"), args.out,
+                              config, _backend(args))
+        sys.stdout.write(markdown(summary) + f"\nwrote {args.out}/sweep.md, sweep.json, curves.png and one folder "
+                         f"per seed\n")
+        return EXIT_OK
     result = train(args.scene, args.algorithm, args.steps, args.seed, args.out, config, resume=not args.fresh)
     sys.stdout.write(f"wrote {result.policy}\n")
     return EXIT_OK
@@ -538,7 +549,7 @@ def cmd_bench_table2(args: argparse.Namespace) -> int:
 
 def _backend(args: argparse.Namespace):
     """The runner's backend from --workers and --ray."""
-    from snakeplan.bench.runner import backend_from
+    from snakeplan.parallel import backend_from
 
     if args.ray:
         from snakeplan.extras import require_cluster
@@ -818,6 +829,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="validation success that counts as converged (default 0.6)")
     p.add_argument("--out", default="bench-ablation", help="output folder (default bench-ablation)")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
+    backend_args(p)
     p.set_defaults(func=cmd_bench_ablation, takes_options=True)
     p = bsub.add_parser("sscc", help="paper 001's Tables 4 and 6: SSCC in the pipe and the concentric pipe",
                         description="SSCC with the shipped DDPG agent and the non-learning searches on seeded "
@@ -855,6 +867,9 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--seed", type=_seed, default=0, help="training seed (default 0)")
     t.add_argument("--out", required=True, help="output folder (policy.npz, curve.png, checkpoints)")
     t.add_argument("--fresh", action="store_true", help="delete the checkpoint in --out and start over")
+    t.add_argument("--seeds", help="a training sweep: one resumable training per seed (e.g. 0-9) in --out/seed<N>, "
+                                   "on --workers processes or Ray, and a summary of the learning curves")
+    backend_args(t)
     t.set_defaults(func=cmd_train_rl, takes_options=True)
     return parser
 

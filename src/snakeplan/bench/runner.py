@@ -15,10 +15,10 @@ and settings). Its ``key`` is a digest of the run's identity: a rerun of the sam
 folder holds (resume), and a torn last line (a writer killed mid-line) is cut off before anything is appended.
 A second runner on the same folder is refused with one line.
 
-Backends (:class:`Backend`): ``serial`` (in this process), ``processes`` (a local process pool, the default, one
-worker per usable core) and ``ray`` (``local`` starts a Ray instance for the run; ``auto`` or an address joins a
-cluster; the ``cluster`` extra). Work goes out in chunks of runs, each worker with BLAS/OpenMP pinned to one
-thread; only this process writes, so the rows are the same on every backend, timing aside
+Backends (:class:`snakeplan.parallel.Backend`): ``serial`` (in this process), ``processes`` (a local process
+pool, the default, one worker per usable core) and ``ray`` (``local`` starts a Ray instance for the run; ``auto``
+or an address joins a cluster; the ``cluster`` extra). Work goes out in chunks of runs (:func:`chunks`), each
+worker with BLAS/OpenMP pinned to one thread; only this process writes, so the rows are the same on every backend, timing aside
 (:func:`comparable`). Each worker process plans every (planner, scene) pair once untimed before its first timed
 run (jit caches, policy files), so no run pays for loading. A planner marked ``stateful`` (a learning planner)
 keeps one instance over its runs in seed order, in one chunk, as the papers run it.
@@ -47,6 +47,7 @@ from snakeplan.checkpoints import fsync_dir, lock_folder
 from snakeplan.files import atomic_write
 from snakeplan.interrupt import Interrupted, interruptible
 from snakeplan.jsonable import jsonable
+from snakeplan.parallel import Backend, execute, progress_bar, usable_cores
 
 SCHEMA = "snakeplan.run/1"
 RUNS_FILE = "runs.jsonl"
@@ -58,9 +59,6 @@ PATH_INLINE_POINTS = 400
 WARMUP_SEED = 10_000
 #: Budget (s) of a warm-up plan, at most.
 WARMUP_TIME_LIMIT_S = 2.0
-#: Environment that pins BLAS and OpenMP to one thread per worker (two workers on two cores, not 2 x N threads).
-THREAD_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
-              "NUMBA_NUM_THREADS": "1", "VECLIB_MAXIMUM_THREADS": "1"}
 #: Most runs in one task; fewer when there are few runs per worker.
 CHUNK_MAX = 8
 #: Fields of a row that measure time or place rather than the result.
@@ -155,52 +153,7 @@ def _spec_robot(family: str, text: str) -> str:
     return spec_for(Scene.from_json(text, "scenes")).robot if text else scene_spec(family).robot
 
 
-# --- backends ----------------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class Backend:
-    """Where runs execute: ``kind`` is ``serial``, ``processes`` (``workers`` local processes) or ``ray``
-    (``address``: ``local`` starts an instance with ``workers`` CPUs, ``auto`` or ``HOST:PORT`` joins one)."""
-
-    kind: str = "processes"
-    workers: int = 0
-    address: str = "local"
-
-    def __post_init__(self) -> None:
-        if self.kind not in ("serial", "processes", "ray"):
-            raise ValueError(f"backend: one of serial, processes, ray, got {self.kind!r}")
-        if self.workers < 0:
-            raise ValueError(f"--workers: expected a positive integer, got {self.workers}")
-
-    @property
-    def slots(self) -> int:
-        """Workers to plan for (usable cores when not given)."""
-        return 1 if self.kind == "serial" else (self.workers or usable_cores())
-
-    def settings(self) -> dict:
-        return {"backend": self.kind, "workers": self.slots,
-                **({"ray": self.address} if self.kind == "ray" else {})}
-
-
-def usable_cores() -> int:
-    """The cores this process may run on."""
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except AttributeError:
-        return max(1, os.cpu_count() or 1)
-
-
-def backend_from(workers: int | None, ray: str | None) -> Backend:
-    """The backend that ``--workers`` and ``--ray`` ask for: Ray when ``ray``; serial for one worker; else the
-    process pool (all usable cores by default)."""
-    if ray:
-        return Backend("ray", workers or 0, ray)
-    if workers is not None and workers < 1:
-        raise ValueError(f"--workers: expected a positive integer, got {workers}")
-    if workers == 1:
-        return Backend("serial", 1)
-    return Backend("processes", workers or 0)
-
-
+# --- tasks ------------------------------------------------------------------------------------------------
 def chunks(runs: Sequence[Run], slots: int) -> list[list[Run]]:
     """Runs grouped into tasks: a stateful planner's runs in one scene stay together in seed order; the rest in
     chunks of at most :data:`CHUNK_MAX`, about four tasks per worker."""
@@ -222,86 +175,6 @@ def chunks(runs: Sequence[Run], slots: int) -> list[list[Run]]:
     if current:
         out.append(current)
     return out
-
-
-def _pin_threads() -> None:
-    """Worker initialiser: one BLAS/OpenMP thread, and Ctrl-C left to the parent (which stops at a safe point)."""
-    import signal
-
-    os.environ.update(THREAD_ENV)
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-
-@contextmanager
-def _environment(values: dict[str, str]) -> Iterator[None]:
-    """``os.environ`` with ``values`` set for the block (the environment new worker processes inherit)."""
-    old = {k: os.environ.get(k) for k in values}
-    os.environ.update(values)
-    try:
-        yield
-    finally:
-        for k, v in old.items():
-            if v is None:
-                os.environ.pop(k, None)
-            else:
-                os.environ[k] = v
-
-
-def execute(tasks: list[list[Run]], backend: Backend, stamp: dict,
-            work: Callable[[list[Run], dict], list[dict]] | None = None) -> Iterator[list[dict]]:
-    """Run every task on ``backend``; yields each task's rows as it finishes (in this process, whatever the
-    backend). ``work(task, stamp)`` defaults to :func:`run_chunk`. Closing the generator stops the backend."""
-    work = work or run_chunk
-    if backend.kind == "serial" or not tasks:
-        for task in tasks:
-            yield work(task, stamp)
-        return
-    if backend.kind == "processes":
-        yield from _execute_pool(tasks, backend.slots, stamp, work)
-        return
-    yield from _execute_ray(tasks, backend, stamp, work)
-
-
-def _execute_pool(tasks, slots: int, stamp: dict, work) -> Iterator[list[dict]]:
-    import multiprocessing
-    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-
-    with _environment(THREAD_ENV):
-        pool = ProcessPoolExecutor(max_workers=min(slots, len(tasks)), initializer=_pin_threads,
-                                   mp_context=multiprocessing.get_context("spawn"))
-    try:
-        pending = {pool.submit(work, task, stamp) for task in tasks}
-        while pending:
-            done, pending = wait(pending, return_when=FIRST_COMPLETED)
-            for future in done:
-                yield future.result()
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)
-
-
-def _execute_ray(tasks, backend: Backend, stamp: dict, work) -> Iterator[list[dict]]:
-    from snakeplan.extras import require_cluster
-
-    require_cluster("--ray")
-    import ray
-
-    env = dict(THREAD_ENV)
-    if os.environ.get("PYTHONPATH") and backend.address == "local":
-        env["PYTHONPATH"] = os.environ["PYTHONPATH"]
-    if backend.address == "local":
-        ray.init(num_cpus=backend.slots, include_dashboard=False, log_to_driver=False,
-                 runtime_env={"env_vars": env}, configure_logging=False)
-    else:
-        ray.init(address=backend.address, log_to_driver=False, runtime_env={"env_vars": env},
-                 configure_logging=False)
-    try:
-        remote = ray.remote(num_cpus=1, max_retries=2)(work)
-        pending = [remote.remote(task, stamp) for task in tasks]
-        while pending:
-            done, pending = ray.wait(pending, num_returns=1)
-            yield ray.get(done[0])
-    finally:
-        ray.shutdown()
 
 
 # --- planning one chunk (in a worker) ------------------------------------------------------------------------
@@ -506,8 +379,8 @@ def run_sweep(sweep: Sweep, out: str | Path, backend: Backend = Backend(), fresh
         todo = [r for r in all_runs if r.key not in done]
         stamp = provenance({"config": sweep.name, **backend.settings(), "argv": sys.argv[1:]})
         tasks = chunks(todo, backend.slots)
-        with _progress(len(todo), sweep.name, progress) as tick, interruptible() as stop:
-            stream = execute(tasks, backend, stamp)
+        with progress_bar(len(todo), sweep.name, progress) as tick, interruptible() as stop:
+            stream = execute(run_chunk, tasks, backend, stamp)
             try:
                 for rows in stream:
                     for row in rows:
@@ -541,17 +414,3 @@ def _loadavg() -> tuple[float, ...]:
         return os.getloadavg()
     except OSError:
         return ()
-
-
-@contextmanager
-def _progress(total: int, name: str, enabled: bool) -> Iterator[Callable[[str], None]]:
-    """One rich progress bar over ``total`` runs (or nothing); the value advances it by one run."""
-    if not enabled or total == 0:
-        yield lambda _description: None
-        return
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-
-    with Progress(TextColumn(name), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  TextColumn("{task.description}"), transient=False) as bar:
-        task = bar.add_task("", total=total)
-        yield lambda description: bar.update(task, advance=1, description=description)

@@ -18,7 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from snakeplan.bench.runner import Backend, Sweep, row_path, run_sweep
+from snakeplan.bench.runner import Sweep, row_path, run_sweep
+from snakeplan.parallel import Backend
 from snakeplan.bench.statistics import games_howell, levene_p, shapiro_p, welch_anova
 from snakeplan.evaluation import evaluate
 from snakeplan.files import atomic_write
