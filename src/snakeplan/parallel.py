@@ -20,6 +20,10 @@ from dataclasses import dataclass
 from typing import TypeVar
 
 T = TypeVar("T")
+#: Niceness of the workers of a Ray instance started here. Ray's default, 15, keeps its daemons responsive on a
+#: cluster node, but on a busy workstation it starved time-limited planners (rrt-star 5-10x slower on two
+#: loaded cores, its time budget then binding); a joined cluster keeps its own setting.
+RAY_LOCAL_NICENESS = 0
 #: Environment that pins BLAS and OpenMP to one thread per worker.
 THREAD_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
               "NUMBA_NUM_THREADS": "1", "VECLIB_MAXIMUM_THREADS": "1"}
@@ -108,21 +112,33 @@ def execute(work: Callable[..., T], tasks: Sequence, backend: Backend, *args) ->
     yield from _execute_ray(work, tasks, backend, args)
 
 
+class _Call:
+    """``work(task, *args)`` as a picklable one-argument function for a process pool."""
+
+    def __init__(self, work: Callable, args: tuple):
+        self.work, self.args = work, args
+
+    def __call__(self, task):
+        return self.work(task, *self.args)
+
+
 def _execute_pool(work, tasks, slots: int, args: tuple) -> Iterator:
+    """Tasks on a pool of spawned processes, started with :data:`THREAD_ENV` in their environment (so BLAS reads
+    it before it loads); closing early terminates the workers."""
     import multiprocessing
-    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
     with _environment(THREAD_ENV):
-        pool = ProcessPoolExecutor(max_workers=min(slots, len(tasks)), initializer=_pin_threads,
-                                   mp_context=multiprocessing.get_context("spawn"))
+        pool = multiprocessing.get_context("spawn").Pool(min(slots, len(tasks)), initializer=_pin_threads)
+    finished = False
     try:
-        pending = {pool.submit(work, task, *args) for task in tasks}
-        while pending:
-            done, pending = wait(pending, return_when=FIRST_COMPLETED)
-            for future in done:
-                yield future.result()
+        yield from pool.imap_unordered(_Call(work, args), tasks)
+        finished = True
     finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+        if finished:
+            pool.close()
+        else:
+            pool.terminate()
+        pool.join()
 
 
 def _execute_ray(work, tasks, backend: Backend, args: tuple) -> Iterator:
@@ -136,7 +152,8 @@ def _execute_ray(work, tasks, backend: Backend, args: tuple) -> Iterator:
         env["PYTHONPATH"] = os.environ["PYTHONPATH"]
     if backend.address == "local":
         ray.init(num_cpus=backend.slots, include_dashboard=False, log_to_driver=False,
-                 runtime_env={"env_vars": env}, configure_logging=False)
+                 runtime_env={"env_vars": env}, configure_logging=False,
+                 _system_config={"worker_niceness": RAY_LOCAL_NICENESS})
     else:
         ray.init(address=backend.address, log_to_driver=False, runtime_env={"env_vars": env},
                  configure_logging=False)

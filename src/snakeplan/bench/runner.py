@@ -369,8 +369,9 @@ class Outcome:
 def run_sweep(sweep: Sweep, out: str | Path, backend: Backend = Backend(), fresh: bool = False,
               progress: bool = True, runs: Iterable[Run] | None = None) -> Outcome:
     """Run every run of ``sweep`` (or ``runs``) that ``out`` does not hold yet on ``backend``, appending rows as
-    tasks finish; returns the sweep's rows in the sweep's order. SIGINT/SIGTERM stop at the next finished task
-    (rows so far kept; :class:`~snakeplan.interrupt.Interrupted`, exit 130); rerunning resumes."""
+    tasks finish; returns the sweep's rows in the sweep's order. SIGINT/SIGTERM stop at once (every row appended
+    so far is whole and kept; the workers are stopped; :class:`~snakeplan.interrupt.Interrupted`, exit 130);
+    rerunning resumes."""
     all_runs = list(sweep.runs() if runs is None else runs)
     log = ResultsLog(out)
     start, load = time.perf_counter(), _loadavg()
@@ -379,16 +380,16 @@ def run_sweep(sweep: Sweep, out: str | Path, backend: Backend = Backend(), fresh
         todo = [r for r in all_runs if r.key not in done]
         stamp = provenance({"config": sweep.name, **backend.settings(), "argv": sys.argv[1:]})
         tasks = chunks(todo, backend.slots)
-        with progress_bar(len(todo), sweep.name, progress) as tick, interruptible() as stop:
+        with progress_bar(len(todo), sweep.name, progress) as tick, interruptible(immediate=True):
             stream = execute(run_chunk, tasks, backend, stamp)
             try:
                 for rows in stream:
                     for row in rows:
                         log.append(row)
                         tick(f"{row['scene']} seed {row['seed']} {row['planner']}")
-                    if stop.requested:
-                        raise Interrupted(f"interrupted: {len(log.rows)} runs in {log.path}; rerun the same "
-                                          f"command to resume", stop.signum)
+            except Interrupted as stop:
+                raise Interrupted(f"interrupted: {len(log.rows)} runs in {log.path}; rerun the same command to "
+                                  f"resume", stop.signum) from None
             finally:
                 stream.close()
         by_key = {r["key"]: r for r in log.rows}

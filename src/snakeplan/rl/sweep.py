@@ -60,21 +60,21 @@ def _train_one(job: TrainJob) -> tuple[TrainJob, list[dict]]:
 
 def run_jobs(jobs: Sequence[TrainJob], backend: Backend, progress: bool = True,
              name: str = "train") -> list[list[dict]]:
-    """Every job's evaluation history (in the jobs' order), trained on ``backend``; SIGINT/SIGTERM stop at the
-    next finished training (:class:`~snakeplan.interrupt.Interrupted`; rerunning resumes every run)."""
+    """Every job's evaluation history (in the jobs' order), trained on ``backend``; SIGINT/SIGTERM stop every
+    training (each saves a checkpoint; :class:`~snakeplan.interrupt.Interrupted`); rerunning resumes them."""
     where = {job.folder: i for i, job in enumerate(jobs)}
     if len(where) != len(jobs):
         raise ValueError("jobs: two trainings share a folder")
     histories: dict[int, list[dict]] = {}
-    with progress_bar(len(jobs), name, progress) as tick, interruptible() as stop:
+    with progress_bar(len(jobs), name, progress) as tick, interruptible(immediate=True):
         stream = execute(_train_one, list(jobs), backend)
         try:
             for job, history in stream:
                 histories[where[job.folder]] = history
                 tick(f"{job.algorithm} seed {job.seed}")
-                if stop.requested:
-                    raise Interrupted(f"interrupted: {len(histories)} of {len(jobs)} trainings finished; rerun the "
-                                      f"same command to resume", stop.signum)
+        except Interrupted as stop:
+            raise Interrupted(f"interrupted: {len(histories)} of {len(jobs)} trainings finished, the others saved "
+                              f"where they were; rerun the same command to resume", stop.signum) from None
         finally:
             stream.close()
     return [histories[i] for i in range(len(jobs))]
