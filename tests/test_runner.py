@@ -43,7 +43,7 @@ def _same_rows_on_every_backend(tmp_path: Path, seeds: tuple[int, ...]) -> None:
 
 def test_table2_rows_are_identical_on_serial_processes_and_ray(tmp_path):
     pytest.importorskip("ray")
-    _same_rows_on_every_backend(tmp_path, (0, 1))
+    _same_rows_on_every_backend(tmp_path, (0,))
 
 
 @pytest.mark.slow
@@ -54,11 +54,11 @@ def test_table2_20_seeds_rows_are_identical_on_serial_processes_and_ray(tmp_path
 
 def _bench_run(out: Path, *extra: str) -> list[str]:
     return [sys.executable, "-m", "snakeplan.cli", "bench", "run", "--scenes", "oil-tank", "--planners",
-            "sp-rrt,sac-per", "--seeds", "0-9", "--time-limit", "5", "--out", str(out), "--json", *extra]
+            "sp-rrt,sac-per", "--seeds", "0-5", "--time-limit", "5", "--out", str(out), "--json", *extra]
 
 
 def test_sigkill_at_random_moments_then_resume_gives_the_uninterrupted_rows(tmp_path):
-    sweep = Sweep("run", ("oil-tank",), tuple(range(10)), (("sp-rrt", {}), ("sac-per", {})), 5.0)
+    sweep = Sweep("run", ("oil-tank",), tuple(range(6)), (("sp-rrt", {}), ("sac-per", {})), 5.0)
     reference = {r["key"]: comparable(r) for r in run_sweep(sweep, tmp_path / "whole", Backend("serial"),
                                                              progress=False).rows}
     out = tmp_path / "killed"
@@ -67,7 +67,7 @@ def test_sigkill_at_random_moments_then_resume_gives_the_uninterrupted_rows(tmp_
     for attempt in range(12):
         proc = subprocess.Popen(_bench_run(out, "--workers", "2"), env=ENV, stdout=subprocess.DEVNULL,
                                 stderr=subprocess.PIPE)
-        if attempt < 3:  # killed while planning, at a random moment once some rows are in
+        if attempt < 2:  # killed while planning, at a random moment once some rows are in
             before = len(read_rows(out))
             deadline = time.monotonic() + 120
             while len(read_rows(out)) <= before and proc.poll() is None and time.monotonic() < deadline:
@@ -132,8 +132,8 @@ def _score_interval(k: int, n: int) -> tuple[float, float]:
     """The rates p whose score test |k/n - p| <= z sqrt(p (1 - p) / n) does not reject, found by root finding."""
     z = stats.norm.ppf(0.975)
     gap = lambda p: abs(k / n - p) - z * math.sqrt(p * (1 - p) / n)  # noqa: E731
-    lo = 0.0 if k == 0 else optimize.brentq(gap, 1e-12, k / n)
-    hi = 1.0 if k == n else optimize.brentq(gap, k / n, 1 - 1e-12)
+    lo = 0.0 if k == 0 else optimize.brentq(gap, 1e-12, k / n - 1e-12, xtol=1e-14)
+    hi = 1.0 if k == n else optimize.brentq(gap, k / n + 1e-12, 1 - 1e-12, xtol=1e-14)
     return lo, hi
 
 
