@@ -120,7 +120,7 @@ def test_backends_from_the_command_line_options():
 
 def test_chunks_keep_a_stateful_planners_runs_together_in_seed_order():
     sweep = Sweep("sscc", ("pipe",), tuple(range(10)), (("sscc", {"learning": True}), ("sscc", {})), 5.0,
-                  stateful=("sscc",))
+                  stateful=lambda planner, options: options.get("learning", False))
     runs = sweep.runs()
     tasks = chunks(runs, 2)
     assert sorted(r.key for t in tasks for r in t) == sorted(r.key for r in runs)

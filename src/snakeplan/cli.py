@@ -473,7 +473,8 @@ def cmd_bench_sscc(args: argparse.Namespace) -> int:
     variants = _name_list(args.variants, ["agent", "agent-learning", "gradient", "random"], "--variants")
     if "agent-learning" in variants:
         require_training("bench sscc --variants agent-learning")
-    summary = run_sscc_bench(out_dir=args.out, variants=variants, targets=args.targets, progress=not args.json)
+    summary = run_sscc_bench(out_dir=args.out, variants=variants, targets=args.targets, progress=not args.json,
+                             backend=_backend(args))
     if args.json:
         _print_json(summary)
     else:
@@ -840,6 +841,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="comma-separated searches to compare")
     p.add_argument("--targets", type=int, help="targets per setting (default: the paper's 30 / 52)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    backend_args(p)
     p.set_defaults(func=cmd_bench_sscc)
 
     p = sub.add_parser("train", help="train a learned agent (sscc, rl)",

@@ -103,7 +103,8 @@ class Sweep:
     """Episodes x planners: every ``scenes`` entry (a family name, or a ``.json`` scene file) with every seed,
     planned by every ``planners`` entry ``(name, options)``; ``robot`` empty: each scene's own (its spec).
     ``include(scene, planner)`` may leave pairs out (Table 2 compares a learned planner only where its policy
-    ships). ``stateful`` names planners that keep one instance over their runs in seed order."""
+    ships). ``stateful(planner, options)`` says which planners keep one instance over their runs in a scene, in
+    seed order (a planner that learns from run to run)."""
 
     name: str
     scenes: tuple[str, ...]
@@ -112,7 +113,7 @@ class Sweep:
     time_limit_s: float = 10.0
     robot: str = ""
     knowledge: str = "full"
-    stateful: tuple[str, ...] = ()
+    stateful: Callable[[str, dict], bool] | None = field(default=None, compare=False)
     include: Callable[[str, str], bool] | None = field(default=None, compare=False)
 
     def runs(self) -> list[Run]:
@@ -126,7 +127,8 @@ class Sweep:
                     continue
                 for seed in self.seeds:
                     out.append(Run(family, seed, planner, robot, self.time_limit_s,
-                                   tuple(sorted(options.items())), self.knowledge, text, planner in self.stateful,
+                                   tuple(sorted(options.items())), self.knowledge, text,
+                                   self.stateful is not None and self.stateful(planner, options),
                                    self.name))
         return out
 
