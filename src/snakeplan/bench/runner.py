@@ -157,13 +157,14 @@ def _spec_robot(family: str, text: str) -> str:
 
 # --- tasks ------------------------------------------------------------------------------------------------
 def chunks(runs: Sequence[Run], slots: int) -> list[list[Run]]:
-    """Runs grouped into tasks: a stateful planner's runs in one scene stay together in seed order; the rest in
-    chunks of at most :data:`CHUNK_MAX`, about four tasks per worker."""
+    """Runs grouped into tasks: a stateful planner's runs in one scene stay together in seed order; the rest one
+    by one for a single worker (each row logged as soon as it is judged), else in chunks of at most
+    :data:`CHUNK_MAX`, about four tasks per worker."""
     groups: dict[tuple, list[Run]] = {}
     for r in runs:
         groups.setdefault((r.scene, r.planner, r.options) if r.stateful else (r.key,), []).append(r)
     units = list(groups.values())
-    size = max(1, min(CHUNK_MAX, math.ceil(len(runs) / max(1, 4 * slots))))
+    size = 1 if slots == 1 else max(1, min(CHUNK_MAX, math.ceil(len(runs) / (4 * slots))))
     out: list[list[Run]] = []
     current: list[Run] = []
     for unit in units:
