@@ -1,6 +1,7 @@
 """The benchmark runner: the same rows on every backend, exact resumption after SIGKILL, one writer per folder,
 torn last lines, and the report's Wilson interval against an independent inversion of the score test."""
 
+import json
 import math
 import os
 import random
@@ -172,3 +173,23 @@ def test_bench_report_without_html_support_says_so_and_writes_nothing(tmp_path, 
     assert not (tmp_path / "report.md").exists() and not (tmp_path / "r.html").exists()
     assert main(["bench", "report", str(tmp_path / "nothing")]) == 2
     assert "holds no runs.jsonl" in capsys.readouterr().err
+
+
+def test_train_rl_seeds_trains_one_resumable_run_per_seed_and_summarises(tmp_path, capsys):
+    from snakeplan.cli import main
+
+    argv = ["train", "rl", "oil-tank", "sac-per", "--steps", "60", "--seeds", "3,5", "--workers", "1", "--out",
+            str(tmp_path), "--eval-every", "30", "--eval-episodes", "2", "--net-arch", "16", "16",
+            "--learning-starts", "30", "--train-scenes", "2", "--batch-size", "16"]
+    assert main(argv) == 0
+    summary = json.loads((tmp_path / "sweep.json").read_text())
+    assert [r["seed"] for r in summary["runs"]] == [3, 5] and summary["backend"]["backend"] == "serial"
+    for run in summary["runs"]:
+        curve = json.loads((tmp_path / f"seed{run['seed']}" / "curve.json").read_text())
+        assert run["evaluations"] == len(curve) and run["final_success"] == curve[-1]["success"]
+        assert run["best_success"] == max(h["success"] for h in curve)
+    steps = {s: json.loads((tmp_path / f"seed{s}" / "state.json").read_text())["generations"][0]["step"]
+             for s in (3, 5)}
+    assert main(argv) == 0 and steps == {  # a rerun resumes finished runs and trains nothing more
+        s: json.loads((tmp_path / f"seed{s}" / "state.json").read_text())["generations"][0]["step"] for s in (3, 5)}
+    assert (tmp_path / "curves.png").read_bytes()[:4] == b"\x89PNG" and "| 3 |" in capsys.readouterr().out

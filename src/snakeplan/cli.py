@@ -604,7 +604,11 @@ def cmd_bench_run(args: argparse.Namespace) -> int:
     if not scenes:
         raise UsageError("--scenes: empty list")
     if args.robot:
-        _load_robot(args.robot)
+        from snakeplan.robots import robot_names
+
+        if args.robot not in robot_names():
+            raise UsageError(f"--robot: bench run takes a robot preset (known: {', '.join(robot_names())}); "
+                             f"register your robot to benchmark it (docs/ARCHITECTURE.md, 'Your robot')")
     sweep = Sweep(args.name, scenes, _seed_list(args.seeds, "--seeds"), tuple((p, options) for p in planners),
                   args.time_limit, args.robot or "", args.knowledge)
     try:
