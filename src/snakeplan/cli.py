@@ -739,7 +739,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--out", action="append", required=True, metavar="FILE", help=TRAJECTORY_HELP)
     p.set_defaults(func=cmd_trajectory)
 
-    bench = sub.add_parser("bench", help="benchmarks: kernels, table2, station, sscc",
+    bench = sub.add_parser("bench", help="benchmarks: run, report, kernels, table2, station, sscc, rl, ablation",
                            description="Benchmarks that reproduce the papers' figures and measure speed.")
     bsub = bench.add_subparsers(dest="bench", required=True, parser_class=_Parser, metavar="BENCH")
     p = bsub.add_parser("kernels", help="speed of the collision and follow-the-leader kernels",
