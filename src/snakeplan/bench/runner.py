@@ -241,10 +241,12 @@ def make_row(run: Run, episode, provenance: dict) -> dict:
 
 
 def comparable(row: dict) -> dict:
-    """A row without what measures time or place (:data:`TIMING_FIELDS`, and details in seconds, ``*_s``): what
-    must agree between backends and between an interrupted run and an uninterrupted one."""
+    """A row without what measures time or place (:data:`TIMING_FIELDS`, details in seconds, ``*_s``, and the
+    details of a run its time budget stopped, ``timeout``: its search statistics): what must agree between backends and between an interrupted run and an uninterrupted one."""
     out = {k: v for k, v in row.items() if k not in TIMING_FIELDS}
-    if isinstance(out.get("details"), dict):
+    if out.get("status") == "timeout":
+        out.pop("details", None)  # how far the search got before its clock stopped it: a measure of speed
+    elif isinstance(out.get("details"), dict):
         out["details"] = {k: v for k, v in out["details"].items() if not k.endswith("_s")}
     return out
 
