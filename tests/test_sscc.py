@@ -164,10 +164,12 @@ def test_online_learning_updates_the_agent():
 
 def test_bench_writes_its_table_and_pictures(tmp_path):
     from snakeplan.bench.sscc import SETTINGS, run_sscc_bench
+    from snakeplan.parallel import Backend
 
-    result = run_sscc_bench(tmp_path, variants=("agent", "random"), settings=SETTINGS[:1], targets=2, progress=False)
+    result = run_sscc_bench(tmp_path, variants=("agent", "random"), settings=SETTINGS[:1], targets=2, progress=False,
+                            backend=Backend("serial"))
     entry = result["settings"]["pipe/sscc-16"]
     assert entry["paper_success_rate"] == 0.833
     assert set(entry["variants"]) == {"agent", "random"} and entry["variants"]["agent"]["runs"] == 2
-    assert (tmp_path / "runs.csv").exists() and (tmp_path / "sscc.md").read_text().count("| pipe/sscc-16") == 2
+    assert (tmp_path / "runs.jsonl").exists() and (tmp_path / "sscc.md").read_text().count("| pipe/sscc-16") == 2
     assert all(Path(p).stat().st_size > 0 for p in result["figures"])

@@ -4,7 +4,8 @@ A state folder ``root`` holds::
 
     root/state.json          the manifest, written last
     root/ckpt-<step>/NAME    one folder per generation (step with 8 digits): the files the manifest lists
-    root/.lock               held (flock) while a job uses the folder
+    root/.lock               held (flock) while a job uses the folder (:func:`lock_folder`, also the
+                             benchmark runner's lock on its results folder)
 
 The manifest::
 
@@ -149,18 +150,7 @@ class StateFolder:
     @contextmanager
     def locked(self) -> Iterator[None]:
         """Hold the folder's lock for the block; :class:`StateError` when another process holds it."""
-        try:
-            import fcntl
-        except ImportError:  # no flock on this platform: unguarded
-            yield
-            return
-        self.root.mkdir(parents=True, exist_ok=True)
-        with open(self.root / ".lock", "a") as handle:
-            try:
-                fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except OSError:
-                raise StateError(f"{self.root} is in use by another job",
-                                 "wait for it to finish, or choose another --out") from None
+        with lock_folder(self.root):
             yield
 
     def load(self) -> Generation | None:
@@ -245,6 +235,27 @@ class StateFolder:
         for tmp in self.root.glob(_TEMP):
             if tmp.is_file():
                 tmp.unlink(missing_ok=True)
+
+
+@contextmanager
+def lock_folder(root: str | Path, field: str = "") -> Iterator[None]:
+    """Hold ``root/.lock`` (flock, released when the process dies) for the block, creating ``root``;
+    :class:`StateError` when another process holds it (its message starts with ``field:`` when given)."""
+    try:
+        import fcntl
+    except ImportError:  # no flock on this platform: unguarded
+        yield
+        return
+    root = Path(root)
+    root.mkdir(parents=True, exist_ok=True)
+    with open(root / ".lock", "a") as handle:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            advice = "wait for it to finish, or choose another --out"
+            raise StateError(f"{field + ': ' if field else ''}{root} is in use by another job"
+                             + (f"; {advice}" if field else ""), advice) from None
+        yield
 
 
 def _pickle(path: Path, obj) -> None:

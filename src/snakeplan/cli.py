@@ -582,7 +582,8 @@ def cmd_bench_ablation(args: argparse.Namespace) -> int:
     config = replace(parse_config(args.extra), eval_every=args.eval_every, eval_episodes=args.eval_episodes)
     seeds = list(range(args.seed, args.seed + args.seeds))
     threshold = CONVERGENCE_SUCCESS if args.threshold is None else args.threshold
-    result = run_ablation(args.scene, seeds, args.steps, args.out, args.compare, config, threshold)
+    result = run_ablation(args.scene, seeds, args.steps, args.out, args.compare, config, threshold, _backend(args),
+                          progress=not args.json)
     if args.json:
         _print_json(result)
         return EXIT_OK
@@ -617,7 +618,8 @@ def cmd_bench_sscc(args: argparse.Namespace) -> int:
     variants = _name_list(args.variants, ["agent", "agent-learning", "gradient", "random"], "--variants")
     if "agent-learning" in variants:
         require_training("bench sscc --variants agent-learning")
-    summary = run_sscc_bench(out_dir=args.out, variants=variants, targets=args.targets, progress=not args.json)
+    summary = run_sscc_bench(out_dir=args.out, variants=variants, targets=args.targets, progress=not args.json,
+                             backend=_backend(args))
     if args.json:
         _print_json(summary)
     else:
@@ -651,13 +653,24 @@ def cmd_train_rl(args: argparse.Namespace) -> int:
     if args.steps < 1:
         raise UsageError(f"--steps: expected a positive integer, got {args.steps}")
     config = parse_config(args.extra)
+    if args.seeds is not None:
+        from snakeplan.rl.sweep import markdown, train_seeds
+
+        if args.fresh:
+            raise UsageError("--fresh: not with --seeds (delete the seed folders in --out to start over)")
+        summary = train_seeds(args.scene, args.algorithm, args.steps, _seed_list(args.seeds, "--seeds"), args.out,
+                              config, _backend(args))
+        sys.stdout.write(markdown(summary) + f"\nwrote {args.out}/sweep.md, sweep.json, curves.png and one folder "
+                         f"per seed\n")
+        return EXIT_OK
     result = train(args.scene, args.algorithm, args.steps, args.seed, args.out, config, resume=not args.fresh)
     sys.stdout.write(f"wrote {result.policy}\n")
     return EXIT_OK
 
 
 def cmd_bench_table2(args: argparse.Namespace) -> int:
-    from snakeplan.bench.table2 import DEFAULT_PLANNERS, SCENES, Table2Config, run_table2, summary_markdown
+    from snakeplan.bench.runner import run_sweep
+    from snakeplan.bench.table2 import DEFAULT_PLANNERS, SCENES, Table2Config, summary_markdown, table2_outputs
     from snakeplan.planners import planner_names
 
     if args.runs < 1:
@@ -670,12 +683,103 @@ def cmd_bench_table2(args: argparse.Namespace) -> int:
     if not any(config.planners_in(s) for s in config.scenes):
         raise UsageError(f"--planners: none is compared in {', '.join(config.scenes)} (a planner whose policy ships "
                          f"for some scene families is compared only in those)")
-    summary = run_table2(config, args.out, fresh=args.fresh, progress=not args.json)
+    outcome = run_sweep(config.sweep(), args.out, _backend(args), fresh=args.fresh, progress=not args.json)
+    summary = table2_outputs(config, outcome.rows, Path(args.out))
     if args.json:
-        _print_json(summary)
+        _print_json({"summary": summary, "runner": outcome.to_dict()})
     else:
-        sys.stdout.write(summary_markdown(summary, config) + f"\n\nwrote {args.out}/table2.md, table2.csv, runs.csv, "
-                         f"fig7_*.png\n")
+        sys.stdout.write(summary_markdown(summary, config) + f"\n\n{_outcome_line(outcome)}\nwrote {args.out}/"
+                         f"table2.md, table2.csv, runs.jsonl, fig7_*.png\n")
+    return EXIT_OK
+
+
+def _backend(args: argparse.Namespace):
+    """The runner's backend from --workers and --ray."""
+    from snakeplan.parallel import backend_from
+
+    if args.ray:
+        from snakeplan.extras import require_cluster
+
+        require_cluster("--ray")
+    return backend_from(args.workers, args.ray)
+
+
+def _outcome_line(outcome) -> str:
+    b = outcome.backend
+    where = b["backend"] + (f", {b['workers']} workers" if b["backend"] != "serial" else "")
+    return (f"ran {outcome.ran} runs in {outcome.wall_s:.1f} s ({where}); {outcome.skipped} already logged "
+            f"were skipped")
+
+
+def _seed_list(text: str, field: str) -> tuple[int, ...]:
+    """Seeds from ``0-9``, ``3`` or ``0,2,5-7``."""
+    seeds: list[int] = []
+    for part in text.split(","):
+        lo, sep, hi = part.strip().partition("-")
+        try:
+            first, last = int(lo), int(hi) if sep else int(lo)
+        except ValueError:
+            raise UsageError(f"{field}: expected seeds like 0-9 or 0,3,5-7, got {text!r}") from None
+        if first < 0 or last < first:
+            raise UsageError(f"{field}: expected seeds like 0-9 or 0,3,5-7, got {text!r}")
+        seeds += range(first, last + 1)
+    return tuple(dict.fromkeys(seeds))
+
+
+def _option_value(text: str):
+    try:
+        return json.loads(text)
+    except ValueError:
+        return text
+
+
+def cmd_bench_run(args: argparse.Namespace) -> int:
+    from snakeplan.bench.report import write_report
+    from snakeplan.bench.runner import Sweep, run_sweep
+    from snakeplan.planners import planner_names
+
+    planners = _name_list(args.planners, planner_names(), "--planners")
+    options = {}
+    for item in args.option or ():
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            raise UsageError(f"--option: expected KEY=VALUE, got {item!r}")
+        options[key] = _option_value(value)
+    scenes = tuple(n.strip() for n in args.scenes.split(",") if n.strip())
+    if not scenes:
+        raise UsageError("--scenes: empty list")
+    if args.robot:
+        from snakeplan.robots import robot_names
+
+        if args.robot not in robot_names():
+            raise UsageError(f"--robot: bench run takes a robot preset (known: {', '.join(robot_names())}); "
+                             f"register your robot to benchmark it (docs/ARCHITECTURE.md, 'Your robot')")
+    sweep = Sweep(args.name, scenes, _seed_list(args.seeds, "--seeds"), tuple((p, options) for p in planners),
+                  args.time_limit, args.robot or "", args.knowledge)
+    try:
+        runs = sweep.runs()
+    except KeyError as exc:
+        raise UsageError(f"--scenes: {exc.args[0]}") from None
+    outcome = run_sweep(sweep, args.out, _backend(args), fresh=args.fresh, progress=not args.json, runs=runs)
+    result = write_report(args.out)
+    if args.json:
+        _print_json({"runner": outcome.to_dict(), "summary": result["entries"]})
+    else:
+        sys.stdout.write(f"{_outcome_line(outcome)}\nwrote {args.out}/runs.jsonl, report.md, report.csv\n")
+    return EXIT_OK
+
+
+def cmd_bench_report(args: argparse.Namespace) -> int:
+    from snakeplan.bench.report import markdown, write_report
+
+    if args.html:
+        check_output(args.html, "--html", (".html", ".htm"))
+    result = write_report(args.dir, args.html)
+    if args.json:
+        _print_json(result)
+    else:
+        sys.stdout.write(markdown(result["entries"], f"Results in {args.dir}") + "\n\nwrote "
+                         + ", ".join(result["files"]) + "\n")
     return EXIT_OK
 
 
@@ -697,6 +801,12 @@ def build_parser() -> argparse.ArgumentParser:
                      epilog="Run 'snakeplan COMMAND --help' for a command's options.")
     parser.add_argument("--version", action="version", version=f"snakeplan {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser, metavar="COMMAND")
+
+    def backend_args(p: argparse.ArgumentParser) -> None:
+        p.add_argument("--workers", type=int, help="worker processes (default: the usable cores; 1: serial, in "
+                                                   "this process)")
+        p.add_argument("--ray", metavar="ADDRESS", help="run on Ray: 'local' starts an instance on this machine, "
+                                                        "'auto' or HOST:PORT joins a cluster (the cluster extra)")
 
     def scene_args(p: argparse.ArgumentParser) -> None:
         p.add_argument("--scene", default=DEFAULT_SCENE,
@@ -779,7 +889,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--out", action="append", required=True, metavar="FILE", help=TRAJECTORY_HELP)
     p.set_defaults(func=cmd_trajectory)
 
-    bench = sub.add_parser("bench", help="benchmarks: kernels, speed, table2, station, sscc",
+    bench = sub.add_parser("bench", help="benchmarks: run, report, kernels, speed, mesh, table2, station, sscc, rl, "
+                           "ablation",
                            description="Benchmarks that reproduce the papers' figures and measure speed.")
     bsub = bench.add_subparsers(dest="bench", required=True, parser_class=_Parser, metavar="BENCH")
     p = bsub.add_parser("kernels", help="speed of the collision and follow-the-leader kernels",
@@ -838,7 +949,38 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="bench-table2", help="output folder (default bench-table2)")
     p.add_argument("--fresh", action="store_true", help="discard earlier runs instead of resuming")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    backend_args(p)
     p.set_defaults(func=cmd_bench_table2)
+
+    p = bsub.add_parser("run", help="any planners on any episodes: judged JSON Lines rows, resumable",
+                        description="Plan every scene (a family with every seed, or a scene file planned from "
+                                    "every seed) with every planner, judge each plan and append one row per run "
+                                    "to OUT/runs.jsonl (resumes; one writer per folder), then write "
+                                    "OUT/report.md and report.csv.")
+    p.add_argument("--scenes", required=True, help="comma-separated scene families or scene .json files")
+    p.add_argument("--planners", required=True, help="comma-separated planner names")
+    p.add_argument("--seeds", default="0-9", help="seeds, e.g. 0-99 or 0,3,5-7 (default 0-9)")
+    p.add_argument("--option", action="append", metavar="KEY=VALUE",
+                   help="a planner option for every planner (value as JSON, else text); may be repeated")
+    p.add_argument("--robot", help="robot preset for every scene (default: each scene's own)")
+    p.add_argument("--time-limit", type=_finite, default=10.0, help="budget per plan in seconds (default 10)")
+    p.add_argument("--knowledge", choices=("full", "sensed"), default="full", help="what the planners may know")
+    p.add_argument("--name", default="run", help="configuration name recorded in every row (default run)")
+    p.add_argument("--out", default="bench-run", help="results folder (default bench-run)")
+    p.add_argument("--fresh", action="store_true", help="discard earlier runs instead of resuming")
+    p.add_argument("--json", action="store_true", help="print the runner's outcome and the summary as JSON")
+    backend_args(p)
+    p.set_defaults(func=cmd_bench_run)
+
+    p = bsub.add_parser("report", help="markdown and CSV tables (and paper figures) from a results folder",
+                        description="Summarise DIR/runs.jsonl per configuration, scene and planner: success with "
+                                    "its Wilson 95 % interval, median/p90/max compute time, path length, "
+                                    "smoothness, clearance, deviation; writes DIR/report.md and report.csv, and "
+                                    "the paper's tables and figures where the rows' configuration names one.")
+    p.add_argument("dir", metavar="DIR", help="a results folder (holding runs.jsonl)")
+    p.add_argument("--html", metavar="FILE", help="also write a self-contained HTML report")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.set_defaults(func=cmd_bench_report)
 
     p = bsub.add_parser("station", help="paper 002: informative vs coverage vs random inspection of the station",
                         description="Fly IP, CP and RP missions on station seeds; RMSE and covariance-trace curves "
@@ -869,6 +1011,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="validation success that counts as converged (default 0.6)")
     p.add_argument("--out", default="bench-ablation", help="output folder (default bench-ablation)")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
+    backend_args(p)
     p.set_defaults(func=cmd_bench_ablation, takes_options=True)
     p = bsub.add_parser("sscc", help="paper 001's Tables 4 and 6: SSCC in the pipe and the concentric pipe",
                         description="SSCC with the shipped DDPG agent and the non-learning searches on seeded "
@@ -879,6 +1022,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="comma-separated searches to compare")
     p.add_argument("--targets", type=int, help="targets per setting (default: the paper's 30 / 52)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    backend_args(p)
     p.set_defaults(func=cmd_bench_sscc)
 
     p = sub.add_parser("train", help="train a learned agent (sscc, rl)",
@@ -906,6 +1050,9 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--seed", type=_seed, default=0, help="training seed (default 0)")
     t.add_argument("--out", required=True, help="output folder (policy.npz, curve.png, checkpoints)")
     t.add_argument("--fresh", action="store_true", help="delete the checkpoint in --out and start over")
+    t.add_argument("--seeds", help="a training sweep: one resumable training per seed (e.g. 0-9) in --out/seed<N>, "
+                                   "on --workers processes or Ray, and a summary of the learning curves")
+    backend_args(t)
     t.set_defaults(func=cmd_train_rl, takes_options=True)
     return parser
 

@@ -3,8 +3,9 @@
 Planning, judging and running the shipped policies need only the core dependencies: every shipped actor runs
 in NumPy. Training needs PyTorch, Stable-Baselines3 and Gymnasium, which ``pip install "snakeplan[train]"``
 adds. Every command and module that trains calls :func:`require_training` before it imports them, so a missing
-extra reads as one line saying how to install it, not a traceback from deep inside an import. This module
-imports nothing from snakeplan, so any layer may use it.
+extra reads as one line saying how to install it, not a traceback from deep inside an import. Running benchmarks
+on a Ray cluster needs Ray, which ``pip install "snakeplan[cluster]"`` adds (:func:`require_cluster`). This
+module imports nothing from snakeplan, so any layer may use it.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ import importlib
 #: What the ``train`` extra installs, by import name.
 TRAINING_MODULES = ("torch", "stable_baselines3", "gymnasium")
 TRAINING_INSTALL = 'pip install "snakeplan[train]"'
+CLUSTER_INSTALL = 'pip install "snakeplan[cluster]"'
 
 
 class MissingExtra(ImportError):
@@ -28,3 +30,11 @@ def require_training(what: str) -> None:
             importlib.import_module(name)
         except ImportError:
             raise MissingExtra(f"{what}: needs the training extra: {TRAINING_INSTALL}", name=name) from None
+
+
+def require_cluster(what: str) -> None:
+    """Import Ray, or raise :class:`MissingExtra` saying that ``what`` needs the cluster extra."""
+    try:
+        importlib.import_module("ray")
+    except ImportError:
+        raise MissingExtra(f"{what}: needs the cluster extra: {CLUSTER_INSTALL}", name="ray") from None

@@ -2,29 +2,31 @@
 
 Three settings, as in the paper: 30 targets in ``pipe`` for ``sscc-16`` and for ``sscc-24`` (30 s each), 52 in
 ``concentric-pipe`` for ``sscc-24`` (60 s each); target ``i`` is the scene of seed ``i``, planned with seed ``i``.
-Each setting runs every search variant over all its targets in seed order with one planner, so the learning
-agent learns from task to task as in the paper. Every plan is judged by :func:`snakeplan.evaluation.evaluate`;
-a target counts as solved only when the judge says so. The paper's tables were lost in extraction; its success
-rates survive in the text (83.3 % = 25/30, 96.7 % = 29/30, 96.1 % = 50/52) and stand beside ours.
+A configuration of the benchmark runner (:mod:`snakeplan.bench.runner`): every search variant plans every target,
+one row per run in ``runs.jsonl`` (resumable, on any backend); the learning variant keeps one planner over its
+targets in seed order, so the agent learns from task to task as in the paper. Every plan is judged by
+:func:`snakeplan.evaluation.evaluate`; a target counts as solved only when the judge says so. The paper's tables
+were lost in extraction; its success rates survive in the text (83.3 % = 25/30, 96.7 % = 29/30, 96.1 % = 50/52)
+and stand beside ours.
 
-Pictures per setting (paper Figs. 6-13): the directive configuration, the crawl sequence, the joint-angle
-curves of the inner modules and the deviation distance along the crawl, for one target per setting.
+Pictures per setting (paper Figs. 6-13), drawn from the agent's logged run of one target per setting: the
+directive configuration, the crawl sequence, the joint-angle curves of the inner modules and the deviation
+distance along the crawl.
 """
 
 from __future__ import annotations
 
-import csv
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from snakeplan.episode import run_episode
+from snakeplan.bench.runner import RUNS_FILE, Sweep, run_sweep
 from snakeplan.files import atomic_write
 from snakeplan.geometry.primitives import Pipe
-from snakeplan.planners import Problem
-from snakeplan.planners.sscc import SSCCPlanner, crawl, joint_angles
+from snakeplan.parallel import Backend
+from snakeplan.planners.sscc import crawl, joint_angles
 from snakeplan.planners.sscc.crawling import Directive
 from snakeplan.robots import get_robot
 from snakeplan.scenes import make_scene
@@ -68,49 +70,41 @@ AIM_MEDIAN_TIME_S = 1.0
 #: Crawl snapshots drawn in the crawl-sequence picture.
 CRAWL_SNAPSHOTS = 8
 
-RUN_FIELDS = ("setting", "scene", "robot", "seed", "variant", "status", "success", "reason", "compute_time_s",
-              "D_mm", "judge_max_deviation_mm", "min_clearance_mm", "n_inner", "episodes", "swing_steps",
-              "learning_steps", "learning_time_s")
+#: The runner's configuration name of these tables (rows' ``config``; ``bench report`` draws them).
+CONFIG = "sscc"
 
 
-def _run_setting(setting: Setting, variants: Sequence[str], targets: int, progress) -> list[dict]:
-    """Plan and judge every target of one setting with each variant (one planner per variant, seed order), after
-    one untimed warm-up plan that loads the compiled kernels, so that no variant pays for that."""
-    robot = get_robot(setting.robot)
-    scenes = [make_scene(setting.scene, seed) for seed in range(targets)]
-    SSCCPlanner(search="gradient").plan(Problem(scenes[0], robot, setting.time_limit_s))  # warm-up, not timed
-    rows = []
-    for variant in variants:
-        planner = SSCCPlanner(**VARIANTS[variant])
-        for seed, scene in enumerate(scenes):
-            episode = run_episode(Problem(scene, robot, setting.time_limit_s), planner, seed=seed)
-            plan, report = episode.plan, episode.report
-            row = {"setting": setting.key, "scene": setting.scene, "robot": setting.robot, "seed": seed,
-                   "variant": variant, "status": str(plan.status), "compute_time_s": plan.compute_time_s,
-                   **{k: plan.details.get(k, "") for k in ("n_inner", "episodes", "swing_steps", "learning_steps",
-                                                           "learning_time_s")},
-                   "D_mm": plan.details.get("max_deviation_D_mm", "")}
-            row.update(success=episode.success, reason=episode.reason)
-            if report is not None:
-                row.update(judge_max_deviation_mm=report.max_deviation_mm, min_clearance_mm=report.min_clearance_mm)
-            rows.append(row)
-            progress(f"{setting.key} {variant} seed {seed}")
-    return rows
+def variant_of(options: dict) -> str:
+    """The search variant whose planner options ``options`` are."""
+    return next((v for v, o in VARIANTS.items() if o == options), "")
+
+
+def sweep(setting: Setting, variants: Sequence[str], targets: int) -> Sweep:
+    """One setting as a sweep of the benchmark runner: targets 0..targets-1 with every variant; the learning
+    variant keeps one planner over the targets in seed order, as the paper."""
+    return Sweep(CONFIG, (setting.scene,), tuple(range(targets)), tuple(("sscc", VARIANTS[v]) for v in variants),
+                 setting.time_limit_s, setting.robot, stateful=lambda planner, options: options.get("learning", False))
+
+
+def setting_of(row: dict) -> str:
+    return f"{row['scene']}/{row['robot']}"
 
 
 def summarise(rows: list[dict], settings: Iterable[Setting], variants: Sequence[str]) -> dict:
-    """Per setting and variant: runs, success rate, median / mean / max time (s), mean / max D (mm) of the solved,
-    mean swing steps, mean online-learning time after each plan (s), and the paper's rate."""
+    """Per setting and variant, from logged rows: runs, success rate, median / mean / max time (s), mean / max D
+    (mm) of the solved, mean swing steps, mean online-learning time after each plan (s), and the paper's rate."""
     out: dict = {}
     for s in settings:
         entry = {"scene": s.scene, "robot": s.robot, "time_limit_s": s.time_limit_s, "table": s.table,
                  "paper_success_rate": s.paper_success, "variants": {}}
         for v in variants:
-            group = [r for r in rows if r["setting"] == s.key and r["variant"] == v]
+            group = [r for r in rows if setting_of(r) == s.key and variant_of(r["options"]) == v
+                     and r["time_limit_s"] == s.time_limit_s]
             if not group:
                 continue
-            times = np.array([float(r["compute_time_s"]) for r in group])
-            ds = np.array([float(r["D_mm"]) for r in group if r["success"] is True and r["D_mm"] != ""])
+            times = np.array([r["compute_time_s"] for r in group], dtype=float)
+            ds = np.array([r["details"]["max_deviation_D_mm"] for r in group
+                           if r["success"] and r["details"].get("max_deviation_D_mm") is not None])
             entry["variants"][v] = {
                 "runs": len(group),
                 "success_rate": float(np.mean([r["success"] is True for r in group])),
@@ -118,8 +112,8 @@ def summarise(rows: list[dict], settings: Iterable[Setting], variants: Sequence[
                 "max_time_s": float(times.max()),
                 "mean_D_mm": float(ds.mean()) if ds.size else None,
                 "max_D_mm": float(ds.max()) if ds.size else None,
-                "mean_swing_steps": float(np.mean([float(r["swing_steps"] or 0) for r in group])),
-                "mean_learning_time_s": float(np.mean([float(r["learning_time_s"] or 0) for r in group])),
+                "mean_swing_steps": float(np.mean([r["details"].get("swing_steps") or 0 for r in group])),
+                "mean_learning_time_s": float(np.mean([r["details"].get("learning_time_s") or 0 for r in group])),
             }
         out[s.key] = entry
     return out
@@ -142,13 +136,6 @@ def summary_markdown(summary: dict) -> str:
 
 def _mm(value: float | None) -> str:
     return "-" if value is None else f"{value:.1f}"
-
-
-def _write_rows(path: Path, rows: list[dict]) -> None:
-    with path.open("w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=RUN_FIELDS, extrasaction="ignore")
-        writer.writeheader()
-        writer.writerows(rows)
 
 
 def _axial_radial(points: np.ndarray, entrance: np.ndarray, direction: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -183,25 +170,25 @@ def _zoom(ax, points: np.ndarray, scene) -> None:
     ax.set_box_aspect(tuple(hi - lo))
 
 
-def figures(setting: Setting, out: Path, seed: int | None = None) -> Path:
-    """Paper 001 Figs. 6-13 for one target: the directive configuration (3-D and side view), the crawl sequence
-    (3-D and side view), the joint-angle curves of the inner modules and the deviation distance along the crawl,
-    planned with the shipped agent (not learning), for ``seed`` (default: the setting's ``figure_seed``). Side views plot each point's distance from the feed axis
-    against its depth, with the pipe walls (dark) and the band the body's radius keeps it out of (light)."""
+def figures(setting: Setting, out: Path, row: dict) -> Path:
+    """Paper 001 Figs. 6-13 for one logged run (its directive configuration, in the row's details): the directive
+    configuration (3-D and side view), the crawl sequence (3-D and side view), the joint-angle curves of the inner
+    modules and the deviation distance along the crawl; the crawl is replayed from the directive, nothing is
+    planned. Side views plot each point's distance from the feed axis against its depth, with the pipe walls
+    (dark) and the band the body's radius keeps it out of (light)."""
     import matplotlib.pyplot as plt
 
     from snakeplan.viz.figures import save_figure
     from snakeplan.viz.scene_plot import draw_scene
 
-    seed = setting.figure_seed if seed is None else seed
+    seed = row["seed"]
     scene, robot = make_scene(setting.scene, seed), get_robot(setting.robot)
-    plan = SSCCPlanner(search="agent", learning=False).plan(Problem(scene, robot, setting.time_limit_s), seed=seed)
     target = out / f"sscc_{setting.scene}_{setting.robot}.png"
     fig = plt.figure(figsize=(18, 10))
-    if plan.path is None:
-        fig.suptitle(f"{setting.key} seed {seed}: no directive configuration ({plan.status})")
+    if row["path"] is None and not row.get("path_file"):
+        fig.suptitle(f"{setting.key} seed {seed}: no directive configuration ({row['status']})")
         return save_figure(fig, target)
-    d = plan.details
+    d = row["details"]
     E, u = scene.entrance.position, scene.entrance.direction
     directive = Directive(np.asarray(d["directive_joints"]), int(d["n_inner"]), E, u)
     motion = crawl(directive, robot.lengths)
@@ -258,7 +245,7 @@ def figures(setting: Setting, out: Path, seed: int | None = None) -> Path:
     ax.set_title("deviation from the directive configuration")
     ax.legend()
     ax.grid(alpha=0.3)
-    fig.suptitle(f"SSCC, {setting.key}, target seed {seed}: {plan.compute_time_s:.3f} s, "
+    fig.suptitle(f"SSCC, {setting.key}, target seed {seed}: {row['compute_time_s']:.3f} s, "
                  f"{d['swing_steps']} swing steps")
     fig.tight_layout()
     return save_figure(fig, target)
@@ -266,48 +253,36 @@ def figures(setting: Setting, out: Path, seed: int | None = None) -> Path:
 
 def run_sscc_bench(out_dir: str | Path = "bench-sscc", variants: Sequence[str] = tuple(VARIANTS),
                    settings: Sequence[Setting] = SETTINGS, targets: int | None = None,
-                   progress: bool = True) -> dict:
-    """Run paper 001's three settings with each search variant, judge every plan, write ``runs.csv``,
-    ``sscc.md`` and the pictures to ``out_dir``; return the summary (see :func:`summarise`). ``targets`` caps the
-    number of targets per setting (default: the paper's)."""
+                   progress: bool = True, backend: Backend = Backend()) -> dict:
+    """Run paper 001's three settings with each search variant through the benchmark runner on ``backend`` (rows
+    in ``out_dir/runs.jsonl``, resumable), then write ``sscc.md`` and the pictures from the logged rows; return
+    the summary (see :func:`summarise`). ``targets`` caps the number of targets per setting (default: the
+    paper's)."""
     unknown = [v for v in variants if v not in VARIANTS]
     if unknown:
         raise ValueError(f"variants: unknown {unknown[0]!r}; choose from {', '.join(VARIANTS)}")
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    counts = [min(s.targets, targets) if targets is not None else s.targets for s in settings]
-    total = sum(counts) * len(variants)
-    rows: list[dict] = []
-    with _progress(total, progress) as tick:
-        for s, n in zip(settings, counts):
-            rows += _run_setting(s, variants, n, tick)
-    _write_rows(out / "runs.csv", rows)
+    runs = [r for s in settings
+            for r in sweep(s, variants, min(s.targets, targets) if targets is not None else s.targets).runs()]
+    rows = run_sweep(sweep(settings[0], variants, 1), out, backend, progress=progress, runs=runs).rows
+    text, pictures = paper_sections(rows, out, settings, variants)
+    atomic_write(out / "sscc.md", text + "\n")
+    return {"settings": summarise(rows, settings, variants), "figures": [str(p) for p in pictures],
+            "runs": str(out / RUNS_FILE)}
+
+
+def paper_sections(rows: list[dict], out: Path, settings: Sequence[Setting] = SETTINGS,
+                   variants: Sequence[str] = tuple(VARIANTS)) -> tuple[str, list[Path]]:
+    """The tables' markdown and the pictures of each setting's figure target (the agent's logged run of the
+    setting's ``figure_seed``, else its first logged agent run), from logged rows."""
     summary = summarise(rows, settings, variants)
-    pictures = [str(figures(s, out)) for s in settings]
+    pictures = []
+    for s in settings:
+        logged = sorted((r for r in rows if setting_of(r) == s.key and variant_of(r["options"]) == "agent"),
+                        key=lambda r: (r["seed"] != s.figure_seed, r["seed"]))
+        if logged:
+            pictures.append(figures(s, out, logged[0]))
     text = "\n".join([(f"SSCC on paper 001's settings; every plan judged by snakeplan.evaluation. Aim: success >= "
                        f"{100 * AIM_SUCCESS:.0f} % and median time <= {AIM_MEDIAN_TIME_S:g} s per target."), "",
-                      summary_markdown(summary), "", *[f"![{Path(p).stem}]({Path(p).name})" for p in pictures]])
-    atomic_write(out / "sscc.md", text + "\n")
-    return {"settings": summary, "figures": pictures, "runs_csv": str(out / "runs.csv")}
-
-
-class _progress:
-    """A rich progress bar over ``total`` runs (or nothing); the context value advances it by one."""
-
-    def __init__(self, total: int, enabled: bool):
-        self.total, self.enabled = total, enabled
-
-    def __enter__(self):
-        if not self.enabled:
-            return lambda _description: None
-        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-
-        self._bar = Progress(TextColumn("sscc"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                             TextColumn("{task.description}"))
-        self._bar.__enter__()
-        task = self._bar.add_task("", total=self.total)
-        return lambda description: self._bar.update(task, advance=1, description=description)
-
-    def __exit__(self, *exc) -> None:
-        if self.enabled:
-            self._bar.__exit__(*exc)
+                      summary_markdown(summary), "", *[f"![{p.stem}]({p.name})" for p in pictures]])
+    return text, pictures

@@ -1,8 +1,9 @@
 """Paper 000's Table 2 harness: planners side by side on identical seeded episodes, judged by one judge.
 
-Every (scene, seed, planner) run is planned with the same time budget and judged by
-:func:`snakeplan.evaluation.evaluate`. Rows are appended to ``runs.csv`` as they arrive, so an interrupted
-benchmark resumes where it stopped. The summary gives mean +- std of path length and smoothness index over
+A configuration of the benchmark runner (:mod:`snakeplan.bench.runner`): every (scene, seed, planner) run is
+planned with the same time budget and judged by :func:`snakeplan.evaluation.evaluate`, one row per run in
+``runs.jsonl``, so an interrupted benchmark resumes where it stopped, on any backend. The summary, drawn from the
+logged rows, gives mean +- std of path length and smoothness index over
 successful runs, compute time over all runs, and the success rate, with the paper's figures beside ours, plus
 Appendix A's statistics and a Fig. 7-like picture of the planners' paths and curvature profiles.
 """
@@ -10,17 +11,18 @@ Appendix A's statistics and a Fig. 7-like picture of the planners' paths and cur
 from __future__ import annotations
 
 import csv
+import io
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from snakeplan.bench.runner import Sweep, row_path, run_sweep
+from snakeplan.parallel import Backend
 from snakeplan.bench.statistics import games_howell, levene_p, shapiro_p, welch_anova
-from snakeplan.episode import run_episode
+from snakeplan.evaluation import evaluate
 from snakeplan.files import atomic_write
-from snakeplan.planners import Problem
 from snakeplan.robots import get_robot
 from snakeplan.scenes import make_scene, scene_names, scene_spec
 
@@ -30,8 +32,8 @@ DEFAULT_PLANNERS = ("rrt-star", "sp-rrt", "as-rrt", "sac-her", "sac-per")
 DEFAULT_RUNS = 10
 #: The same planning budget (s) for every planner.
 DEFAULT_TIME_LIMIT_S = 10.0
-#: Seed of the warm-up episode each planner plans once before timing (loads jit caches; not a benchmark seed).
-WARMUP_SEED = 10_000
+#: The runner's configuration name of this table (rows' ``config``; ``bench report`` draws its figures).
+CONFIG = "table2"
 METRICS = ("path_length_mm", "compute_time_s", "smoothness_index")
 
 #: Paper 000, Table 2: (mean, std) of path length (mm), computation time (s), smoothness index.
@@ -54,11 +56,6 @@ PAPER_TABLE2: dict[tuple[str, str], dict[str, tuple[float, float]]] = {
                               "smoothness_index": (0.1231, 0.0045)},
 }
 
-RUN_FIELDS = ("scene", "seed", "planner", "time_limit_s", "status", "success", "reason", "path_length_mm",
-              "compute_time_s", "smoothness_index", "max_curvature_per_mm", "mean_curvature_per_mm",
-              "min_clearance_mm", "max_deviation_mm", "targets_reached")
-
-
 @dataclass(frozen=True)
 class Table2Config:
     planners: tuple[str, ...] = DEFAULT_PLANNERS
@@ -77,87 +74,40 @@ class Table2Config:
         """The robot planned in ``scene``."""
         return self.robot or scene_spec(scene).robot
 
+    def sweep(self) -> Sweep:
+        """This table as a sweep of the benchmark runner."""
+        return Sweep(CONFIG, self.scenes, self.seeds, tuple((p, {}) for p in self.planners), self.time_limit_s,
+                     self.robot, include=lambda scene, planner: planner in self.planners_in(scene))
+
 
 def policy_scenes(planner: str) -> tuple[str, ...]:
     """The scene families whose spec ships a policy for ``planner``."""
     return tuple(s for s in scene_names() if planner in scene_spec(s).policies)
 
 
-def run_one(scene_name: str, seed: int, planner_name: str, time_limit_s: float, robot_name: str = ""):
-    """Plan and judge one episode (with the scene's own robot unless ``robot_name``); returns (run row, plan,
-    report or None)."""
-    robot = get_robot(robot_name or scene_spec(scene_name).robot)
-    episode = run_episode(Problem(make_scene(scene_name, seed), robot, time_limit_s), planner_name, seed=seed)
-    plan, report = episode.plan, episode.report
-    row = {"scene": scene_name, "seed": seed, "planner": planner_name, "time_limit_s": time_limit_s,
-           "status": str(plan.status), "compute_time_s": plan.compute_time_s, "success": episode.success,
-           "reason": episode.reason}
-    if report is not None:
-        m = report.metrics()
-        row.update({k: m[k] for k in RUN_FIELDS if k in m and k not in row})
-    return row, plan, report
+def run_table2(config: Table2Config, out_dir: str | Path, fresh: bool = False, progress: bool = True,
+               backend: Backend = Backend()) -> dict:
+    """Run every missing (scene, seed, planner) episode on ``backend`` (rows in ``out_dir/runs.jsonl``), then
+    write the summary, statistics and Fig. 7 drawn from the logged rows; returns the summary."""
+    outcome = run_sweep(config.sweep(), out_dir, backend, fresh=fresh, progress=progress)
+    return table2_outputs(config, outcome.rows, Path(out_dir))
 
 
-def _read_runs(path: Path) -> list[dict]:
-    if not path.exists():
-        return []
-    with path.open(newline="") as fh:
-        return list(csv.DictReader(fh))
-
-
-def run_table2(config: Table2Config, out_dir: str | Path, fresh: bool = False, progress: bool = True) -> dict:
-    """Run every missing (scene, seed, planner) episode, then write the summary, statistics and figures."""
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    runs_file = out / "runs.csv"
-    if fresh and runs_file.exists():
-        runs_file.unlink()
-    done = {(r["scene"], int(r["seed"]), r["planner"]) for r in _read_runs(runs_file)
-            if float(r["time_limit_s"]) == config.time_limit_s}
-    todo = [(s, seed, p) for s in config.scenes for seed in config.seeds for p in config.planners_in(s)
-            if (s, seed, p) not in done]
-    warm = {}
-    for s, _, p in todo:
-        warm.setdefault(p, s)
-    for p, s in sorted(warm.items()):
-        run_one(s, WARMUP_SEED, p, min(config.time_limit_s, 2.0), config.robot_in(s))
-    new_file = not runs_file.exists()
-    with runs_file.open("a", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=RUN_FIELDS, extrasaction="ignore")
-        if new_file:
-            writer.writeheader()
-        for s, seed, p in _progress(todo, progress):
-            row, _, _ = run_one(s, seed, p, config.time_limit_s, config.robot_in(s))
-            writer.writerow(row)
-            fh.flush()
-    rows = [r for r in _read_runs(runs_file) if float(r["time_limit_s"]) == config.time_limit_s
-            and r["scene"] in config.scenes and r["planner"] in config.planners_in(r["scene"]) and int(r["seed"]) in config.seeds]
+def table2_outputs(config: Table2Config, rows: list[dict], out: Path) -> dict:
+    """Write ``table2.md`` (summary and Appendix A), ``table2.csv`` and ``fig7_*.png`` from logged rows."""
     summary = summarise(rows, config)
     atomic_write(out / "table2.md", summary_markdown(summary, config) + "\n\n" + statistics_markdown(rows, config))
     _write_summary_csv(out / "table2.csv", summary)
-    figure_7(config, out)
+    figure_7(config, rows, out)
     return summary
 
 
-def _progress(items: Sequence, enabled: bool):
-    if not enabled:
-        yield from items
-        return
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-
-    with Progress(TextColumn("table 2"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  TextColumn("{task.description}")) as bar:
-        task = bar.add_task("", total=len(items))
-        for item in items:
-            bar.update(task, description=f"{item[0]} seed {item[1]} {item[2]}")
-            yield item
-            bar.advance(task)
-
-
 def _values(rows: list[dict], metric: str, successful_only: bool) -> np.ndarray:
-    vals = [float(r[metric]) for r in rows if r.get(metric) not in (None, "")
-            and (not successful_only or r["success"] == "True")]
-    return np.array(vals, dtype=float)
+    """``metric`` of each row (the plan's compute time, or the judge's metric), of the judged successes only when
+    ``successful_only``."""
+    vals = [r[metric] if metric in r else (r["metrics"] or {}).get(metric) for r in rows
+            if not successful_only or r["success"]]
+    return np.array([v for v in vals if v is not None], dtype=float)
 
 
 def summarise(rows: list[dict], config: Table2Config) -> dict:
@@ -167,7 +117,7 @@ def summarise(rows: list[dict], config: Table2Config) -> dict:
         for p in config.planners_in(s):
             group = [r for r in rows if r["scene"] == s and r["planner"] == p]
             entry = {"runs": len(group),
-                     "success_rate": float(np.mean([r["success"] == "True" for r in group])) if group else math.nan}
+                     "success_rate": float(np.mean([r["success"] is True for r in group])) if group else math.nan}
             for metric in METRICS:
                 v = _values(group, metric, successful_only=metric != "compute_time_s")
                 entry[metric] = (float(v.mean()) if v.size else math.nan,
@@ -230,22 +180,24 @@ def statistics_markdown(rows: list[dict], config: Table2Config) -> str:
 
 
 def _write_summary_csv(path: Path, summary: dict) -> None:
-    with path.open("w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["scene", "planner", "runs", "success_rate", "path_length_mean", "path_length_std",
-                    "time_mean", "time_std", "time_median", "smoothness_mean", "smoothness_std",
-                    "paper_path_length", "paper_time", "paper_smoothness"])
-        for key, e in summary.items():
-            s, p = key.split("/")
-            paper = e["paper"] or {}
-            w.writerow([s, p, e["runs"], e["success_rate"], *e["path_length_mm"], *e["compute_time_s"],
-                        e["median_compute_time_s"], *e["smoothness_index"],
-                        paper.get("path_length_mm", ("",))[0], paper.get("compute_time_s", ("",))[0],
-                        paper.get("smoothness_index", ("",))[0]])
+    text = io.StringIO()
+    w = csv.writer(text)
+    w.writerow(["scene", "planner", "runs", "success_rate", "path_length_mean", "path_length_std",
+                "time_mean", "time_std", "time_median", "smoothness_mean", "smoothness_std",
+                "paper_path_length", "paper_time", "paper_smoothness"])
+    for key, e in summary.items():
+        s, p = key.split("/")
+        paper = e["paper"] or {}
+        w.writerow([s, p, e["runs"], e["success_rate"], *e["path_length_mm"], *e["compute_time_s"],
+                    e["median_compute_time_s"], *e["smoothness_index"],
+                    paper.get("path_length_mm", ("",))[0], paper.get("compute_time_s", ("",))[0],
+                    paper.get("smoothness_index", ("",))[0]])
+    atomic_write(path, text.getvalue())
 
 
-def figure_7(config: Table2Config, out: Path) -> list[Path]:
-    """For each scene, the planners' paths on the first seed and their curvature profiles (like Fig. 7)."""
+def figure_7(config: Table2Config, rows: list[dict], out: Path) -> list[Path]:
+    """For each scene, the planners' logged paths on the first seed and their curvature profiles (like Fig. 7);
+    the paths are read from the rows (and judged again for the profile), not planned again."""
     import matplotlib.pyplot as plt
 
     from snakeplan.viz.figures import save_figure
@@ -255,21 +207,24 @@ def figure_7(config: Table2Config, out: Path) -> list[Path]:
     seed = config.seeds[0]
     for s in config.scenes:
         scene = make_scene(s, seed)
+        robot = get_robot(config.robot_in(s))
+        logged = {r["planner"]: r for r in rows if r["scene"] == s and r["seed"] == seed}
         fig = plt.figure(figsize=(14, 6))
         ax = fig.add_subplot(1, 2, 1, projection="3d")
         ax2 = fig.add_subplot(1, 2, 2)
         draw_scene(ax, scene)
         for i, p in enumerate(config.planners_in(s)):
-            _, plan, report = run_one(s, seed, p, config.time_limit_s, config.robot_in(s))
-            if plan.path is None:
+            path = row_path(out, logged[p]) if p in logged else None
+            if path is None:
                 continue
+            report = evaluate(scene, robot, path)
             color = f"C{i}"
-            ax.plot(*plan.path.T, color=color, lw=1.5, label=p)
+            ax.plot(*path.T, color=color, lw=1.5, label=p)
             ax2.plot(report.curvature_s, report.curvature, color=color, marker=".",
                      label=f"{p}: S = {report.smoothness_index:.3f} ({report.reason})")
         ax.legend(fontsize=7)
         ax.set_title(f"{s} seed {seed}: paths")
-        ax2.axhline(get_robot(config.robot_in(s)).k_ul, color="k", ls="--", label="k_UL")
+        ax2.axhline(robot.k_ul, color="k", ls="--", label="k_UL")
         ax2.set_xlabel("arc length (mm)")
         ax2.set_ylabel("curvature (1/mm)")
         ax2.legend(fontsize=8)

@@ -5,26 +5,29 @@ A run converges at the first validation whose success reaches ``CONVERGENCE_SUCC
 baseline's median steps to convergence over the variant's (a run that never converges counts as the run's
 length, so the speed-up is then a lower bound, flagged in the result). Validation success is noisy, so the
 result also gives each variant's mean validation success over the run (the area under its learning curve,
-averaged over seeds). Every run is an ordinary
-:func:`snakeplan.rl.train.train` run in its own folder, so an interrupted ablation resumes.
-Run as ``snakeplan bench ablation --scene SCENE --seeds 3 --steps N [--compare observation]``.
+averaged over seeds). Every run is an ordinary :func:`snakeplan.rl.train.train` run in its own folder
+(``{scene}-{algorithm}-{observation}-seed{seed}``), trained through a training sweep
+(:func:`snakeplan.rl.sweep.run_jobs`) on any backend, so an interrupted ablation resumes, on one core or a
+cluster. Run as ``snakeplan bench ablation --scene SCENE --seeds 3 --steps N [--compare observation]
+[--workers N | --ray ADDRESS]``; the threshold is :data:`snakeplan.rl.sweep.CONVERGENCE_SUCCESS` (0.6: the
+plain-SAC baselines rarely reach 0.9 within a run of a few tens of thousands of steps on two cores, so the
+speed-up is measured to a level every variant reaches).
 """
 
 from __future__ import annotations
 
 import json
-from dataclasses import replace
+from dataclasses import asdict, replace
 from pathlib import Path
 
 import numpy as np
 
 from snakeplan.files import atomic_write
-from snakeplan.rl.train import ALGORITHMS, DEFAULT_CONFIG, TrainConfig, plot_curves, train
+from snakeplan.parallel import Backend
+from snakeplan.rl.sweep import CONVERGENCE_SUCCESS, TrainJob, run_jobs, steps_to_converge
+from snakeplan.rl.train import ALGORITHMS, DEFAULT_CONFIG, TrainConfig, plot_curves
 from snakeplan.scenes import scene_spec
 
-#: Validation success that counts as converged: the plain-SAC baselines rarely reach 0.9 within a run of a few
-#: tens of thousands of steps on two cores, so the speed-up is measured to a level every variant reaches.
-CONVERGENCE_SUCCESS = 0.6
 COMPARISONS = ("replay", "observation")
 
 
@@ -39,34 +42,30 @@ def variants(scene: str, compare: str) -> dict[str, tuple[str, str]]:
     return {f"{algo.upper()} local": (algo, "local"), f"{algo.upper()} paper": (algo, "paper")}
 
 
-def steps_to_converge(history: list[dict], threshold: float = CONVERGENCE_SUCCESS) -> tuple[float, bool]:
-    """(environment steps at the first validation reaching ``threshold``, whether it did; else the last step)."""
-    for h in history:
-        if h["success"] >= threshold:
-            return float(h["env_steps"]), True
-    return (float(history[-1]["env_steps"]) if history else float("nan")), False
-
-
 def run_ablation(scene: str, seeds: list[int], steps: int, out_dir: str | Path, compare: str = "replay",
-                 config: TrainConfig = DEFAULT_CONFIG, threshold: float = CONVERGENCE_SUCCESS) -> dict:
-    """Train every variant with every seed, plot ``ablation-{compare}.png`` and return (and write as JSON) the
+                 config: TrainConfig = DEFAULT_CONFIG, threshold: float = CONVERGENCE_SUCCESS,
+                 backend: Backend = Backend("serial"), progress: bool = False) -> dict:
+    """Train every variant with every seed on ``backend`` (a training sweep, seed by seed so that an unfinished
+    ablation still pairs its variants), plot ``ablation-{scene}-{compare}.png`` and return (and write as JSON) the
     steps to convergence per run and the speed-up of the first variant over the second."""
     if compare not in COMPARISONS:
         raise ValueError(f"compare: must be one of {COMPARISONS}, got {compare!r}")
     out = Path(out_dir)
-    curves: dict[str, list[list[dict]]] = {}
+    labels = variants(scene, compare)
+    jobs = [TrainJob(scene, algo, steps, seed, str(out / f"{scene}-{algo}-{observation}-seed{seed}"),
+                     asdict(replace(config, observation=observation)))
+            for seed in seeds for algo, observation in labels.values()]
+    histories = iter(run_jobs(jobs, backend, progress, f"ablation {scene}"))
+    by_seed = [{label: next(histories) for label in labels} for _ in seeds]
+    curves = {label: [h[label] for h in by_seed] for label in labels}
     result: dict = {"scene": scene, "compare": compare, "steps": steps, "seeds": list(seeds), "threshold": threshold,
-                    "runs": {}}
-    for label, (algo, observation) in variants(scene, compare).items():
-        curves[label] = []
+                    "backend": backend.settings(), "runs": {}}
+    for label, runs in curves.items():
         result["runs"][label] = []
-        for seed in seeds:
-            run_dir = out / f"{scene}-{algo}-{observation}-seed{seed}"
-            res = train(scene, algo, steps, seed, run_dir, replace(config, observation=observation), progress=False)
-            curves[label].append(res.history)
-            at, ok = steps_to_converge(res.history, threshold)
+        for seed, history in zip(seeds, runs):
+            at, ok = steps_to_converge(history, threshold)
             result["runs"][label].append({"seed": seed, "steps_to_converge": at, "converged": ok,
-                                          "final_success": res.history[-1]["success"] if res.history else None})
+                                          "final_success": history[-1]["success"] if history else None})
     first, second = list(result["runs"])
     med = {k: float(np.median([r["steps_to_converge"] for r in v])) for k, v in result["runs"].items()}
     result["median_steps_to_converge"] = med

@@ -1,0 +1,422 @@
+"""The one benchmark runner: episodes (scene families or scene files x seeds) x planners (+ options), planned and
+judged through :func:`snakeplan.episode.run_episode`, one JSON Lines row per run in a results folder.
+
+A results folder ``DIR`` holds::
+
+    DIR/runs.jsonl          one snakeplan.run/1 row per run, appended whole (one write of one line, fsync'ed)
+    DIR/paths/<sha256>.json a path longer than PATH_INLINE_POINTS points (the row keeps its hash)
+    DIR/invocations.jsonl   one line per finished invocation: backend, runs, wall time, load averages
+    DIR/.lock               held (flock) while a runner writes the folder
+
+A row names its run (scene, seed, robot, planner and options, time limit, knowledge), the judge's verdict and
+metrics, the plan's status, details and compute time, the path, and its provenance (snakeplan version, git commit
+when the package runs from a checkout, Python, platform, the host that planned it, the invocation's start time
+and settings). Its ``key`` is a digest of the run's identity: a rerun of the same command skips every key the
+folder holds (resume), and a torn last line (a writer killed mid-line) is cut off before anything is appended.
+A second runner on the same folder is refused with one line.
+
+Backends (:class:`snakeplan.parallel.Backend`): ``serial`` (in this process), ``processes`` (a local process
+pool, the default, one worker per usable core) and ``ray`` (``local`` starts a Ray instance for the run; ``auto``
+or an address joins a cluster; the ``cluster`` extra). Work goes out in chunks of runs (:func:`chunks`), each
+worker with BLAS/OpenMP pinned to one thread; only this process writes, so the rows are the same on every backend, timing aside
+(:func:`comparable`). Each worker process plans every (planner, scene) pair once untimed before its first timed
+run (jit caches, policy files), so no run pays for loading. A planner marked ``stateful`` (a learning planner)
+keeps one instance over its runs in seed order, in one chunk, as the papers run it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import platform
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import asdict, dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+
+from snakeplan.checkpoints import fsync_dir, lock_folder
+from snakeplan.files import atomic_write
+from snakeplan.interrupt import Interrupted, interruptible
+from snakeplan.jsonable import jsonable
+from snakeplan.parallel import Backend, execute, progress_bar, usable_cores
+
+SCHEMA = "snakeplan.run/1"
+RUNS_FILE = "runs.jsonl"
+INVOCATIONS_FILE = "invocations.jsonl"
+PATHS_FOLDER = "paths"
+#: Paths with more points than this go to a sidecar file named by their hash.
+PATH_INLINE_POINTS = 400
+#: Seed of the untimed warm-up plan each worker makes per (planner, scene) before timing (not a benchmark seed).
+WARMUP_SEED = 10_000
+#: Budget (s) of a warm-up plan, at most.
+WARMUP_TIME_LIMIT_S = 2.0
+#: Most runs in one task; fewer when there are few runs per worker.
+CHUNK_MAX = 8
+#: Fields of a row that measure time or place rather than the result.
+TIMING_FIELDS = ("compute_time_s", "provenance")
+
+
+@dataclass(frozen=True)
+class Run:
+    """One run: a scene (a registered family and seed, or a scene file) planned by ``planner`` with ``options``
+    from ``seed``. ``scene_file`` runs carry the file's text (``scene_json``) so that any worker can plan them."""
+
+    scene: str
+    seed: int
+    planner: str
+    robot: str
+    time_limit_s: float
+    options: tuple[tuple[str, object], ...] = ()
+    knowledge: str = "full"
+    scene_json: str = ""
+    stateful: bool = False
+    config: str = ""
+
+    def identity(self) -> dict:
+        """What makes this run this run (the key's preimage; a scene file counts by its content)."""
+        ident = {"scene": self.scene, "seed": self.seed, "robot": self.robot, "planner": self.planner,
+                 "options": dict(self.options), "time_limit_s": self.time_limit_s, "knowledge": self.knowledge}
+        if self.scene_json:
+            ident["scene_sha256"] = hashlib.sha256(self.scene_json.encode()).hexdigest()
+        return ident
+
+    @property
+    def key(self) -> str:
+        return hashlib.sha256(json.dumps(self.identity(), sort_keys=True).encode()).hexdigest()[:24]
+
+    @property
+    def label(self) -> str:
+        return f"{self.scene} seed {self.seed} {self.planner}"
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """Episodes x planners: every ``scenes`` entry (a family name, or a ``.json`` scene file) with every seed,
+    planned by every ``planners`` entry ``(name, options)``; ``robot`` empty: each scene's own (its spec).
+    ``include(scene, planner)`` may leave pairs out (Table 2 compares a learned planner only where its policy
+    ships). ``stateful(planner, options)`` says which planners keep one instance over their runs in a scene, in
+    seed order (a planner that learns from run to run)."""
+
+    name: str
+    scenes: tuple[str, ...]
+    seeds: tuple[int, ...]
+    planners: tuple[tuple[str, dict], ...]
+    time_limit_s: float = 10.0
+    robot: str = ""
+    knowledge: str = "full"
+    stateful: Callable[[str, dict], bool] | None = field(default=None, compare=False)
+    include: Callable[[str, str], bool] | None = field(default=None, compare=False)
+
+    def runs(self) -> list[Run]:
+        """Every run, scene by scene, planner by planner, seed by seed."""
+        out = []
+        for scene in self.scenes:
+            text, family = _scene_source(scene)
+            robot = self.robot or _spec_robot(family, text)
+            for planner, options in self.planners:
+                if self.include is not None and not self.include(family, planner):
+                    continue
+                for seed in self.seeds:
+                    out.append(Run(family, seed, planner, robot, self.time_limit_s,
+                                   tuple(sorted(options.items())), self.knowledge, text,
+                                   self.stateful is not None and self.stateful(planner, options),
+                                   self.name))
+        return out
+
+
+def _scene_source(scene: str) -> tuple[str, str]:
+    """(scene file text or "", family or file name) of a sweep's scene entry."""
+    if scene.endswith(".json"):
+        from snakeplan.scenes import Scene
+
+        try:
+            text = Path(scene).read_text()
+        except OSError as exc:
+            raise ValueError(f"scenes: cannot read {scene} ({exc.__class__.__name__})") from None
+        return text, Scene.from_json(text, "scenes").name
+    from snakeplan.scenes import scene_spec
+
+    scene_spec(scene)  # KeyError naming the known families
+    return "", scene
+
+
+def _spec_robot(family: str, text: str) -> str:
+    from snakeplan.scenes import Scene, scene_spec, spec_for
+
+    return spec_for(Scene.from_json(text, "scenes")).robot if text else scene_spec(family).robot
+
+
+# --- tasks ------------------------------------------------------------------------------------------------
+def chunks(runs: Sequence[Run], slots: int) -> list[list[Run]]:
+    """Runs grouped into tasks: a stateful planner's runs in one scene stay together in seed order; the rest one
+    by one for a single worker (each row logged as soon as it is judged), else in chunks of at most
+    :data:`CHUNK_MAX`, about four tasks per worker."""
+    groups: dict[tuple, list[Run]] = {}
+    for r in runs:
+        groups.setdefault((r.scene, r.planner, r.options) if r.stateful else (r.key,), []).append(r)
+    units = list(groups.values())
+    size = 1 if slots == 1 else max(1, min(CHUNK_MAX, math.ceil(len(runs) / (4 * slots))))
+    out: list[list[Run]] = []
+    current: list[Run] = []
+    for unit in units:
+        if unit[0].stateful:
+            out.append(unit)
+            continue
+        current += unit
+        if len(current) >= size:
+            out.append(current)
+            current = []
+    if current:
+        out.append(current)
+    return out
+
+
+# --- planning one chunk (in a worker) ------------------------------------------------------------------------
+_WARM: set[tuple] = set()
+
+
+def _scene_of(run: Run, seed: int | None = None):
+    from snakeplan.scenes import Scene, make_scene
+
+    if run.scene_json:
+        return Scene.from_json(run.scene_json, "scenes")
+    return make_scene(run.scene, run.seed if seed is None else seed)
+
+
+def run_chunk(task: list[Run], stamp: dict) -> list[dict]:
+    """Plan and judge every run of ``task`` (in a worker); its rows, each stamped with ``stamp`` (provenance)
+    and this host."""
+    from snakeplan.episode import run_episode
+    from snakeplan.planners import Problem, get_planner
+    from snakeplan.robots import get_robot
+
+    host = {"host": socket.gethostname(), "pid": os.getpid()}
+    rows = []
+    shared: dict[tuple, object] = {}
+    for run in task:
+        robot = get_robot(run.robot)
+        options = dict(run.options)
+        warm = (run.scene, run.scene_json, run.robot, run.planner, run.options)
+        if warm not in _WARM:
+            run_episode(Problem(_scene_of(run, WARMUP_SEED), robot, min(run.time_limit_s, WARMUP_TIME_LIMIT_S),
+                                knowledge=run.knowledge), get_planner(run.planner, **options), seed=WARMUP_SEED)
+            _WARM.add(warm)
+        if run.stateful:
+            planner = shared.setdefault((run.planner, run.options), get_planner(run.planner, **options))
+        else:
+            planner = get_planner(run.planner, **options)
+        problem = Problem(_scene_of(run), robot, run.time_limit_s, knowledge=run.knowledge)
+        episode = run_episode(problem, planner, seed=run.seed)
+        rows.append(make_row(run, episode, {**stamp, **host}))
+    return rows
+
+
+def make_row(run: Run, episode, provenance: dict) -> dict:
+    """The ``snakeplan.run/1`` row of a judged episode."""
+    plan, report = episode.plan, episode.report
+    path = None if plan.path is None else np.asarray(plan.path, dtype=float)
+    row = {"schema": SCHEMA, "key": run.key, "config": run.config, "scene": run.scene, "seed": run.seed,
+           "robot": run.robot, "planner": run.planner, "options": dict(run.options),
+           "time_limit_s": run.time_limit_s, "knowledge": run.knowledge,
+           "status": str(plan.status), "success": episode.success, "reason": episode.reason,
+           "compute_time_s": plan.compute_time_s,
+           "metrics": report.metrics() if report is not None else None,
+           "details": jsonable(plan.details),
+           "path": None if path is None else path.tolist(),
+           "path_points": 0 if path is None else len(path),
+           "path_sha256": None if path is None else hashlib.sha256(path.tobytes()).hexdigest(),
+           "provenance": provenance}
+    if run.scene_json:
+        row["scene_sha256"] = run.identity()["scene_sha256"]
+    return jsonable(row)
+
+
+def comparable(row: dict) -> dict:
+    """A row without what measures time or place (:data:`TIMING_FIELDS`, details in seconds, ``*_s``, and the
+    details of a run its time budget stopped, ``timeout``: its search statistics): what must agree between backends and between an interrupted run and an uninterrupted one."""
+    out = {k: v for k, v in row.items() if k not in TIMING_FIELDS}
+    if out.get("status") == "timeout":
+        out.pop("details", None)  # how far the search got before its clock stopped it: a measure of speed
+    elif isinstance(out.get("details"), dict):
+        out["details"] = {k: v for k, v in out["details"].items() if not k.endswith("_s")}
+    return out
+
+
+# --- the results folder ----------------------------------------------------------------------------------------
+def provenance(settings: dict) -> dict:
+    """Where and how results come from: snakeplan version, git commit (None outside a checkout), Python,
+    platform, start time (UTC) and the run's settings; the worker adds its host."""
+    from snakeplan import __version__
+
+    return {"snakeplan": __version__, "commit": git_commit(), "python": platform.python_version(),
+            "platform": platform.platform(), "started": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+            "settings": settings}
+
+
+def git_commit() -> str | None:
+    """The commit of the checkout snakeplan runs from (``+dirty`` with uncommitted changes), or None."""
+    root = Path(__file__).resolve().parents[3]
+    if not (root / ".git").exists():
+        return None
+    try:
+        head = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True, text=True,
+                              timeout=10, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "-C", str(root), "status", "--porcelain", "--untracked-files=no"],
+                               capture_output=True, text=True, timeout=10, check=True).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return head + ("+dirty" if dirty else "")
+
+
+def read_rows(folder: str | Path) -> list[dict]:
+    """The complete rows of ``folder/runs.jsonl`` (a torn or unreadable last line is left out)."""
+    rows, _ = _scan(Path(folder) / RUNS_FILE)
+    return rows
+
+
+def _scan(path: Path) -> tuple[list[dict], int]:
+    """(rows, byte length of the complete lines) of a runs file; only the last line may be torn."""
+    if not path.exists():
+        return [], 0
+    data = path.read_bytes()
+    rows, good = [], 0
+    for line in data.splitlines(keepends=True):
+        if not line.endswith(b"\n"):
+            break
+        try:
+            row = json.loads(line)
+        except ValueError:
+            if good + len(line) == len(data):
+                break
+            raise ValueError(f"out: {path} line {len(rows) + 1} is not a JSON row (not a results folder?)") from None
+        rows.append(row)
+        good += len(line)
+    return rows, good
+
+
+class ResultsLog:
+    """The rows file of a results folder, held by one writer (:meth:`open`)."""
+
+    def __init__(self, folder: str | Path):
+        self.folder = Path(folder)
+        self.path = self.folder / RUNS_FILE
+        self.rows: list[dict] = []
+        self._fd: int | None = None
+
+    @contextmanager
+    def open(self, fresh: bool = False) -> Iterator[ResultsLog]:
+        """Lock the folder (ValueError naming ``--out`` when another runner has it), cut a torn last line, load
+        the rows; ``fresh`` forgets them first."""
+        self.folder.mkdir(parents=True, exist_ok=True)
+        with lock_folder(self.folder, "--out"):
+            if fresh:
+                self.path.unlink(missing_ok=True)
+            self.rows, good = _scan(self.path)
+            self._fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o644)
+            try:
+                if os.fstat(self._fd).st_size != good:
+                    os.ftruncate(self._fd, good)
+                    os.fsync(self._fd)
+                yield self
+            finally:
+                os.close(self._fd)
+                self._fd = None
+
+    def done(self) -> set[str]:
+        return {r["key"] for r in self.rows}
+
+    def append(self, row: dict) -> None:
+        """Append one row as one line in one write, fsync'ed; a long path goes to its sidecar file first."""
+        if row.get("path") is not None and row["path_points"] > PATH_INLINE_POINTS:
+            folder = self.folder / PATHS_FOLDER
+            folder.mkdir(exist_ok=True)
+            atomic_write(folder / f"{row['path_sha256']}.json", json.dumps({"path": row["path"]}))
+            fsync_dir(folder)
+            row = {**row, "path": None, "path_file": f"{PATHS_FOLDER}/{row['path_sha256']}.json"}
+        line = (json.dumps(row, allow_nan=False) + "\n").encode()
+        os.write(self._fd, line)
+        os.fsync(self._fd)
+        self.rows.append(row)
+
+
+def row_path(folder: str | Path, row: dict) -> np.ndarray | None:
+    """The tip path (m, 3) of a logged row, inline or from its sidecar file; None without one."""
+    if row.get("path") is not None:
+        return np.asarray(row["path"], dtype=float)
+    if row.get("path_file"):
+        return np.asarray(json.loads((Path(folder) / row["path_file"]).read_text())["path"], dtype=float)
+    return None
+
+
+@dataclass
+class Outcome:
+    """What :func:`run_sweep` did: the sweep's rows (logged before or now), how many it ran, wall time (s)."""
+
+    rows: list[dict]
+    ran: int
+    skipped: int
+    wall_s: float
+    backend: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return {**{k: v for k, v in asdict(self).items() if k != "rows"}, "runs": len(self.rows)}
+
+
+def run_sweep(sweep: Sweep, out: str | Path, backend: Backend = Backend(), fresh: bool = False,
+              progress: bool = True, runs: Iterable[Run] | None = None) -> Outcome:
+    """Run every run of ``sweep`` (or ``runs``) that ``out`` does not hold yet on ``backend``, appending rows as
+    tasks finish; returns the sweep's rows in the sweep's order. SIGINT/SIGTERM stop at once (every row appended
+    so far is whole and kept; the workers are stopped; :class:`~snakeplan.interrupt.Interrupted`, exit 130);
+    rerunning resumes."""
+    all_runs = list(sweep.runs() if runs is None else runs)
+    log = ResultsLog(out)
+    start, load = time.perf_counter(), _loadavg()
+    with log.open(fresh) as log:
+        done = log.done()
+        todo = [r for r in all_runs if r.key not in done]
+        stamp = provenance({"config": sweep.name, **backend.settings(), "argv": sys.argv[1:]})
+        tasks = chunks(todo, backend.slots)
+        with progress_bar(len(todo), sweep.name, progress) as tick, interruptible(immediate=True):
+            stream = execute(run_chunk, tasks, backend, stamp)
+            try:
+                for rows in stream:
+                    for row in rows:
+                        log.append(row)
+                        tick(f"{row['scene']} seed {row['seed']} {row['planner']}")
+            except Interrupted as stop:
+                raise Interrupted(f"interrupted: {len(log.rows)} runs in {log.path}; rerun the same command to "
+                                  f"resume", stop.signum) from None
+            finally:
+                stream.close()
+        by_key = {r["key"]: r for r in log.rows}
+        outcome = Outcome([by_key[r.key] for r in all_runs if r.key in by_key], len(todo),
+                          len(all_runs) - len(todo), time.perf_counter() - start, backend.settings())
+        _log_invocation(log.folder, stamp, outcome, load)
+    return outcome
+
+
+def _log_invocation(folder: Path, stamp: dict, outcome: Outcome, load: tuple[float, ...]) -> None:
+    """Append what this invocation did (backend, runs, wall time, the machine's load averages before and after)
+    to ``folder/invocations.jsonl``: the runner's own timing of a sweep."""
+    entry = {"started": stamp["started"], "commit": stamp["commit"], **outcome.to_dict(), "host": socket.gethostname(),
+             "cores": usable_cores(), "loadavg_before": list(load), "loadavg_after": list(_loadavg())}
+    with open(folder / INVOCATIONS_FILE, "a") as fh:
+        fh.write(json.dumps(jsonable(entry)) + "\n")
+        fh.flush()
+        os.fsync(fh.fileno())
+
+
+def _loadavg() -> tuple[float, ...]:
+    try:
+        return os.getloadavg()
+    except OSError:
+        return ()

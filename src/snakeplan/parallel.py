@@ -1,0 +1,182 @@
+"""Where long batches of independent tasks run: in this process, in a local process pool, or on Ray.
+
+:class:`Backend` says which (``serial``; ``processes``, the default, one worker per usable core; ``ray``: with
+``address`` ``local`` a Ray instance started for the job on this machine, ``auto`` or ``HOST:PORT`` an existing
+cluster; Ray comes with the ``cluster`` extra). :func:`execute` runs a module-level function over tasks and
+yields the results in the calling process as they finish, so only that process writes files and draws the
+progress bar. Every worker runs BLAS and OpenMP on one thread (:data:`THREAD_ENV`): N workers on N cores, not
+N x N threads fighting for them. Workers leave Ctrl-C to the calling process, which stops at its next safe point.
+The benchmark runner (:mod:`snakeplan.bench.runner`) and training sweeps (:mod:`snakeplan.rl.sweep`) use it.
+This module imports nothing from snakeplan but :mod:`snakeplan.extras`, so any layer may use it; Ray is
+imported only when a Ray backend runs.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import TypeVar
+
+T = TypeVar("T")
+#: Niceness of the workers of a Ray instance started here. Ray's default, 15, keeps its daemons responsive on a
+#: cluster node, but on a busy workstation it starved time-limited planners (rrt-star 5-10x slower on two
+#: loaded cores, its time budget then binding); a joined cluster keeps its own setting.
+RAY_LOCAL_NICENESS = 0
+#: Environment that pins BLAS and OpenMP to one thread per worker.
+THREAD_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
+              "NUMBA_NUM_THREADS": "1", "VECLIB_MAXIMUM_THREADS": "1"}
+
+
+@dataclass(frozen=True)
+class Backend:
+    """Where tasks execute: ``kind`` is ``serial``, ``processes`` (``workers`` local processes) or ``ray``
+    (``address``: ``local`` starts an instance with ``workers`` CPUs, ``auto`` or ``HOST:PORT`` joins one)."""
+
+    kind: str = "processes"
+    workers: int = 0
+    address: str = "local"
+
+    def __post_init__(self) -> None:
+        if self.kind not in ("serial", "processes", "ray"):
+            raise ValueError(f"backend: one of serial, processes, ray, got {self.kind!r}")
+        if self.workers < 0:
+            raise ValueError(f"--workers: expected a positive integer, got {self.workers}")
+
+    @property
+    def slots(self) -> int:
+        """Workers (usable cores when not given)."""
+        return 1 if self.kind == "serial" else (self.workers or usable_cores())
+
+    def settings(self) -> dict:
+        return {"backend": self.kind, "workers": self.slots,
+                **({"ray": self.address} if self.kind == "ray" else {})}
+
+
+def usable_cores() -> int:
+    """The cores this process may run on."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:
+        return max(1, os.cpu_count() or 1)
+
+
+def backend_from(workers: int | None, ray: str | None) -> Backend:
+    """The backend that ``--workers`` and ``--ray`` ask for: Ray when ``ray``; serial for one worker; else the
+    process pool (all usable cores by default)."""
+    if ray:
+        return Backend("ray", workers or 0, ray)
+    if workers is not None and workers < 1:
+        raise ValueError(f"--workers: expected a positive integer, got {workers}")
+    if workers == 1:
+        return Backend("serial", 1)
+    return Backend("processes", workers or 0)
+
+
+def _pin_threads() -> None:
+    """Worker initialiser: one BLAS/OpenMP thread, and Ctrl-C left to the parent (which stops at a safe point)."""
+    import signal
+
+    os.environ.update(THREAD_ENV)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+@contextmanager
+def _environment(values: dict[str, str]) -> Iterator[None]:
+    """``os.environ`` with ``values`` set for the block (the environment new worker processes inherit)."""
+    old = {k: os.environ.get(k) for k in values}
+    os.environ.update(values)
+    try:
+        yield
+    finally:
+        for k, v in old.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
+def execute(work: Callable[..., T], tasks: Sequence, backend: Backend, *args) -> Iterator[T]:
+    """``work(task, *args)`` for every task on ``backend``; yields each result in this process as it finishes
+    (in task order on ``serial``, in finishing order otherwise). ``work`` must be a module-level function (the
+    workers import it). Closing the generator stops the backend: a process pool finishes the tasks it has
+    started and drops the rest; Ray is shut down."""
+    if backend.kind == "serial" or not tasks:
+        for task in tasks:
+            yield work(task, *args)
+        return
+    if backend.kind == "processes":
+        yield from _execute_pool(work, tasks, backend.slots, args)
+        return
+    yield from _execute_ray(work, tasks, backend, args)
+
+
+class _Call:
+    """``work(task, *args)`` as a picklable one-argument function for a process pool."""
+
+    def __init__(self, work: Callable, args: tuple):
+        self.work, self.args = work, args
+
+    def __call__(self, task):
+        return self.work(task, *self.args)
+
+
+def _execute_pool(work, tasks, slots: int, args: tuple) -> Iterator:
+    """Tasks on a pool of spawned processes, started with :data:`THREAD_ENV` in their environment (so BLAS reads
+    it before it loads); closing early terminates the workers."""
+    import multiprocessing
+
+    with _environment(THREAD_ENV):
+        pool = multiprocessing.get_context("spawn").Pool(min(slots, len(tasks)), initializer=_pin_threads)
+    finished = False
+    try:
+        yield from pool.imap_unordered(_Call(work, args), tasks)
+        finished = True
+    finally:
+        if finished:
+            pool.close()
+        else:
+            pool.terminate()
+        pool.join()
+
+
+def _execute_ray(work, tasks, backend: Backend, args: tuple) -> Iterator:
+    from snakeplan.extras import require_cluster
+
+    require_cluster("--ray")
+    import ray
+
+    env = dict(THREAD_ENV)
+    if os.environ.get("PYTHONPATH") and backend.address == "local":
+        env["PYTHONPATH"] = os.environ["PYTHONPATH"]
+    if backend.address == "local":
+        ray.init(num_cpus=backend.slots, include_dashboard=False, log_to_driver=False,
+                 runtime_env={"env_vars": env}, configure_logging=False,
+                 _system_config={"worker_niceness": RAY_LOCAL_NICENESS})
+    else:
+        ray.init(address=backend.address, log_to_driver=False, runtime_env={"env_vars": env},
+                 configure_logging=False)
+    try:
+        remote = ray.remote(num_cpus=1, max_retries=2)(work)
+        pending = [remote.remote(task, *args) for task in tasks]
+        while pending:
+            done, pending = ray.wait(pending, num_returns=1)
+            yield ray.get(done[0])
+    finally:
+        ray.shutdown()
+
+
+@contextmanager
+def progress_bar(total: int, name: str, enabled: bool = True) -> Iterator[Callable[[str], None]]:
+    """One rich progress bar over ``total`` items, drawn by the calling process whatever the backend (or
+    nothing when not ``enabled``); the value ``tick(description)`` advances it by one."""
+    if not enabled or total == 0:
+        yield lambda _description: None
+        return
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    with Progress(TextColumn(name), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                  TextColumn("{task.description}"), transient=False) as bar:
+        task = bar.add_task("", total=total)
+        yield lambda description: bar.update(task, advance=1, description=description)

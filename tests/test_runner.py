@@ -1,0 +1,195 @@
+"""The benchmark runner: the same rows on every backend, exact resumption after SIGKILL, one writer per folder,
+torn last lines, and the report's Wilson interval against an independent inversion of the score test."""
+
+import json
+import math
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from scipy import optimize, stats
+
+import snakeplan
+from snakeplan.bench.report import summarise, wilson, write_report
+from snakeplan.bench.runner import RUNS_FILE, ResultsLog, Sweep, chunks, comparable, read_rows, run_sweep
+from snakeplan.bench.table2 import Table2Config
+from snakeplan.parallel import Backend, backend_from
+
+ENV = {**os.environ, "PYTHONPATH": str(Path(snakeplan.__file__).parents[1]), "OPENBLAS_NUM_THREADS": "1"}
+
+
+def _same_rows_on_every_backend(tmp_path: Path, seeds: tuple[int, ...]) -> None:
+    # Every Table 2 planner in both tanks, with a budget that does not bind on a loaded machine: a time-limited
+    # planner stopped by its clock (rrt-star's legs) plans less on a slower worker, on any backend.
+    config = Table2Config(seeds=seeds, time_limit_s=30.0)
+    results = {}
+    for backend in (Backend("serial"), Backend("processes", 2), Backend("ray", 2, "local")):
+        outcome = run_sweep(config.sweep(), tmp_path / backend.kind, backend, progress=False)
+        assert outcome.ran == len(config.sweep().runs()) and outcome.skipped == 0
+        rows = read_rows(tmp_path / backend.kind)
+        assert len({r["key"] for r in rows}) == len(rows) == outcome.ran
+        results[backend.kind] = {r["key"]: comparable(r) for r in rows}
+        provenance = rows[0]["provenance"]
+        assert provenance["settings"]["backend"] == backend.kind and provenance["snakeplan"] == snakeplan.__version__
+        assert {"python", "platform", "host", "started", "commit"} <= set(provenance)
+    assert results["serial"] == results["processes"] == results["ray"]
+    assert {(r["scene"], r["planner"]) for r in results["serial"].values()} == {
+        (s, p) for s in config.scenes for p in config.planners_in(s)}
+
+
+def test_table2_rows_are_identical_on_serial_processes_and_ray(tmp_path):
+    pytest.importorskip("ray")
+    _same_rows_on_every_backend(tmp_path, (0,))
+
+
+@pytest.mark.slow
+def test_table2_20_seeds_rows_are_identical_on_serial_processes_and_ray(tmp_path):
+    pytest.importorskip("ray")
+    _same_rows_on_every_backend(tmp_path, tuple(range(20)))
+
+
+def _bench_run(out: Path, *extra: str) -> list[str]:
+    return [sys.executable, "-m", "snakeplan.cli", "bench", "run", "--scenes", "oil-tank", "--planners",
+            "sp-rrt,sac-per", "--seeds", "0-5", "--time-limit", "5", "--out", str(out), "--json", *extra]
+
+
+def test_sigkill_at_random_moments_then_resume_gives_the_uninterrupted_rows(tmp_path):
+    sweep = Sweep("run", ("oil-tank",), tuple(range(6)), (("sp-rrt", {}), ("sac-per", {})), 5.0)
+    reference = {r["key"]: comparable(r) for r in run_sweep(sweep, tmp_path / "whole", Backend("serial"),
+                                                             progress=False).rows}
+    out = tmp_path / "killed"
+    rng = random.Random(11)
+    kills = 0
+    for attempt in range(12):
+        proc = subprocess.Popen(_bench_run(out, "--workers", "2"), env=ENV, stdout=subprocess.DEVNULL,
+                                stderr=subprocess.PIPE)
+        if attempt < 2:  # killed while planning, at a random moment once some rows are in
+            before = len(read_rows(out))
+            deadline = time.monotonic() + 120
+            while len(read_rows(out)) <= before and proc.poll() is None and time.monotonic() < deadline:
+                time.sleep(0.05)
+            time.sleep(rng.uniform(0.0, 1.0))
+            if proc.poll() is None:
+                proc.send_signal(signal.SIGKILL)
+                kills += 1
+        proc.wait(timeout=300)
+        if proc.returncode == 0:
+            break
+    assert kills >= 1 and proc.returncode == 0
+    rows = read_rows(out)
+    assert len(rows) == len({r["key"] for r in rows})  # nothing twice
+    assert {r["key"]: comparable(r) for r in rows} == reference
+
+
+def test_a_torn_last_line_is_cut_and_the_run_redone(tmp_path):
+    sweep = Sweep("run", ("oil-tank",), (0, 1), (("sp-rrt", {}),), 5.0)
+    first = run_sweep(sweep, tmp_path, Backend("serial"), progress=False)
+    runs = tmp_path / RUNS_FILE
+    lines = runs.read_bytes().splitlines(keepends=True)
+    runs.write_bytes(lines[0] + lines[1][: len(lines[1]) // 2])  # the writer died inside the second row
+    assert [r["key"] for r in read_rows(tmp_path)] == [first.rows[0]["key"]]
+    again = run_sweep(sweep, tmp_path, Backend("serial"), progress=False)
+    assert again.ran == 1 and again.skipped == 1
+    assert [comparable(r) for r in read_rows(tmp_path)] == [comparable(r) for r in first.rows]
+    assert runs.read_bytes().endswith(b"\n") and runs.read_bytes().count(b"\n") == 2
+
+
+def test_a_second_writer_is_refused_in_one_line_and_writes_nothing(tmp_path):
+    out = tmp_path / "busy"
+    with ResultsLog(out).open():
+        proc = subprocess.run(_bench_run(out, "--workers", "1"), env=ENV, capture_output=True, text=True,
+                              timeout=300)
+    assert proc.returncode == 2 and proc.stderr.count("\n") == 1
+    assert proc.stderr.startswith(f"snakeplan: error: --out: {out} is in use by another job")
+    assert "choose another --out" in proc.stderr and proc.stdout == ""
+    assert sorted(p.name for p in out.iterdir()) == [".lock", RUNS_FILE] and (out / RUNS_FILE).stat().st_size == 0
+
+
+def test_backends_from_the_command_line_options():
+    assert backend_from(None, None).kind == "processes" and backend_from(None, None).slots >= 1
+    assert backend_from(1, None) == Backend("serial", 1)
+    assert backend_from(2, None) == Backend("processes", 2)
+    assert backend_from(None, "auto") == Backend("ray", 0, "auto")
+    with pytest.raises(ValueError, match="--workers"):
+        backend_from(0, None)
+
+
+def test_chunks_keep_a_stateful_planners_runs_together_in_seed_order():
+    sweep = Sweep("sscc", ("pipe",), tuple(range(10)), (("sscc", {"learning": True}), ("sscc", {})), 5.0,
+                  stateful=lambda planner, options: options.get("learning", False))
+    runs = sweep.runs()
+    tasks = chunks(runs, 2)
+    assert sorted(r.key for t in tasks for r in t) == sorted(r.key for r in runs)
+    learning = [t for t in tasks if any(dict(r.options) for r in t)]
+    assert len(learning) == 1 and [r.seed for r in learning[0]] == list(range(10))
+
+
+def _score_interval(k: int, n: int) -> tuple[float, float]:
+    """The rates p whose score test |k/n - p| <= z sqrt(p (1 - p) / n) does not reject, found by root finding."""
+    z = stats.norm.ppf(0.975)
+    gap = lambda p: abs(k / n - p) - z * math.sqrt(p * (1 - p) / n)  # noqa: E731
+    lo = 0.0 if k == 0 else optimize.brentq(gap, 1e-12, k / n - 1e-12, xtol=1e-14)
+    hi = 1.0 if k == n else optimize.brentq(gap, k / n + 1e-12, 1 - 1e-12, xtol=1e-14)
+    return lo, hi
+
+
+@pytest.mark.parametrize("k, n", [(0, 10), (8, 10), (10, 10), (97, 100), (1, 3), (50, 50)])
+def test_wilson_interval_inverts_the_score_test(k, n):
+    assert wilson(k, n) == pytest.approx(_score_interval(k, n), abs=1e-9)
+
+
+def test_report_tables_count_each_run_once(tmp_path):
+    sweep = Sweep("run", ("oil-tank",), (0, 1, 2), (("sp-rrt", {}), ("sac-per", {})), 5.0)
+    run_sweep(sweep, tmp_path, Backend("serial"), progress=False)
+    run_sweep(sweep, tmp_path, Backend("serial"), progress=False)  # a rerun adds nothing
+    result = write_report(tmp_path)
+    rows = read_rows(tmp_path)
+    assert len(rows) == 6
+    for entry in result["entries"]:
+        group = [r for r in rows if r["planner"] == entry["planner"]]
+        wins = sum(r["success"] for r in group)
+        assert entry["runs"] == 3 and entry["successes"] == wins
+        assert (entry["success_lo95"], entry["success_hi95"]) == pytest.approx(_score_interval(wins, 3))
+        assert entry["time_max_s"] == max(r["compute_time_s"] for r in group)
+    text = (tmp_path / "report.md").read_text()
+    assert "| run | oil-tank | sp-rrt |" in text and (tmp_path / "report.csv").read_text().count("\n") == 3
+    assert summarise(rows) == result["entries"]
+
+
+def test_bench_report_without_html_support_says_so_and_writes_nothing(tmp_path, capsys, monkeypatch):
+    from snakeplan.cli import main
+
+    sweep = Sweep("run", ("oil-tank",), (0,), (("sp-rrt", {}),), 5.0)
+    run_sweep(sweep, tmp_path, Backend("serial"), progress=False)
+    monkeypatch.setitem(sys.modules, "snakeplan.viz.report", None)  # as if this snakeplan had no HTML report
+    assert main(["bench", "report", str(tmp_path), "--html", str(tmp_path / "r.html")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("snakeplan: error: --html: ") and err.count("\n") == 1
+    assert not (tmp_path / "report.md").exists() and not (tmp_path / "r.html").exists()
+    assert main(["bench", "report", str(tmp_path / "nothing")]) == 2
+    assert "holds no runs.jsonl" in capsys.readouterr().err
+
+
+def test_train_rl_seeds_trains_one_resumable_run_per_seed_and_summarises(tmp_path, capsys):
+    from snakeplan.cli import main
+
+    argv = ["train", "rl", "oil-tank", "sac-per", "--steps", "60", "--seeds", "3,5", "--workers", "1", "--out",
+            str(tmp_path), "--eval-every", "30", "--eval-episodes", "2", "--net-arch", "16", "16",
+            "--learning-starts", "30", "--train-scenes", "2", "--batch-size", "16"]
+    assert main(argv) == 0
+    summary = json.loads((tmp_path / "sweep.json").read_text())
+    assert [r["seed"] for r in summary["runs"]] == [3, 5] and summary["backend"]["backend"] == "serial"
+    for run in summary["runs"]:
+        curve = json.loads((tmp_path / f"seed{run['seed']}" / "curve.json").read_text())
+        assert run["evaluations"] == len(curve) and run["final_success"] == curve[-1]["success"]
+        assert run["best_success"] == max(h["success"] for h in curve)
+    steps = {s: json.loads((tmp_path / f"seed{s}" / "state.json").read_text())["generations"][0]["step"]
+             for s in (3, 5)}
+    assert main(argv) == 0 and steps == {  # a rerun resumes finished runs and trains nothing more
+        s: json.loads((tmp_path / f"seed{s}" / "state.json").read_text())["generations"][0]["step"] for s in (3, 5)}
+    assert (tmp_path / "curves.png").read_bytes()[:4] == b"\x89PNG" and "| 3 |" in capsys.readouterr().out
