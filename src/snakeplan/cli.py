@@ -938,8 +938,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = bsub.add_parser("table2", help="paper 000's Table 2: planners on the same seeded episodes",
                         description="Run planners on identical fuel-tank and oil-tank episodes, judge every plan, "
-                                    "and write runs.jsonl (resumable; one writer per folder), table2.md/csv with the paper's figures, "
-                                    "Appendix A statistics and fig7_*.png.")
+                                    "and write runs.jsonl (resumable; one writer per folder), table2.md/csv with "
+                                    "the paper's figures, Appendix A statistics and fig7_*.png.")
     p.add_argument("--planners", help="comma-separated planner names (default rrt-star,sp-rrt,as-rrt,sac-her,"
                                       "sac-per; sac-her has rows in fuel-tank, sac-per in oil-tank)")
     p.add_argument("--scenes", default="fuel-tank,oil-tank", help="comma-separated scene names")
