@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.linalg import cho_factor, cho_solve, lapack
+from scipy.linalg import lapack
 
 
 def fuse_repeats(idx: ArrayLike, noise_var: ArrayLike, y: ArrayLike | None = None
