@@ -6,9 +6,10 @@ cluster; Ray comes with the ``cluster`` extra). :func:`execute` runs a module-le
 yields the results in the calling process as they finish, so only that process writes files and draws the
 progress bar. Every worker runs BLAS and OpenMP on one thread (:data:`THREAD_ENV`): N workers on N cores, not
 N x N threads fighting for them. Workers leave Ctrl-C to the calling process, which stops at its next safe point.
+:func:`streamed` is the one loop over it: the stream, one progress bar and a Ctrl-C that says what was saved.
 The benchmark runner (:mod:`snakeplan.bench.runner`) and training sweeps (:mod:`snakeplan.rl.sweep`) use it.
-This module imports nothing from snakeplan but :mod:`snakeplan.extras`, so any layer may use it; Ray is
-imported only when a Ray backend runs.
+This module imports nothing from snakeplan but :mod:`snakeplan.extras` and :mod:`snakeplan.interrupt`, so any
+layer may use it; Ray is imported only when a Ray backend runs.
 """
 
 from __future__ import annotations
@@ -18,6 +19,8 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import TypeVar
+
+from snakeplan.interrupt import Interrupted, interruptible
 
 T = TypeVar("T")
 #: Niceness of the workers of a Ray instance started here. Ray's default, 15, keeps its daemons responsive on a
@@ -180,3 +183,22 @@ def progress_bar(total: int, name: str, enabled: bool = True) -> Iterator[Callab
                   TextColumn("{task.description}"), transient=False) as bar:
         task = bar.add_task("", total=total)
         yield lambda description: bar.update(task, advance=1, description=description)
+
+
+@contextmanager
+def streamed(work: Callable[..., T], tasks: Sequence, backend: Backend, *args, name: str, progress: bool,
+             stopped: Callable[[], str], total: int | None = None
+             ) -> Iterator[tuple[Iterator[T], Callable[[str], None]]]:
+    """:func:`execute` with one :func:`progress_bar` over ``total`` items (default: one per task), interruptible
+    at once: yields ``(results,
+    tick)``; SIGINT or SIGTERM anywhere in the block closes the stream and raises ``Interrupted(stopped())``, the
+    line that says what was saved (the caller saves as results arrive)."""
+    with progress_bar(len(tasks) if total is None else total, name, progress) as tick, \
+            interruptible(immediate=True):
+        stream = execute(work, tasks, backend, *args)
+        try:
+            yield stream, tick
+        except Interrupted as stop:
+            raise Interrupted(stopped(), stop.signum) from None
+        finally:
+            stream.close()

@@ -45,9 +45,8 @@ import numpy as np
 
 from snakeplan.checkpoints import fsync_dir, lock_folder
 from snakeplan.files import atomic_write
-from snakeplan.interrupt import Interrupted, interruptible
 from snakeplan.jsonable import jsonable
-from snakeplan.parallel import Backend, execute, progress_bar, usable_cores
+from snakeplan.parallel import Backend, streamed, usable_cores
 
 SCHEMA = "snakeplan.run/1"
 RUNS_FILE = "runs.jsonl"
@@ -385,18 +384,16 @@ def run_sweep(sweep: Sweep, out: str | Path, backend: Backend = Backend(), fresh
         todo = [r for r in all_runs if r.key not in done]
         stamp = provenance({"config": sweep.name, **backend.settings(), "argv": sys.argv[1:]})
         tasks = chunks(todo, backend.slots)
-        with progress_bar(len(todo), sweep.name, progress) as tick, interruptible(immediate=True):
-            stream = execute(run_chunk, tasks, backend, stamp)
-            try:
-                for rows in stream:
-                    for row in rows:
-                        log.append(row)
-                        tick(f"{row['scene']} seed {row['seed']} {row['planner']}")
-            except Interrupted as stop:
-                raise Interrupted(f"interrupted: {len(log.rows)} runs in {log.path}; rerun the same command to "
-                                  f"resume", stop.signum) from None
-            finally:
-                stream.close()
+
+        def stopped() -> str:
+            return f"interrupted: {len(log.rows)} runs in {log.path}; rerun the same command to resume"
+
+        with streamed(run_chunk, tasks, backend, stamp, name=sweep.name, progress=progress, stopped=stopped,
+                      total=len(todo)) as (stream, tick):
+            for rows in stream:
+                for row in rows:
+                    log.append(row)
+                    tick(f"{row['scene']} seed {row['seed']} {row['planner']}")
         by_key = {r["key"]: r for r in log.rows}
         outcome = Outcome([by_key[r.key] for r in all_runs if r.key in by_key], len(todo),
                           len(all_runs) - len(todo), time.perf_counter() - start, backend.settings())

@@ -19,8 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from snakeplan.files import atomic_write
-from snakeplan.interrupt import Interrupted, interruptible
-from snakeplan.parallel import Backend, execute, progress_bar
+from snakeplan.parallel import Backend, streamed
 
 #: Validation success that counts as converged in the summaries (the Fig. 4 ablation's level).
 CONVERGENCE_SUCCESS = 0.6
@@ -66,17 +65,14 @@ def run_jobs(jobs: Sequence[TrainJob], backend: Backend, progress: bool = True,
     if len(where) != len(jobs):
         raise ValueError("jobs: two trainings share a folder")
     histories: dict[int, list[dict]] = {}
-    with progress_bar(len(jobs), name, progress) as tick, interruptible(immediate=True):
-        stream = execute(_train_one, list(jobs), backend)
-        try:
-            for job, history in stream:
-                histories[where[job.folder]] = history
-                tick(f"{job.algorithm} seed {job.seed}")
-        except Interrupted as stop:
-            raise Interrupted(f"interrupted: {len(histories)} of {len(jobs)} trainings finished, the others saved "
-                              f"where they were; rerun the same command to resume", stop.signum) from None
-        finally:
-            stream.close()
+    def stopped() -> str:
+        return (f"interrupted: {len(histories)} of {len(jobs)} trainings finished, the others saved where they "
+                f"were; rerun the same command to resume")
+
+    with streamed(_train_one, list(jobs), backend, name=name, progress=progress, stopped=stopped) as (stream, tick):
+        for job, history in stream:
+            histories[where[job.folder]] = history
+            tick(f"{job.algorithm} seed {job.seed}")
     return [histories[i] for i in range(len(jobs))]
 
 
