@@ -1,6 +1,7 @@
 """Obstacle signed distances against hand-computed values, and the batched queries against brute force."""
 
 import math
+import pickle
 
 import numpy as np
 import pytest
@@ -96,6 +97,21 @@ def test_chain_clearance_matches_dense_sampling(pts, radius):
     assert exact <= sampled + 0.05 + 1e-9
     assert exact >= sampled - step / 2 - 1e-9
     assert obstacles.chain_collides(joints, radii) == (exact < 0) or abs(exact) < 0.06
+
+
+def test_an_obstacle_set_pickles_as_its_obstacles_and_loads_an_older_versions_state():
+    # A training checkpoint pickles the environment, obstacle sets included; the packed arrays are derived, so a
+    # state written before they changed (here: a dict without them) must load into today's form.
+    obstacles = ObstacleSet([Sphere([0, 0, 0], 10), Box([100, 0, 0], [20, 20, 20]), cube_mesh(5.0)])
+    points = np.array([[0, 0, 30.0], [100, 0, 25], [0, 0, 0]])
+    blob = pickle.dumps(obstacles)
+    assert len(blob) < len(pickle.dumps(obstacles.packed))
+    again = pickle.loads(blob)
+    assert np.array_equal(again.signed_distance(points), obstacles.signed_distance(points))
+    older = ObstacleSet.__new__(ObstacleSet)
+    older.__setstate__({"obstacles": obstacles.obstacles, "_rows": np.zeros((3, 1)), "evaluations": np.zeros(1)})
+    assert np.allclose(older.signed_distance(points)[:2], [20.0, 15.0])
+    assert all(np.array_equal(a, b) for a, b in zip(older.packed, obstacles.packed))
 
 
 def test_chain_clearance_batched_shapes_and_empty_scene():

@@ -536,6 +536,15 @@ class ObstacleSet:
     def __len__(self) -> int:
         return len(self.obstacles)
 
+    def __getstate__(self) -> dict:
+        """Pickled as its obstacles alone: the packed arrays are derived, and rebuilt on loading."""
+        return {"obstacles": self.obstacles}
+
+    def __setstate__(self, state: dict) -> None:
+        """Rebuild from the obstacles, so a checkpoint written by an older version (whose pickled state held
+        that version's derived arrays) loads into this version's packed form."""
+        self.__init__(state["obstacles"])
+
     @property
     def packed(self) -> tuple[np.ndarray, ...]:
         """The packed arrays jitted kernels take as one argument, as :func:`chain_hit` (with a :func:`workspace`):
