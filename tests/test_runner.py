@@ -11,6 +11,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 from scipy import optimize, stats
 
@@ -193,3 +194,50 @@ def test_train_rl_seeds_trains_one_resumable_run_per_seed_and_summarises(tmp_pat
     assert main(argv) == 0 and steps == {  # a rerun resumes finished runs and trains nothing more
         s: json.loads((tmp_path / f"seed{s}" / "state.json").read_text())["generations"][0]["step"] for s in (3, 5)}
     assert (tmp_path / "curves.png").read_bytes()[:4] == b"\x89PNG" and "| 3 |" in capsys.readouterr().out
+
+
+def _untimed(methods: dict) -> dict:
+    """A station summary's methods without planning times (they differ from run to run)."""
+    timed = ("compute_time_s", "compute_time_max_s", "compute_cpu_s")
+    return {n: {k: [{f: v for f, v in p.items() if f not in timed} for p in m[k]] if k == "per_seed" else m[k]
+                for k in m if k not in timed} for n, m in methods.items()}
+
+
+def test_station_missions_are_runner_rows_the_same_on_two_backends_and_the_report_flies_nothing(tmp_path,
+                                                                                              monkeypatch):
+    from snakeplan.bench.station import run_station_bench, station_outputs
+    from snakeplan.planners.inspection import InspectionPlanner
+    from snakeplan.scenes import make_scene
+
+    serial = run_station_bench(1, 0, tmp_path / "serial", Backend("serial"), progress=False)
+    processes = run_station_bench(1, 0, tmp_path / "processes", Backend("processes", 2), progress=False)
+    rows = read_rows(tmp_path / "serial")
+    assert sorted(r["planner"] for r in rows) == ["coverage", "informative", "random"]
+    assert {r["key"]: comparable(r) for r in rows} == {
+        r["key"]: comparable(r) for r in read_rows(tmp_path / "processes")}
+    assert _untimed(serial["methods"]) == _untimed(processes["methods"])
+    truth = np.asarray(make_scene("station", 0).metadata["field"]["values"])
+    for r in rows:  # the logged final map scores as the logged metric, against the scene's own field
+        mean = np.asarray(r["details"]["final_mean_k"])
+        assert r["metrics"]["final_rmse_k"] == pytest.approx(float(np.sqrt(np.mean((mean - truth) ** 2))), rel=1e-9)
+        assert r["details"]["rmse_k"][-1] == r["metrics"]["final_rmse_k"] and r["success"] is True
+        assert r["metrics"]["final_trace_k2"] == pytest.approx(sum(r["details"]["final_variance_k2"]), rel=1e-9)
+    monkeypatch.setattr(InspectionPlanner, "plan", lambda *a, **k: pytest.fail("the report flew a mission"))
+    again = station_outputs(rows, tmp_path / "serial")
+    assert again["methods"] == serial["methods"]
+    result = write_report(tmp_path / "serial")
+    text = (tmp_path / "serial" / "report.md").read_text()
+    assert "## Paper 002, Figs. 6-9" in text and "![station_curves](station_curves.png)" in text
+    assert {e["planner"] for e in result["entries"]} == {"coverage", "informative", "random"}
+
+
+def test_a_planner_that_cannot_do_the_scenes_task_is_one_line_and_exit_2(tmp_path, capsys):
+    from snakeplan.cli import main
+
+    for scenes, planners, kind in (("fuel-tank", "informative", "a planner of targets to reach"),
+                                   ("station", "sp-rrt", "an inspection planner")):
+        assert main(["bench", "run", "--scenes", scenes, "--planners", planners, "--seeds", "0", "--out",
+                     str(tmp_path / "out")]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"snakeplan: error: planners: {scenes} needs {kind} (") and err.count("\n") == 1
+    assert not (tmp_path / "out").exists()

@@ -600,13 +600,17 @@ def cmd_bench_ablation(args: argparse.Namespace) -> int:
 
 
 def cmd_bench_station(args: argparse.Namespace) -> int:
-    from snakeplan.bench.station import run_station_bench
+    from snakeplan.bench.station import run_station_bench, summary_markdown
 
     if args.seeds < 1:
         raise UsageError(f"--seeds: expected a positive integer, got {args.seeds}")
-    result = run_station_bench(seeds=args.seeds, seed0=args.seed, out_dir=args.out, as_json=args.json)
+    summary = run_station_bench(seeds=args.seeds, seed0=args.seed, out_dir=args.out, backend=_backend(args),
+                                fresh=args.fresh, progress=not args.json)
     if args.json:
-        _print_json(result)
+        _print_json(summary)
+    else:
+        sys.stdout.write(summary_markdown(summary) + f"\n\nwrote {args.out}/station.md, station.json, runs.jsonl, "
+                         + ", ".join(summary["figures"]) + "\n")
     return EXIT_OK
 
 
@@ -737,8 +741,9 @@ def cmd_bench_run(args: argparse.Namespace) -> int:
     from snakeplan.bench.report import write_report
     from snakeplan.bench.runner import Sweep, run_sweep
     from snakeplan.planners import planner_names
+    from snakeplan.planners.inspection import inspection_planner_names
 
-    planners = _name_list(args.planners, planner_names(), "--planners")
+    planners = _name_list(args.planners, planner_names() + inspection_planner_names(), "--planners")
     options = {}
     for item in args.option or ():
         key, sep, value = item.partition("=")
@@ -958,7 +963,8 @@ def build_parser() -> argparse.ArgumentParser:
                                     "to OUT/runs.jsonl (resumes; one writer per folder), then write "
                                     "OUT/report.md and report.csv.")
     p.add_argument("--scenes", required=True, help="comma-separated scene families or scene .json files")
-    p.add_argument("--planners", required=True, help="comma-separated planner names")
+    p.add_argument("--planners", required=True, help="comma-separated planner names (inspection planners for a "
+                                                     "scene whose task is to inspect, e.g. station)")
     p.add_argument("--seeds", default="0-9", help="seeds, e.g. 0-99 or 0,3,5-7 (default 0-9)")
     p.add_argument("--option", action="append", metavar="KEY=VALUE",
                    help="a planner option for every planner (value as JSON, else text); may be repeated")
@@ -987,9 +993,11 @@ def build_parser() -> argparse.ArgumentParser:
                                     "(Fig. 9) and maps (Figs. 6-8) as pictures in --out.")
     p.add_argument("--seeds", type=int, default=5, help="station seeds to average over (default 5)")
     p.add_argument("--seed", type=_seed, default=0, help="first seed (default 0)")
-    p.add_argument("--out", default="bench-station", help="output folder (default bench-station)")
+    p.add_argument("--out", default="bench-station", help="results folder (default bench-station; resumed)")
+    p.add_argument("--fresh", action="store_true", help="forget the rows in --out and fly every mission again")
     p.add_argument("--json", action="store_true",
                    help="print per method the final RMSE, final covariance trace and planning time as JSON")
+    backend_args(p)
     p.set_defaults(func=cmd_bench_station)
 
     p = bsub.add_parser("ablation", help="paper 000's Fig. 4: learning with and without HER / PER (long)",

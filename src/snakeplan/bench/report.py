@@ -3,8 +3,8 @@ options), the judged success with its Wilson 95 % interval, median / p90 / max c
 length, smoothness index, minimum clearance and maximum deviation of the judged successes.
 
 ``snakeplan bench report DIR`` writes ``DIR/report.md`` and ``DIR/report.csv``; where the rows' configuration
-names a paper table (``table2``, ``sscc``), that table's own markdown and figures are drawn from the same rows
-and linked from the report. Nothing is planned again.
+names a paper table (``table2``, ``sscc``, ``station``), that table's own markdown and figures are drawn from the
+same rows and linked from the report. Nothing is planned again.
 """
 
 from __future__ import annotations
@@ -118,6 +118,13 @@ def paper_outputs(rows: list[dict], folder: Path) -> tuple[list[str], list[Path]
         text, files = paper_sections(sscc, folder)
         sections += ["## Paper 001, Tables 4 and 6", "", text]
         figures += files
+    station = [r for r in rows if r.get("config") == "station"]
+    if station:
+        from snakeplan.bench.station import station_outputs, summary_markdown
+
+        summary = station_outputs(station, folder)
+        sections += ["## Paper 002, Figs. 6-9", "", summary_markdown(summary)]
+        figures += [folder / f for f in summary["figures"]]
     return sections, figures
 
 

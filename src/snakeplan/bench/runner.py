@@ -1,5 +1,7 @@
 """The one benchmark runner: episodes (scene families or scene files x seeds) x planners (+ options), planned and
-judged through :func:`snakeplan.episode.run_episode`, one JSON Lines row per run in a results folder.
+judged through :func:`snakeplan.episode.run_episode`, one JSON Lines row per run in a results folder. A scene
+whose task is to inspect a surface (``station``) is flown by an inspection planner instead; its row holds the
+mission's map error and uncertainty curves, the final map and the share of measurement poses the arm reaches.
 
 A results folder ``DIR`` holds::
 
@@ -37,7 +39,7 @@ import sys
 import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -58,6 +60,8 @@ PATH_INLINE_POINTS = 400
 WARMUP_SEED = 10_000
 #: Budget (s) of a warm-up plan, at most.
 WARMUP_TIME_LIMIT_S = 2.0
+#: Mission time (s) of the untimed warm-up mission before a worker's first inspection run of a scene.
+WARMUP_MISSION_S = 4.0
 #: Most runs in one task; fewer when there are few runs per worker.
 CHUNK_MAX = 8
 #: Fields of a row that measure time or place rather than the result.
@@ -79,6 +83,7 @@ class Run:
     scene_json: str = ""
     stateful: bool = False
     config: str = ""
+    task: str = "reach"
 
     def identity(self) -> dict:
         """What makes this run this run (the key's preimage; a scene file counts by its content)."""
@@ -120,15 +125,17 @@ class Sweep:
         out = []
         for scene in self.scenes:
             text, family = _scene_source(scene)
-            robot = self.robot or _spec_robot(family, text)
+            spec = _spec(family, text)
+            robot = self.robot or spec.robot
             for planner, options in self.planners:
                 if self.include is not None and not self.include(family, planner):
                     continue
+                _check_task(planner, family, spec.task)
                 for seed in self.seeds:
                     out.append(Run(family, seed, planner, robot, self.time_limit_s,
                                    tuple(sorted(options.items())), self.knowledge, text,
                                    self.stateful is not None and self.stateful(planner, options),
-                                   self.name))
+                                   self.name, spec.task))
         return out
 
 
@@ -148,10 +155,23 @@ def _scene_source(scene: str) -> tuple[str, str]:
     return "", scene
 
 
-def _spec_robot(family: str, text: str) -> str:
+def _check_task(planner: str, scene: str, task: str) -> None:
+    """ValueError naming ``planners`` when ``planner`` cannot do ``scene``'s task (reach its targets with a tip
+    planner, or inspect its surface with an inspection planner)."""
+    from snakeplan.planners import planner_names
+    from snakeplan.planners.inspection import inspection_planner_names
+
+    names = inspection_planner_names() if task == "inspect" else planner_names()
+    if planner not in names:
+        kind = "an inspection planner" if task == "inspect" else "a planner of targets to reach"
+        raise ValueError(f"planners: {scene} needs {kind} ({', '.join(names)}), got {planner!r}")
+
+
+def _spec(family: str, text: str):
+    """The scene spec (robot, task) of a family or a scene file's text."""
     from snakeplan.scenes import Scene, scene_spec, spec_for
 
-    return spec_for(Scene.from_json(text, "scenes")).robot if text else scene_spec(family).robot
+    return spec_for(Scene.from_json(text, "scenes")) if text else scene_spec(family)
 
 
 # --- tasks ------------------------------------------------------------------------------------------------
@@ -202,6 +222,9 @@ def run_chunk(task: list[Run], stamp: dict) -> list[dict]:
     rows = []
     shared: dict[tuple, object] = {}
     for run in task:
+        if run.task == "inspect":
+            rows.append(_inspection_row(run, {**stamp, **host}))
+            continue
         robot = get_robot(run.robot)
         options = dict(run.options)
         warm = (run.scene, run.scene_json, run.robot, run.planner, run.options)
@@ -217,6 +240,55 @@ def run_chunk(task: list[Run], stamp: dict) -> list[dict]:
         episode = run_episode(problem, planner, seed=run.seed)
         rows.append(make_row(run, episode, {**stamp, **host}))
     return rows
+
+
+def _inspection_row(run: Run, provenance: dict) -> dict:
+    """Fly the inspection mission of ``run`` (a scene whose task is to inspect a surface; ``planner`` an
+    inspection planner) and make its row. The mission loop measures and scores the map (RMSE against the scene's
+    true field, covariance trace); the camera's measurement poses are checked for reach by the arm. The first
+    mission of a (scene, planner) in a worker is preceded by an untimed short one (jit caches, the world)."""
+    from snakeplan.planners.inspection import InspectionProblem, get_inspection_planner
+    from snakeplan.robots import get_robot
+
+    options = dict(run.options)
+    scene = _scene_of(run)
+    problem = InspectionProblem(scene, get_robot(run.robot))
+    warm = (run.scene, run.scene_json, run.robot, run.planner, run.options)
+    if warm not in _WARM:
+        get_inspection_planner(run.planner, **options).plan(replace(problem, budget_s=WARMUP_MISSION_S), seed=run.seed)
+        _WARM.add(warm)
+    result = get_inspection_planner(run.planner, **options).plan(problem, seed=run.seed)
+    world = problem.world()
+    flown = bool(result.times[-1] >= problem.ticks()[-1] - 1e-9)
+    path = np.asarray(result.path, dtype=float)
+    prior = world.prior
+    row = {"schema": SCHEMA, "key": run.key, "config": run.config, "task": run.task, "scene": run.scene,
+           "seed": run.seed, "robot": run.robot, "planner": run.planner, "options": options,
+           "time_limit_s": run.time_limit_s, "knowledge": run.knowledge,
+           "status": "solved" if flown else "stopped", "success": flown,
+           "reason": None if flown else f"the planner stopped at {result.times[-1]:.1f} s of {problem.budget_s:.0f} s",
+           "compute_time_s": result.compute_time_s,
+           "metrics": {"final_rmse_k": float(result.rmse[-1]), "final_trace_k2": float(result.trace[-1]),
+                       "reach_share": float(world.reach.check(result.poses).share),
+                       "path_length_mm": float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum())},
+           "details": {"compute_cpu_s": result.compute_cpu_s, "plans": result.plans,
+                       "budget": problem.budget_s, "camera_speed_mm_per_s": problem.speed_mm_s,
+                       "measurement_hz": problem.measurement_hz,
+                       "measurement_times": result.times, "rmse_k": result.rmse, "trace_k2": result.trace,
+                       "final_mean_k": result.final_map.mean, "final_variance_k2": np.diag(result.final_map.cov),
+                       "world": {"viewpoints": len(world.library),
+                                 "reachable_share": float(world.library.reachable.mean()),
+                                 "prior_mean_k": float(prior.mean[0]), "sigma_f_k": prior.sigma_f,
+                                 "length_scale_mm": prior.length_scale,
+                                 "pd_fix": {"smallest_eigenvalues_before": list(prior.pd_fix.smallest_before),
+                                            "smallest_eigenvalues_after": list(prior.pd_fix.smallest_after),
+                                            "clipped": prior.pd_fix.n_clipped,
+                                            "max_entry_change": prior.pd_fix.max_change}}},
+           "path": path.tolist(), "path_points": len(path),
+           "path_sha256": hashlib.sha256(path.tobytes()).hexdigest(), "provenance": provenance}
+    if run.scene_json:
+        row["scene_sha256"] = run.identity()["scene_sha256"]
+    return jsonable(row)
 
 
 def make_row(run: Run, episode, provenance: dict) -> dict:

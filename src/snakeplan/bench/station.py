@@ -1,42 +1,54 @@
 """Paper 002's comparison (Figs. 6-9): informative (IP), coverage (CP) and random (RP) inspection of the station.
 
-For each seed ``seed0 .. seed0 + seeds - 1`` the station scene of that seed (its own temperature field) is
-inspected by each planner with the same seed, budget, camera speed and measurement frequency; the map error
-(RMSE of the posterior mean against the true field, K) and uncertainty (covariance trace, K^2) are recorded at
-every measurement and averaged over seeds (Fig. 9). The paper's final RMSEs (0.95 : 3.4 : 7.5, its units) stand
-beside ours as ratios to CP. Planning compute time is the planner's own time per full mission (all its replans),
-wall and process CPU; the share of executed measurement poses the arm reaches (inverse kinematics, body
-collision-free) is reported per method. Pictures of the first seed: true field, posterior mean with the path,
-variance, the 3-D path (Figs. 6-8), and the averaged curves (Fig. 9).
+A configuration of the benchmark runner (:mod:`snakeplan.bench.runner`): for each seed the station scene of that
+seed (its own temperature field) is flown by each planner with the same seed, budget, camera speed and
+measurement frequency, one row per mission in ``runs.jsonl`` (resumable, on any backend). The summary and the
+pictures are drawn from the logged rows, nothing is flown again: the map error (RMSE of the posterior mean
+against the true field, K) and uncertainty (covariance trace, K^2) at every measurement averaged over seeds
+(Fig. 9), the paper's final RMSEs (0.95 : 3.4 : 7.5, its units) beside ours as ratios to CP, planning compute
+time per mission (all its replans, wall and process CPU), the share of measurement poses the arm reaches
+(inverse kinematics, body collision-free), and for the first seed the true field, posterior mean with the path,
+variance and the 3-D path (Figs. 6-8).
 """
 
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
 
+from snakeplan.bench.runner import Sweep, run_sweep
 from snakeplan.files import atomic_write
-from snakeplan.planners.inspection import (
-    InspectionProblem,
-    InspectionResult,
-    get_inspection_planner,
-)
-from snakeplan.robots import get_robot
-from snakeplan.scenes import make_scene
-from snakeplan.viz.figures import save_figure
-from snakeplan.viz.maps import error_curves_figure, inspection_figure
+from snakeplan.parallel import Backend
 
-SCHEMA = "snakeplan.bench.station/1"
+SCHEMA = "snakeplan.bench.station/2"
+#: The runner's configuration name of these missions (rows' ``config``; ``bench report`` draws them).
+CONFIG = "station"
 #: Seeds run by default, and the output folder.
 DEFAULT_SEEDS = 5
 DEFAULT_OUT_DIR = "bench-station"
 #: The compared planners (paper's names) and the paper's final RMSEs (Fig. 9b, in its units).
 METHODS = {"informative": "IP", "coverage": "CP", "random": "RP"}
 PAPER_FINAL_RMSE = {"informative": 0.95, "coverage": 3.4, "random": 7.5}
-ROBOT = "hsr-10"
+
+
+def sweep(seeds: list[int]) -> Sweep:
+    """The station missions as a sweep: every seed flown by IP, CP and RP (the scene's arm, hsr-10)."""
+    return Sweep(CONFIG, ("station",), tuple(seeds), tuple((name, {}) for name in METHODS))
+
+
+def run_station_bench(seeds: int = DEFAULT_SEEDS, seed0: int = 0, out_dir: str | Path = DEFAULT_OUT_DIR,
+                      backend: Backend = Backend(), fresh: bool = False, progress: bool = True) -> dict:
+    """Fly IP, CP and RP on ``seeds`` station seeds from ``seed0`` through the runner into ``out_dir``
+    (resuming what it holds), write ``station.json``, ``station.md`` and the pictures from the rows, and return
+    the summary (see :func:`summarise`) with the runner's outcome under ``"runner"``."""
+    if isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 1:
+        raise ValueError(f"seeds: must be a positive integer, got {seeds!r}")
+    seed_list = list(range(seed0, seed0 + seeds))
+    outcome = run_sweep(sweep(seed_list), out_dir, backend, fresh=fresh, progress=progress)
+    summary = station_outputs(outcome.rows, Path(out_dir))
+    return {**summary, "runner": outcome.to_dict()}
 
 
 def _padded(values: np.ndarray, length: int) -> np.ndarray:
@@ -44,66 +56,39 @@ def _padded(values: np.ndarray, length: int) -> np.ndarray:
     return np.concatenate([values, np.full(length - len(values), values[-1])])
 
 
-def _figures(out: Path, problem: InspectionProblem, results: dict[str, InspectionResult], times: np.ndarray,
-             curves: dict[str, dict[str, np.ndarray]], seeds: list[int]) -> list[str]:
-    """Write Figs. 6-8 for the first seed and Fig. 9 over all seeds; return the file names."""
-    world = problem.world()
-    files = []
-    for name, res in results.items():
-        fig = inspection_figure(world.camera.nodes, problem.truth, res.final_map.mean, np.diag(res.final_map.cov),
-                                res.path, f"{METHODS[name]} ({name}), station seed {problem.scene.seed}: final "
-                                f"RMSE {res.rmse[-1]:.2f} K, covariance trace {res.trace[-1]:.0f} K^2")
-        files.append(save_figure(fig, out / f"station_{name}_seed{problem.scene.seed}.png").name)
-    labelled = {f"{METHODS[n]} ({n})": c for n, c in curves.items()}
-    fig = error_curves_figure(times, labelled, f"station, seeds {seeds[0]}-{seeds[-1]}: mean and one standard "
-                              "deviation over seeds")
-    files.append(save_figure(fig, out / "station_curves.png").name)
-    return files
+def _by_method(rows: list[dict]) -> dict[str, list[dict]]:
+    """The rows of each compared method present, in seed order."""
+    groups = {n: sorted((r for r in rows if r["planner"] == n), key=lambda r: r["seed"]) for n in METHODS}
+    groups = {n: g for n, g in groups.items() if g}
+    if not groups:
+        raise ValueError("rows: no station mission of IP, CP or RP")
+    return groups
 
 
-def run_station_bench(seeds: int = DEFAULT_SEEDS, seed0: int = 0, out_dir: str | Path = DEFAULT_OUT_DIR,
-                      as_json: bool = False) -> dict:
-    """Run IP, CP and RP on ``seeds`` station seeds from ``seed0``; write the pictures and ``station.json`` to
-    ``out_dir``; return the JSON-ready summary (per method: final RMSE K, final covariance trace K^2, planning
-    compute time s, reach share; ratios beside the paper's; the averaged curves). Without ``as_json`` progress
-    goes to stderr and a summary table to stdout; with it nothing is printed (the caller prints the JSON)."""
-    if isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 1:
-        raise ValueError(f"seeds: must be a positive integer, got {seeds!r}")
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    robot = get_robot(ROBOT)
-    seed_list = list(range(seed0, seed0 + seeds))
-    per_seed: dict[str, list[dict]] = {n: [] for n in METHODS}
-    raw: dict[str, dict[str, list[np.ndarray]]] = {n: {"rmse": [], "trace": []} for n in METHODS}
-    first: dict[str, InspectionResult] = {}
-    first_problem = None
-    times = None
-    world = None
-    for seed in seed_list:
-        problem = InspectionProblem(make_scene("station", seed), robot)
-        world = problem.world()
-        ticks = problem.ticks()
-        times = ticks if times is None else times
-        for name in METHODS:
-            res = get_inspection_planner(name).plan(problem, seed=seed)
-            reach = world.reach.check(res.poses).share
-            per_seed[name].append({"seed": seed, "final_rmse_k": float(res.rmse[-1]),
-                                   "final_trace_k2": float(res.trace[-1]), "compute_time_s": res.compute_time_s,
-                                   "compute_cpu_s": res.compute_cpu_s, "plans": res.plans, "reach_share": reach})
-            raw[name]["rmse"].append(_padded(res.rmse, len(ticks)))
-            raw[name]["trace"].append(_padded(res.trace, len(ticks)))
-            if seed == seed0:
-                first[name] = res
-                first_problem = problem
-            if not as_json:
-                sys.stderr.write(f"seed {seed} {name}: RMSE {res.rmse[-1]:.3f} K, trace {res.trace[-1]:.0f} K^2, "
-                                 f"planning {res.compute_time_s:.2f} s wall / {res.compute_cpu_s:.2f} s CPU\n")
-    curves = {n: {k: np.array(v) for k, v in c.items()} for n, c in raw.items()}
+def curves(rows: list[dict]) -> tuple[np.ndarray, dict[str, dict[str, np.ndarray]]]:
+    """(measurement times s, per method the RMSE K and trace K^2 curves as (seeds, times) arrays)."""
+    groups = _by_method(rows)
+    times = np.asarray(max((r["details"]["measurement_times"] for g in groups.values() for r in g), key=len))
+    return times, {n: {k: np.array([_padded(np.asarray(r["details"][k], dtype=float), len(times)) for r in g])
+                       for k in ("rmse_k", "trace_k2")} for n, g in groups.items()}
+
+
+def summarise(rows: list[dict]) -> dict:
+    """The comparison from logged station rows: per method the mean (and sd) final RMSE K, mean final trace
+    K^2, mean and max planning time s, mean CPU s, replans per mission, reach share, each seed's values; the
+    ratios to CP beside the paper's; whether IP < CP < RP; the averaged curves; the world's prior and library."""
+    groups = _by_method(rows)
+    first = next(iter(groups.values()))[0]
+    times, method_curves = curves(rows)
     methods = {}
-    for name, rows in per_seed.items():
-        col = {k: np.array([r[k] for r in rows]) for k in rows[0] if k != "seed"}
+    for name, group in groups.items():
+        per_seed = [{"seed": r["seed"], "final_rmse_k": r["metrics"]["final_rmse_k"],
+                     "final_trace_k2": r["metrics"]["final_trace_k2"], "compute_time_s": r["compute_time_s"],
+                     "compute_cpu_s": r["details"]["compute_cpu_s"], "plans": r["details"]["plans"],
+                     "reach_share": r["metrics"]["reach_share"]} for r in group]
+        col = {k: np.array([p[k] for p in per_seed], dtype=float) for k in per_seed[0] if k != "seed"}
         methods[name] = {
-            "label": METHODS[name],
+            "label": METHODS[name], "missions": len(group),
             "final_rmse_k": float(col["final_rmse_k"].mean()), "final_rmse_std_k": float(col["final_rmse_k"].std()),
             "final_trace_k2": float(col["final_trace_k2"].mean()),
             "compute_time_s": float(col["compute_time_s"].mean()),
@@ -111,53 +96,85 @@ def run_station_bench(seeds: int = DEFAULT_SEEDS, seed0: int = 0, out_dir: str |
             "compute_cpu_s": float(col["compute_cpu_s"].mean()),
             "plans_per_mission": float(col["plans"].mean()),
             "reach_share": float(col["reach_share"].mean()),
-            "per_seed": rows,
+            "per_seed": per_seed,
         }
-    cp = methods["coverage"]["final_rmse_k"]
     rmse = {n: m["final_rmse_k"] for n, m in methods.items()}
-    prior = world.prior
-    summary = {
-        "schema": SCHEMA, "scene": "station", "robot": ROBOT, "seeds": seed_list,
+    cp = rmse.get("coverage")
+    return {
+        "schema": SCHEMA, "scene": "station", "robot": first["robot"], "seeds": sorted({r["seed"] for r in rows}),
         "units": {"rmse": "K", "trace": "K^2", "time": "s", "length": "mm"},
-        "budget_s": first_problem.budget_s, "camera_speed_mm_s": first_problem.speed_mm_s,
-        "measurement_hz": first_problem.measurement_hz,
+        "budget_s": first["details"]["budget"], "camera_speed_mm_s": first["details"]["camera_speed_mm_per_s"],
+        "measurement_hz": first["details"]["measurement_hz"],
         "methods": methods,
-        "ratios_to_cp": {"ours": {n: r / cp for n, r in rmse.items()},
-                         "paper": {n: r / PAPER_FINAL_RMSE["coverage"] for n, r in PAPER_FINAL_RMSE.items()}},
+        "ratios_to_cp": None if cp is None else {
+            "ours": {n: r / cp for n, r in rmse.items()},
+            "paper": {n: PAPER_FINAL_RMSE[n] / PAPER_FINAL_RMSE["coverage"] for n in rmse}},
         "paper_final_rmse": PAPER_FINAL_RMSE,
-        "ordering_ip_cp_rp": bool(rmse["informative"] < rmse["coverage"] < rmse["random"]),
-        "library": {"viewpoints": len(world.library), "reachable_share": float(world.library.reachable.mean())},
-        "prior": {"mean_k": float(prior.mean[0]), "sigma_f_k": prior.sigma_f, "length_scale_mm": prior.length_scale,
-                  "pd_fix": {"smallest_eigenvalues_before": list(prior.pd_fix.smallest_before),
-                             "smallest_eigenvalues_after": list(prior.pd_fix.smallest_after),
-                             "clipped": prior.pd_fix.n_clipped, "max_entry_change": prior.pd_fix.max_change}},
-        "world_build_s": world.build_time_s,
+        "ordering_ip_cp_rp": (bool(rmse["informative"] < rmse["coverage"] < rmse["random"])
+                              if len(rmse) == len(METHODS) else None),
+        "world": first["details"]["world"],
         "curves": {"times_s": times.tolist(),
-                   **{n: {"rmse_mean_k": c["rmse"].mean(axis=0).tolist(),
-                          "trace_mean_k2": c["trace"].mean(axis=0).tolist()} for n, c in curves.items()}},
+                   **{n: {"rmse_mean_k": c["rmse_k"].mean(axis=0).tolist(),
+                          "trace_mean_k2": c["trace_k2"].mean(axis=0).tolist()} for n, c in method_curves.items()}},
     }
-    summary["figures"] = _figures(out, first_problem, first, times, curves, seed_list)
+
+
+def station_outputs(rows: list[dict], out: Path) -> dict:
+    """Write ``station.json``, ``station.md`` and the pictures (Figs. 6-8 of the first seed, Fig. 9) into
+    ``out`` from the logged station rows; return the summary (with the figure file names)."""
+    summary = summarise(rows)
+    summary["figures"] = [f.name for f in _figures(rows, out)]
     atomic_write(out / "station.json", json.dumps(summary, indent=2, allow_nan=False) + "\n")
-    if not as_json:
-        _print_table(summary, out)
+    atomic_write(out / "station.md", summary_markdown(summary) + "\n")
     return summary
 
 
-def _print_table(summary: dict, out: Path) -> None:
-    """The human summary: per method final RMSE, trace, ratio to CP beside the paper's, compute time, reach."""
-    from rich.console import Console
-    from rich.table import Table
+def _figures(rows: list[dict], out: Path) -> list[Path]:
+    """Figs. 6-8 for the first seed (maps from the logged final mean and variance; the true field and the
+    surface from the scene, regenerated from its seed) and Fig. 9 over all seeds."""
+    from snakeplan.bench.runner import row_path
+    from snakeplan.scenes import make_scene
+    from snakeplan.viz.figures import save_figure
+    from snakeplan.viz.maps import error_curves_figure, inspection_figure
+    from snakeplan.viz.mission import station_mesh
 
-    table = Table(title=f"station inspection, seeds {summary['seeds'][0]}-{summary['seeds'][-1]}, final values "
-                        f"after {summary['budget_s']:.0f} s (mean ± sd over seeds)")
-    for col in ("method", "RMSE K", "trace K^2", "/CP", "paper /CP", "plan wall s", "plan CPU s", "reach"):
-        table.add_column(col, justify="right")
+    seed = min(r["seed"] for r in rows)
+    scene = make_scene("station", seed)
+    vertices, _ = station_mesh(scene)
+    truth = np.asarray(scene.metadata["field"]["values"], dtype=float)
+    files = []
+    for r in sorted((r for r in rows if r["seed"] == seed), key=lambda r: list(METHODS).index(r["planner"])):
+        d = r["details"]
+        fig = inspection_figure(vertices, truth, np.asarray(d["final_mean_k"]), np.asarray(d["final_variance_k2"]),
+                                row_path(out, r), f"{METHODS[r['planner']]} ({r['planner']}), station seed {seed}: "
+                                f"final RMSE {r['metrics']['final_rmse_k']:.2f} K, covariance trace "
+                                f"{r['metrics']['final_trace_k2']:.0f} K^2")
+        files.append(save_figure(fig, out / f"station_{r['planner']}_seed{seed}.png"))
+    seeds = sorted({r["seed"] for r in rows})
+    times, method_curves = curves(rows)
+    labelled = {f"{METHODS[n]} ({n})": {"rmse": c["rmse_k"], "trace": c["trace_k2"]} for n, c in method_curves.items()}
+    fig = error_curves_figure(times, labelled, f"station, seeds {seeds[0]}-{seeds[-1]}: mean and one standard "
+                              "deviation over seeds")
+    files.append(save_figure(fig, out / "station_curves.png"))
+    return files
+
+
+def summary_markdown(summary: dict) -> str:
+    """The comparison as markdown: per method final RMSE (mean ± sd), trace, ratio to CP beside the paper's,
+    planning wall and CPU time per mission, reach share."""
+    seeds = summary["seeds"]
+    lines = [f"Station inspection, seeds {seeds[0]}-{seeds[-1]}: final values after {summary['budget_s']:.0f} s "
+             "(mean ± sd over seeds; planning time per mission, all replans).", "",
+             "| method | missions | RMSE K | trace K^2 | /CP | paper /CP | plan wall s | plan max s | plan CPU s | "
+             "reach |", "|---|---|---|---|---|---|---|---|---|---|"]
+    ratios = summary["ratios_to_cp"]
     for name, m in summary["methods"].items():
-        table.add_row(m["label"], f"{m['final_rmse_k']:.2f} ± {m['final_rmse_std_k']:.2f}",
-                      f"{m['final_trace_k2']:.0f}", f"{summary['ratios_to_cp']['ours'][name]:.2f}",
-                      f"{summary['ratios_to_cp']['paper'][name]:.2f}", f"{m['compute_time_s']:.2f}",
-                      f"{m['compute_cpu_s']:.2f}", f"{m['reach_share']:.2f}")
-    console = Console()
-    console.print(table)
-    console.print(f"ordering IP < CP < RP: {summary['ordering_ip_cp_rp']}; wrote {out}/station.json and "
-                  + ", ".join(summary["figures"]))
+        ours = "-" if ratios is None else f"{ratios['ours'][name]:.2f}"
+        paper = "-" if ratios is None else f"{ratios['paper'][name]:.2f}"
+        lines.append(f"| {m['label']} ({name}) | {m['missions']} | {m['final_rmse_k']:.2f} ± "
+                     f"{m['final_rmse_std_k']:.2f} | {m['final_trace_k2']:.0f} | {ours} | {paper} | "
+                     f"{m['compute_time_s']:.2f} | {m['compute_time_max_s']:.2f} | {m['compute_cpu_s']:.2f} | "
+                     f"{m['reach_share']:.2f} |")
+    if summary["ordering_ip_cp_rp"] is not None:
+        lines += ["", f"Ordering IP < CP < RP: {summary['ordering_ip_cp_rp']}."]
+    return "\n".join(lines)
