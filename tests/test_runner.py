@@ -5,6 +5,7 @@ import json
 import math
 import os
 import random
+import re
 import signal
 import subprocess
 import sys
@@ -241,3 +242,43 @@ def test_a_planner_that_cannot_do_the_scenes_task_is_one_line_and_exit_2(tmp_pat
         err = capsys.readouterr().err
         assert err.startswith(f"snakeplan: error: planners: {scenes} needs {kind} (") and err.count("\n") == 1
     assert not (tmp_path / "out").exists()
+
+
+def test_bench_run_joins_a_running_ray_cluster_by_address_with_the_serial_rows(tmp_path):
+    pytest.importorskip("ray")
+    import socket as sockets
+
+    with sockets.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    ray_cli = [sys.executable, "-m", "ray.scripts.scripts"]
+    env = {**ENV, "RAY_USAGE_STATS_ENABLED": "0"}
+    wrong = subprocess.run(_bench_run(tmp_path / "nobody", "--ray", f"127.0.0.1:{port}"), env=env,
+                           capture_output=True, text=True, timeout=300)
+    assert wrong.returncode == 2 and wrong.stderr.count("\n") == 1, wrong.stderr[-2000:]
+    assert wrong.stderr.startswith(f"snakeplan: error: --ray: cannot join a Ray cluster at '127.0.0.1:{port}' "
+                                   "(nothing answers there")
+    # Workers at niceness 0 as for --ray local (Ray's default, 15, starves them on this shared two-core machine).
+    start = subprocess.run([*ray_cli, "start", "--head", "--port", str(port), "--num-cpus", "2",
+                            "--include-dashboard", "false", "--disable-usage-stats",
+                            "--system-config", json.dumps({"worker_niceness": 0})],
+                           env=env, capture_output=True, text=True, timeout=180)
+    try:
+        assert start.returncode == 0, start.stderr[-2000:]
+        address = re.search(r"--address='([^']+)'", start.stdout + start.stderr).group(1)
+        # Without the token the head asks for (Ray's default for 'ray start' since 2.59): one line, with the fix.
+        refused = subprocess.run(_bench_run(tmp_path / "refused", "--ray", address), env=env,
+                                 capture_output=True, text=True, timeout=600)
+        assert refused.returncode == 2 and "needs RAY_AUTH_MODE=token" in refused.stderr.splitlines()[-1]
+        proc = subprocess.run(_bench_run(tmp_path / "cluster", "--ray", address), env={**env, "RAY_AUTH_MODE": "token"},
+                              capture_output=True, text=True, timeout=600)
+        assert proc.returncode == 0, proc.stderr[-2000:]
+    finally:
+        subprocess.run([*ray_cli, "stop", "--force"], env=env, capture_output=True, timeout=120)
+    sweep = Sweep("run", ("oil-tank",), tuple(range(6)), (("sp-rrt", {}), ("sac-per", {})), 5.0)
+    serial = run_sweep(sweep, tmp_path / "serial", Backend("serial"), progress=False).rows
+    rows = read_rows(tmp_path / "cluster")
+    assert {r["key"]: comparable(r) for r in rows} == {r["key"]: comparable(r) for r in serial}
+    settings = rows[0]["provenance"]["settings"]
+    assert settings["backend"] == "ray" and settings["ray"] == address
+    assert {r["provenance"]["pid"] for r in rows} != {os.getpid()}

@@ -15,6 +15,7 @@ layer may use it; Ray is imported only when a Ray backend runs.
 from __future__ import annotations
 
 import os
+import socket
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -27,6 +28,8 @@ T = TypeVar("T")
 #: cluster node, but on a busy workstation it starved time-limited planners (rrt-star 5-10x slower on two
 #: loaded cores, its time budget then binding); a joined cluster keeps its own setting.
 RAY_LOCAL_NICENESS = 0
+#: Seconds to wait for a Ray head at ``--ray HOST:PORT`` to accept a connection.
+RAY_CONNECT_TIMEOUT_S = 10.0
 #: Environment that pins BLAS and OpenMP to one thread per worker.
 THREAD_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
               "NUMBA_NUM_THREADS": "1", "VECLIB_MAXIMUM_THREADS": "1"}
@@ -158,8 +161,16 @@ def _execute_ray(work, tasks, backend: Backend, args: tuple) -> Iterator:
                  runtime_env={"env_vars": env}, configure_logging=False,
                  _system_config={"worker_niceness": RAY_LOCAL_NICENESS})
     else:
-        ray.init(address=backend.address, log_to_driver=False, runtime_env={"env_vars": env},
-                 configure_logging=False)
+        _reachable(backend.address)
+        try:
+            ray.init(address=backend.address, log_to_driver=False, runtime_env={"env_vars": env},
+                     configure_logging=False)
+        except ConnectionError as exc:
+            hint = ("" if os.environ.get("RAY_AUTH_MODE") else "; a cluster with token authentication (what "
+                    "'ray start' makes from Ray 2.59) needs RAY_AUTH_MODE=token and its token here")
+            raise ValueError(f"--ray: cannot join a Ray cluster at {backend.address!r} ({str(exc).splitlines()[0]})"
+                             f"{hint}; or start one with 'ray start --head' and pass the address it prints, or use "
+                             f"'--ray local'") from None
     try:
         remote = ray.remote(num_cpus=1, max_retries=2)(work)
         pending = [remote.remote(task, *args) for task in tasks]
@@ -168,6 +179,20 @@ def _execute_ray(work, tasks, backend: Backend, args: tuple) -> Iterator:
             yield ray.get(done[0])
     finally:
         ray.shutdown()
+
+
+def _reachable(address: str) -> None:
+    """ValueError naming ``--ray`` when ``address`` (HOST:PORT) accepts no connection within
+    :data:`RAY_CONNECT_TIMEOUT_S`: Ray itself keeps retrying an absent head for minutes."""
+    host, sep, port = address.rpartition(":")
+    if not sep or not port.isdigit() or "://" in address:
+        return
+    try:
+        socket.create_connection((host, int(port)), timeout=RAY_CONNECT_TIMEOUT_S).close()
+    except OSError as exc:
+        raise ValueError(f"--ray: cannot join a Ray cluster at {address!r} (nothing answers there: "
+                         f"{exc.strerror or exc.__class__.__name__}); start one with 'ray start --head' and pass "
+                         f"the address it prints, or use '--ray local'") from None
 
 
 @contextmanager
