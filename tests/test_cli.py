@@ -236,6 +236,7 @@ def test_bench_ablation_trains_both_variants_and_reports(capsys, tmp_path):
                             / "curve.json").read_text())
         assert result["mean_success"][label] == pytest.approx(np.mean([h["success"] for h in curve]))
     assert (tmp_path / "ablation-oil-tank-replay.png").read_bytes()[:4] == b"\x89PNG"
+    assert result["paper_speedup"] == 1.27  # paper 000, Fig. 4: PER in oil-tank
     code, _, err = run(capsys, "bench", "ablation", "--steps", "0")
     assert code == 2 and "--steps" in err
 

@@ -594,7 +594,8 @@ def cmd_bench_ablation(args: argparse.Namespace) -> int:
                          f"success over the run {result['mean_success'][label]:.3f}\n")
     bound = " (at least: a baseline run never converged)" if result["speedup_is_lower_bound"] else ""
     speedup = "n/a" if result["speedup"] is None else f"{result['speedup']:.2f}x"
-    sys.stdout.write(f"speed-up to convergence: {speedup}{bound}\n"
+    paper = "" if result["paper_speedup"] is None else f"; paper 000: {result['paper_speedup']:.2f}x"
+    sys.stdout.write(f"speed-up to convergence: {speedup}{bound}{paper}\n"
                      f"wrote {args.out}/ablation-{args.scene}-{args.compare}.png and .json\n")
     return EXIT_OK
 

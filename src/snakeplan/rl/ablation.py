@@ -29,6 +29,8 @@ from snakeplan.rl.train import ALGORITHMS, DEFAULT_CONFIG, TrainConfig, plot_cur
 from snakeplan.scenes import scene_spec
 
 COMPARISONS = ("replay", "observation")
+#: Paper 000's Fig. 4 speed-ups of the scenario's replay over plain SAC (HER in fuel-tank, PER in oil-tank).
+PAPER_SPEEDUP = {"fuel-tank": 2.88, "oil-tank": 1.27}
 
 
 def variants(scene: str, compare: str) -> dict[str, tuple[str, str]]:
@@ -73,7 +75,13 @@ def run_ablation(scene: str, seeds: list[int], steps: int, out_dir: str | Path, 
     result["speedup_is_lower_bound"] = not all(r["converged"] for r in result["runs"][second])
     result["mean_success"] = {k: float(np.mean([np.mean([h["success"] for h in c]) for c in curves[k] if c]))
                               for k in curves}
+    result["paper_speedup"] = PAPER_SPEEDUP.get(scene) if compare == "replay" else None
     out.mkdir(parents=True, exist_ok=True)
-    plot_curves(curves, out / f"ablation-{scene}-{compare}.png")
+    ours = "n/a" if result["speedup"] is None else (
+        f"{'>= ' if result['speedup_is_lower_bound'] else ''}{result['speedup']:.2f}x")
+    paper = "" if result["paper_speedup"] is None else f" (paper {result['paper_speedup']:.2f}x)"
+    plot_curves(curves, out / f"ablation-{scene}-{compare}.png",
+                title=f"{scene}, {first} vs {second}, seeds {seeds[0]}-{seeds[-1]} (mean, band min-max): "
+                      f"{ours} faster to {threshold:g} success{paper}")
     atomic_write(out / f"ablation-{scene}-{compare}.json", json.dumps(result, indent=1))
     return result

@@ -454,7 +454,7 @@ def _command(scene: str, algorithm: str, steps: int, seed: int, out: Path, confi
     return shlex.join(args)
 
 
-def plot_curves(curves: dict[str, list[list[dict]]], path: str | Path, key: str = "success") -> None:
+def plot_curves(curves: dict[str, list[list[dict]]], path: str | Path, key: str = "success", title: str = "") -> None:
     """Validation success against environment steps: one line per label (mean over its runs, band = min-max)."""
     import matplotlib
 
@@ -476,6 +476,8 @@ def plot_curves(curves: dict[str, list[list[dict]]], path: str | Path, key: str 
     ax.set_ylim(-0.02, 1.02)
     ax.grid(alpha=0.3)
     ax.legend(loc="lower right")
+    if title:
+        ax.set_title(title, fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
