@@ -282,3 +282,19 @@ def test_bench_run_joins_a_running_ray_cluster_by_address_with_the_serial_rows(t
     settings = rows[0]["provenance"]["settings"]
     assert settings["backend"] == "ray" and settings["ray"] == address
     assert {r["provenance"]["pid"] for r in rows} != {os.getpid()}
+
+
+def test_progress_in_a_log_is_a_plain_line_every_percent(capsys):
+    from snakeplan.parallel import progress_bar
+
+    with progress_bar(250, "sweep") as tick:  # pytest's captured stderr is not a terminal, as a log file
+        for i in range(250):
+            tick(f"item {i}")
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 125 and lines[0].startswith("sweep: 2/250 (1 %, ") and lines[0].endswith(" item 1")
+    assert lines[-1].startswith("sweep: 250/250 (100 %, ") and lines[-1].endswith(" item 249")
+    with progress_bar(3, "small") as tick:
+        for i in range(3):
+            tick(f"run {i}")
+    assert [line.split(" (")[0] for line in capsys.readouterr().err.splitlines()] == [
+        "small: 1/3", "small: 2/3", "small: 3/3"]

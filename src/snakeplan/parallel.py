@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import os
 import socket
+import sys
+import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -198,9 +200,13 @@ def _reachable(address: str) -> None:
 @contextmanager
 def progress_bar(total: int, name: str, enabled: bool = True) -> Iterator[Callable[[str], None]]:
     """One rich progress bar over ``total`` items, drawn by the calling process whatever the backend (or
-    nothing when not ``enabled``); the value ``tick(description)`` advances it by one."""
+    nothing when not ``enabled``); the value ``tick(description)`` advances it by one. When standard error is
+    not a terminal (a log file, a cluster job's output) it is a plain line every 1 % of the items instead."""
     if not enabled or total == 0:
         yield lambda _description: None
+        return
+    if not sys.stderr.isatty():
+        yield _log_lines(total, name)
         return
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -208,6 +214,24 @@ def progress_bar(total: int, name: str, enabled: bool = True) -> Iterator[Callab
                   TextColumn("{task.description}"), transient=False) as bar:
         task = bar.add_task("", total=total)
         yield lambda description: bar.update(task, advance=1, description=description)
+
+
+def _log_lines(total: int, name: str) -> Callable[[str], None]:
+    """A ``tick`` that writes ``name: done/total (percent, elapsed s) description`` to standard error at every
+    1 % of ``total`` and at the last item."""
+    start = time.monotonic()
+    every = max(1, total // 100)
+    done = 0
+
+    def tick(description: str) -> None:
+        nonlocal done
+        done += 1
+        if done % every == 0 or done == total:
+            sys.stderr.write(f"{name}: {done}/{total} ({100 * done / total:.0f} %, {time.monotonic() - start:.0f} s) "
+                             f"{description}\n")
+            sys.stderr.flush()
+
+    return tick
 
 
 @contextmanager
