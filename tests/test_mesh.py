@@ -262,3 +262,13 @@ def test_scene_import_then_plan_from_the_command_line(tmp_path, capsys):
     capsys.readouterr()
     assert main(["plan", "--scene-file", str(out), "--planner", "as-rrt", "--time-limit", "20"]) == 0
     assert "verdict: feasible" in capsys.readouterr().out
+
+
+def test_scene_import_help_is_its_own(capsys):
+    from snakeplan.cli import main
+
+    with pytest.raises(SystemExit) as stop:
+        main(["scene", "import", "--help"])
+    out = capsys.readouterr().out
+    assert stop.value.code == 0 and out.startswith("usage: snakeplan scene import [-h] --units")
+    assert "--entrance X,Y,Z" in out and "--target X,Y,Z" in out

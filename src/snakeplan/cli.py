@@ -1069,7 +1069,7 @@ def build_parser() -> argparse.ArgumentParser:
 def cmd_scene_entry(args: argparse.Namespace) -> int:
     from snakeplan.scenes import scene_names
 
-    if args.name == "import":
+    if args.name == "import":  # options before 'import' (main sends 'scene import ...' straight there)
         return cmd_scene_import(args.extra)
     if args.extra:
         raise UsageError(f"unrecognized arguments: {' '.join(args.extra)}")
@@ -1123,13 +1123,16 @@ def cmd_scene_import(argv: list[str]) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the console script; returns the exit status."""
+    argv = sys.argv[1:] if argv is None else list(argv)
     try:
-        args, extra = build_parser().parse_known_args(argv)
-        if extra and not getattr(args, "takes_options", False):
-            raise UsageError(f"unrecognized arguments: {' '.join(extra)}")
-        args.extra = extra
         with warnings.catch_warnings():
             warnings.showwarning = _warning_line
+            if argv[:2] == ["scene", "import"]:  # its own parser, --help included
+                return int(cmd_scene_import(argv[2:]))
+            args, extra = build_parser().parse_known_args(argv)
+            if extra and not getattr(args, "takes_options", False):
+                raise UsageError(f"unrecognized arguments: {' '.join(extra)}")
+            args.extra = extra
             return int(args.func(args))
     except BrokenPipeError:
         return EXIT_OK
