@@ -99,6 +99,21 @@ def test_chain_clearance_matches_dense_sampling(pts, radius):
     assert obstacles.chain_collides(joints, radii) == (exact < 0) or abs(exact) < 0.06
 
 
+@settings(max_examples=30, deadline=None)
+@given(st.lists(st.lists(point, min_size=4, max_size=4), min_size=1, max_size=6), st.floats(1, 30))
+def test_least_clearance_is_the_least_of_every_chains_clearance(chains, radius):
+    obstacles = ObstacleSet([Box([0, 0, 0], [100, 200, 150]), Sphere([250, 50, 0], 60), cube_mesh(40.0),
+                             Pipe([0, 250, 0], [0, 0, 1], 60, 80, 300)])
+    joints = np.array(chains, dtype=float)
+    radii = np.full(3, radius)
+    each = obstacles.chain_clearance(joints, radii)
+    least, i = obstacles.least_clearance(joints, radii)
+    # both exceed the true values by at most the tolerance, so they agree to it; the chain named has the least
+    assert least == pytest.approx(each.min(), abs=0.05 + 1e-9)
+    assert each[i] <= each.min() + 0.05 + 1e-9
+    assert ObstacleSet([]).least_clearance(joints, radii) == (math.inf, -1)
+
+
 def test_an_obstacle_set_pickles_as_its_obstacles_and_loads_an_older_versions_state():
     # A training checkpoint pickles the environment, obstacle sets included; the packed arrays are derived, so a
     # state written before they changed (here: a dict without them) must load into today's form.

@@ -412,6 +412,31 @@ def _chains_clearance(W, joints, radii, tol, stats):
 
 
 @njit(cache=True)
+def _least_clearance(W, joints, radii, tol, stats):
+    """(least clearance over chains ``(B, n+1, 3)``, its chain): each link's search is cut off at the least found
+    so far, so chains and links farther than it cost a pruned search; the links of each chain are taken in the
+    order of their clearances in the previous chain (nearest first), the first chain's by midpoint distance."""
+    B = joints.shape[0]
+    n = radii.shape[0]
+    work = workspace(W)
+    walk = work[2]
+    last = np.empty(n)
+    for k in range(n):
+        last[k] = _scene_sdf(W, 0.5 * (joints[0, k] + joints[0, k + 1]), walk, stats) - radii[k]
+    best = np.inf
+    arg = -1
+    for i in range(B):
+        for k in np.argsort(last):
+            d = _segment_min(W, joints[i, k], joints[i, k + 1], best + radii[k], tol, radii[k], work, stats)
+            d -= radii[k]
+            last[k] = d
+            if d < best:
+                best = d
+                arg = i
+    return best, arg
+
+
+@njit(cache=True)
 def chain_hit(W, joints, radii, work, stats):
     """Index of a link of one chain ``(n+1, 3)`` that touches an obstacle (tip first), or -1 (jitted; higher layers'
     kernels call it with :attr:`ObstacleSet.packed` and a :func:`workspace` of it)."""
@@ -578,6 +603,16 @@ class ObstacleSet:
         r = np.ascontiguousarray(radii, dtype=float)
         flat = np.ascontiguousarray(J.reshape(-1, J.shape[-2], 3))
         return _chains_collide(self._packed, flat, r, self.evaluations).reshape(J.shape[:-2])
+
+    def least_clearance(self, joints, radii, tol: float = CLEARANCE_TOLERANCE_MM) -> tuple[float, int]:
+        """(the least :meth:`chain_clearance` over chains ``(B, n+1, 3)``, the first chain that has it): the
+        same value, found without settling each chain's own clearance exactly ((inf, -1) with no obstacles)."""
+        flat = np.ascontiguousarray(np.asarray(joints, dtype=float).reshape(-1, np.shape(joints)[-2], 3))
+        if len(self.obstacles) == 0 or flat.shape[0] == 0:
+            return math.inf, -1
+        best, i = _least_clearance(self._packed, flat, np.ascontiguousarray(radii, dtype=float), float(tol),
+                                   self.evaluations)
+        return float(best), int(i)
 
     def first_hit(self, joints, radii) -> tuple[int, int] | None:
         """(chain, link) of the first chain of ``(B, n+1, 3)``, in order, that :meth:`chain_collides`, or None;

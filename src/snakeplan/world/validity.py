@@ -28,7 +28,7 @@ import numpy as np
 from numba import njit
 
 from snakeplan import ftl
-from snakeplan.geometry.distance import CONTACT_RESOLUTION_MM, ObstacleSet, chain_hit, workspace
+from snakeplan.geometry.distance import ObstacleSet, chain_hit, workspace
 from snakeplan.geometry.polyline import arclength_grid, cumulative_length, validate_path
 from snakeplan.robots import Chain
 from snakeplan.world.knowledge import KnowledgeView
@@ -52,11 +52,13 @@ class Failure:
 
 @dataclass(frozen=True)
 class CrawlCheck:
-    """A whole crawl, every state judged: the configurations, per state the exact minimum clearance (mm) and what
-    failed, and the first failure (None when feasible)."""
+    """A whole crawl, every state judged: the configurations, per state what failed, the least clearance (mm,
+    exact to the clearance tolerance; inf with no obstacles) over the crawl and the first state that has it (-1
+    with none), and the first failure (None when feasible)."""
 
     states: ftl.FTLBatch
-    clearance: np.ndarray
+    min_clearance: float
+    closest_state: int
     collides: np.ndarray
     bend_bad: np.ndarray
     insertion_bad: np.ndarray
@@ -256,8 +258,10 @@ class ValidityChecker:
         cum = cumulative_length(p)
         depths = self._grid(cum, 0.0, float(cum[-1]))
         states = ftl.fit_states(p, self.lengths, depths, self.direction)
-        clearance = self.obstacles.chain_clearance(states.joints, self.radii)
-        collides = clearance < -CONTACT_RESOLUTION_MM
+        # the least clearance alone (each state's search cut off at the least so far: 3-4x cheaper than every
+        # state's own), and collisions by the collision test, which agrees with clearance < -CONTACT_RESOLUTION_MM
+        least, closest = self.obstacles.least_clearance(states.joints, self.radii)
+        collides = self.obstacles.chain_collides(states.joints, self.radii)
         bends = states.bend_angles > self.max_bends + BEND_TOLERANCE_RAD
         bend_bad = bends.any(axis=1)
         insertion_bad = ~states.insertion_ok
@@ -273,5 +277,5 @@ class ValidityChecker:
                 found.append(Failure(float(depths[i]), kind, link))
         found = [f for f in found if f is not None]
         failure = min(found, key=lambda f: (f.depth_mm, FAILURE_KINDS.index(f.kind))) if found else None
-        return CrawlCheck(states, clearance, collides, bend_bad, insertion_bad,
+        return CrawlCheck(states, least, closest, collides, bend_bad, insertion_bad,
                           not any(f.kind == "out_of_bounds" for f in found), failure)
