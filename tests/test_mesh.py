@@ -272,3 +272,18 @@ def test_scene_import_help_is_its_own(capsys):
     out = capsys.readouterr().out
     assert stop.value.code == 0 and out.startswith("usage: snakeplan scene import [-h] --units")
     assert "--entrance X,Y,Z" in out and "--target X,Y,Z" in out
+
+
+@pytest.mark.parametrize("planner", ["rrt-star", "sp-rrt", "as-rrt"])
+def test_sampling_planners_keep_their_time_budget_on_a_134k_triangle_mesh(planner):
+    """The contract's deadline rule (conformance suite) on a mesh scene: a solvable problem within 1 s and a walled
+    one (no plan exists; a new obstacle set around the same mesh) within 0.05 s, each plus the contract's slack."""
+    from snakeplan.planners import Problem
+    from snakeplan.planners.conformance import check_planner
+    from snakeplan.robots import get_robot
+    from snakeplan.scenes import make_scene, scene_spec
+
+    scene = make_scene("pipework", 0)
+    assert len(scene.obstacles[0].faces) > 100_000
+    report = check_planner(planner, [Problem(scene, get_robot(scene_spec("pipework").robot), time_limit_s=1.0)])
+    assert report.plans[0].endswith(": found") and report.plans[1].endswith("0.05 s: timeout")
