@@ -123,9 +123,17 @@ def test_an_obstacle_set_pickles_as_its_obstacles_and_loads_an_older_versions_st
     assert len(blob) < len(pickle.dumps(obstacles.packed))
     again = pickle.loads(blob)
     assert np.array_equal(again.signed_distance(points), obstacles.signed_distance(points))
+    old_mesh = Mesh.__new__(Mesh)  # a mesh pickled before the fields derived from it changed
+    old_mesh.__setstate__({"vertices": obstacles.obstacles[2].vertices, "faces": obstacles.obstacles[2].faces,
+                           "thickness": None})
     older = ObstacleSet.__new__(ObstacleSet)
-    older.__setstate__({"obstacles": obstacles.obstacles, "_rows": np.zeros((3, 1)), "evaluations": np.zeros(1)})
-    assert np.allclose(older.signed_distance(points)[:2], [20.0, 15.0])
+    older.__setstate__({"obstacles": (*obstacles.obstacles[:2], old_mesh), "_rows": np.zeros((3, 1)),
+                        "evaluations": np.zeros(1)})
+    assert np.allclose(older.signed_distance(points)[:2], [20.0, 15.0]) and old_mesh.closed
+    mesh = obstacles.obstacles[2]
+    again_mesh = pickle.loads(pickle.dumps(mesh))
+    assert np.array_equal(again_mesh.vertices, mesh.vertices) and np.array_equal(again_mesh.faces, mesh.faces)
+    assert again_mesh.closed == mesh.closed and "_distance_data" not in again_mesh.__dict__
     assert all(np.array_equal(a, b) for a, b in zip(older.packed, obstacles.packed))
 
 

@@ -699,13 +699,15 @@ def cmd_bench_table2(args: argparse.Namespace) -> int:
 
 
 def _backend(args: argparse.Namespace):
-    """The runner's backend from --workers and --ray."""
-    from snakeplan.parallel import backend_from
+    """The runner's backend from --workers and --ray (a HOST:PORT that nothing answers at is refused here, before
+    anything is written)."""
+    from snakeplan.parallel import backend_from, check_ray_address
 
     if args.ray:
         from snakeplan.extras import require_cluster
 
         require_cluster("--ray")
+        check_ray_address(args.ray)
     return backend_from(args.workers, args.ray)
 
 

@@ -163,13 +163,15 @@ def _execute_ray(work, tasks, backend: Backend, args: tuple) -> Iterator:
                  runtime_env={"env_vars": env}, configure_logging=False,
                  _system_config={"worker_niceness": RAY_LOCAL_NICENESS})
     else:
-        _reachable(backend.address)
+        check_ray_address(backend.address)
         try:
             ray.init(address=backend.address, log_to_driver=False, runtime_env={"env_vars": env},
                      configure_logging=False)
-        except ConnectionError as exc:
-            hint = ("" if os.environ.get("RAY_AUTH_MODE") else "; a cluster with token authentication (what "
-                    "'ray start' makes from Ray 2.59) needs RAY_AUTH_MODE=token and its token here")
+        except (ConnectionError, ray.exceptions.RayError) as exc:
+            hint = ""
+            if backend.address != "auto" and not os.environ.get("RAY_AUTH_MODE"):
+                hint = ("; a head with token authentication needs RAY_AUTH_MODE=token and the head's token here "
+                        "(~/.ray/auth_token or RAY_AUTH_TOKEN)")
             raise ValueError(f"--ray: cannot join a Ray cluster at {backend.address!r} ({str(exc).splitlines()[0]})"
                              f"{hint}; or start one with 'ray start --head' and pass the address it prints, or use "
                              f"'--ray local'") from None
@@ -183,7 +185,7 @@ def _execute_ray(work, tasks, backend: Backend, args: tuple) -> Iterator:
         ray.shutdown()
 
 
-def _reachable(address: str) -> None:
+def check_ray_address(address: str) -> None:
     """ValueError naming ``--ray`` when ``address`` (HOST:PORT) accepts no connection within
     :data:`RAY_CONNECT_TIMEOUT_S`: Ray itself keeps retrying an absent head for minutes."""
     host, sep, port = address.rpartition(":")
@@ -217,16 +219,15 @@ def progress_bar(total: int, name: str, enabled: bool = True) -> Iterator[Callab
 
 
 def _log_lines(total: int, name: str) -> Callable[[str], None]:
-    """A ``tick`` that writes ``name: done/total (percent, elapsed s) description`` to standard error at every
-    1 % of ``total`` and at the last item."""
+    """A ``tick`` that writes ``name: done/total (percent, elapsed s) description`` to standard error whenever
+    the whole percent done goes up (at most 100 lines), and at the first item."""
     start = time.monotonic()
-    every = max(1, total // 100)
     done = 0
 
     def tick(description: str) -> None:
         nonlocal done
         done += 1
-        if done % every == 0 or done == total:
+        if done == 1 or 100 * done // total > 100 * (done - 1) // total:
             sys.stderr.write(f"{name}: {done}/{total} ({100 * done / total:.0f} %, {time.monotonic() - start:.0f} s) "
                              f"{description}\n")
             sys.stderr.flush()

@@ -118,7 +118,7 @@ def paper_outputs(rows: list[dict], folder: Path) -> tuple[list[str], list[Path]
         text, files = paper_sections(sscc, folder)
         sections += ["## Paper 001, Tables 4 and 6", "", text]
         figures += files
-    station = [r for r in rows if r.get("config") == "station"]
+    station = [r for r in rows if r.get("config") == "station" and r.get("task") == "inspect"]
     if station:
         from snakeplan.bench.station import station_outputs, summary_markdown
 

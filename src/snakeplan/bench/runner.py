@@ -121,21 +121,31 @@ class Sweep:
     include: Callable[[str, str], bool] | None = field(default=None, compare=False)
 
     def runs(self) -> list[Run]:
-        """Every run, scene by scene, planner by planner, seed by seed."""
+        """Every run, scene by scene, planner by planner, seed by seed; a planner runs only in the scenes whose
+        task it does (a tip planner where targets are to be reached, an inspection planner where a surface is to
+        be inspected), and one that does no scene's task is a ValueError naming ``planners``."""
         out = []
+        fitted: set[str] = set()
         for scene in self.scenes:
             text, family = _scene_source(scene)
             spec = _spec(family, text)
             robot = self.robot or spec.robot
             for planner, options in self.planners:
+                if not _does_task(planner, spec.task):
+                    continue
+                fitted.add(planner)
                 if self.include is not None and not self.include(family, planner):
                     continue
-                _check_task(planner, family, spec.task)
                 for seed in self.seeds:
                     out.append(Run(family, seed, planner, robot, self.time_limit_s,
                                    tuple(sorted(options.items())), self.knowledge, text,
                                    self.stateful is not None and self.stateful(planner, options),
                                    self.name, spec.task))
+        idle = [p for p, _ in self.planners if p not in fitted]
+        if idle:
+            raise ValueError(f"planners: {', '.join(idle)} can do none of these scenes' tasks "
+                             f"({', '.join(self.scenes)}): a tip planner reaches targets, an inspection planner "
+                             f"inspects a surface (station)")
         return out
 
 
@@ -155,16 +165,12 @@ def _scene_source(scene: str) -> tuple[str, str]:
     return "", scene
 
 
-def _check_task(planner: str, scene: str, task: str) -> None:
-    """ValueError naming ``planners`` when ``planner`` cannot do ``scene``'s task (reach its targets with a tip
-    planner, or inspect its surface with an inspection planner)."""
+def _does_task(planner: str, task: str) -> bool:
+    """Whether ``planner`` does a scene task: inspect a surface (an inspection planner) or reach targets."""
     from snakeplan.planners import planner_names
     from snakeplan.planners.inspection import inspection_planner_names
 
-    names = inspection_planner_names() if task == "inspect" else planner_names()
-    if planner not in names:
-        kind = "an inspection planner" if task == "inspect" else "a planner of targets to reach"
-        raise ValueError(f"planners: {scene} needs {kind} ({', '.join(names)}), got {planner!r}")
+    return planner in (inspection_planner_names() if task == "inspect" else planner_names())
 
 
 def _spec(family: str, text: str):
@@ -262,30 +268,40 @@ def _inspection_row(run: Run, provenance: dict) -> dict:
     flown = bool(result.times[-1] >= problem.ticks()[-1] - 1e-9)
     path = np.asarray(result.path, dtype=float)
     prior = world.prior
-    row = {"schema": SCHEMA, "key": run.key, "config": run.config, "task": run.task, "scene": run.scene,
-           "seed": run.seed, "robot": run.robot, "planner": run.planner, "options": options,
+    details = {
+        "compute_cpu_s": result.compute_cpu_s, "plans": result.plans,
+        # nested, so that comparable() keeps them (it drops top-level details ending in _s)
+        "mission": {"budget_s": problem.budget_s, "camera_speed_mm_s": problem.speed_mm_s,
+                    "measurement_hz": problem.measurement_hz},
+        "measurement_times": result.times, "rmse_k": result.rmse, "trace_k2": result.trace,
+        "final_mean_k": result.final_map.mean, "final_variance_k2": np.diag(result.final_map.cov),
+        "world": {"viewpoints": len(world.library), "reachable_share": float(world.library.reachable.mean()),
+                  "prior_mean_k": float(prior.mean[0]), "sigma_f_k": prior.sigma_f,
+                  "length_scale_mm": prior.length_scale,
+                  "pd_fix": {"smallest_eigenvalues_before": list(prior.pd_fix.smallest_before),
+                             "smallest_eigenvalues_after": list(prior.pd_fix.smallest_after),
+                             "clipped": prior.pd_fix.n_clipped, "max_entry_change": prior.pd_fix.max_change}}}
+    metrics = {"final_rmse_k": float(result.rmse[-1]), "final_trace_k2": float(result.trace[-1]),
+               "reach_share": float(world.reach.check(result.poses).share),
+               "path_length_mm": float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum())}
+    reason = None if flown else f"the planner stopped at {result.times[-1]:.1f} s of {problem.budget_s:.0f} s"
+    return _row(run, "solved" if flown else "stopped", flown, reason, result.compute_time_s, metrics,
+                jsonable(details), path, provenance, task=run.task)
+
+
+def _row(run: Run, status: str, success: bool, reason: str | None, compute_time_s: float, metrics: dict | None,
+         details: dict, path: np.ndarray | None, provenance: dict, **extra) -> dict:
+    """A ``snakeplan.run/1`` row: the run, the outcome, the path (mm) with its hash, provenance; ``extra`` fields
+    (an inspection row's ``task``) after the run's."""
+    row = {"schema": SCHEMA, "key": run.key, "config": run.config, **extra, "scene": run.scene, "seed": run.seed,
+           "robot": run.robot, "planner": run.planner, "options": dict(run.options),
            "time_limit_s": run.time_limit_s, "knowledge": run.knowledge,
-           "status": "solved" if flown else "stopped", "success": flown,
-           "reason": None if flown else f"the planner stopped at {result.times[-1]:.1f} s of {problem.budget_s:.0f} s",
-           "compute_time_s": result.compute_time_s,
-           "metrics": {"final_rmse_k": float(result.rmse[-1]), "final_trace_k2": float(result.trace[-1]),
-                       "reach_share": float(world.reach.check(result.poses).share),
-                       "path_length_mm": float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum())},
-           "details": {"compute_cpu_s": result.compute_cpu_s, "plans": result.plans,
-                       "budget": problem.budget_s, "camera_speed_mm_per_s": problem.speed_mm_s,
-                       "measurement_hz": problem.measurement_hz,
-                       "measurement_times": result.times, "rmse_k": result.rmse, "trace_k2": result.trace,
-                       "final_mean_k": result.final_map.mean, "final_variance_k2": np.diag(result.final_map.cov),
-                       "world": {"viewpoints": len(world.library),
-                                 "reachable_share": float(world.library.reachable.mean()),
-                                 "prior_mean_k": float(prior.mean[0]), "sigma_f_k": prior.sigma_f,
-                                 "length_scale_mm": prior.length_scale,
-                                 "pd_fix": {"smallest_eigenvalues_before": list(prior.pd_fix.smallest_before),
-                                            "smallest_eigenvalues_after": list(prior.pd_fix.smallest_after),
-                                            "clipped": prior.pd_fix.n_clipped,
-                                            "max_entry_change": prior.pd_fix.max_change}}},
-           "path": path.tolist(), "path_points": len(path),
-           "path_sha256": hashlib.sha256(path.tobytes()).hexdigest(), "provenance": provenance}
+           "status": status, "success": success, "reason": reason, "compute_time_s": compute_time_s,
+           "metrics": metrics, "details": details,
+           "path": None if path is None else path.tolist(),
+           "path_points": 0 if path is None else len(path),
+           "path_sha256": None if path is None else hashlib.sha256(path.tobytes()).hexdigest(),
+           "provenance": provenance}
     if run.scene_json:
         row["scene_sha256"] = run.identity()["scene_sha256"]
     return jsonable(row)
@@ -294,21 +310,9 @@ def _inspection_row(run: Run, provenance: dict) -> dict:
 def make_row(run: Run, episode, provenance: dict) -> dict:
     """The ``snakeplan.run/1`` row of a judged episode."""
     plan, report = episode.plan, episode.report
-    path = None if plan.path is None else np.asarray(plan.path, dtype=float)
-    row = {"schema": SCHEMA, "key": run.key, "config": run.config, "scene": run.scene, "seed": run.seed,
-           "robot": run.robot, "planner": run.planner, "options": dict(run.options),
-           "time_limit_s": run.time_limit_s, "knowledge": run.knowledge,
-           "status": str(plan.status), "success": episode.success, "reason": episode.reason,
-           "compute_time_s": plan.compute_time_s,
-           "metrics": report.metrics() if report is not None else None,
-           "details": jsonable(plan.details),
-           "path": None if path is None else path.tolist(),
-           "path_points": 0 if path is None else len(path),
-           "path_sha256": None if path is None else hashlib.sha256(path.tobytes()).hexdigest(),
-           "provenance": provenance}
-    if run.scene_json:
-        row["scene_sha256"] = run.identity()["scene_sha256"]
-    return jsonable(row)
+    return _row(run, str(plan.status), episode.success, episode.reason, plan.compute_time_s,
+                report.metrics() if report is not None else None, jsonable(plan.details),
+                None if plan.path is None else np.asarray(plan.path, dtype=float), provenance)
 
 
 def comparable(row: dict) -> dict:

@@ -20,6 +20,7 @@ import numpy as np
 
 from snakeplan.bench.runner import Sweep, run_sweep
 from snakeplan.files import atomic_write
+from snakeplan.jsonable import jsonable
 from snakeplan.parallel import Backend
 
 SCHEMA = "snakeplan.bench.station/2"
@@ -103,8 +104,7 @@ def summarise(rows: list[dict]) -> dict:
     return {
         "schema": SCHEMA, "scene": "station", "robot": first["robot"], "seeds": sorted({r["seed"] for r in rows}),
         "units": {"rmse": "K", "trace": "K^2", "time": "s", "length": "mm"},
-        "budget_s": first["details"]["budget"], "camera_speed_mm_s": first["details"]["camera_speed_mm_per_s"],
-        "measurement_hz": first["details"]["measurement_hz"],
+        **first["details"]["mission"],
         "methods": methods,
         "ratios_to_cp": None if cp is None else {
             "ours": {n: r / cp for n, r in rmse.items()},
@@ -121,8 +121,10 @@ def summarise(rows: list[dict]) -> dict:
 
 def station_outputs(rows: list[dict], out: Path) -> dict:
     """Write ``station.json``, ``station.md`` and the pictures (Figs. 6-8 of the first seed, Fig. 9) into
-    ``out`` from the logged station rows; return the summary (with the figure file names)."""
-    summary = summarise(rows)
+    ``out`` from the logged station missions of IP, CP and RP among ``rows`` (other rows are left out); return
+    the summary (with the figure file names)."""
+    rows = [r for r in rows if r.get("task") == "inspect" and r["scene"] == "station" and r["planner"] in METHODS]
+    summary = jsonable(summarise(rows))
     summary["figures"] = [f.name for f in _figures(rows, out)]
     atomic_write(out / "station.json", json.dumps(summary, indent=2, allow_nan=False) + "\n")
     atomic_write(out / "station.md", summary_markdown(summary) + "\n")

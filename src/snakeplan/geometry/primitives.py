@@ -306,6 +306,17 @@ class Mesh(Obstacle):
         object.__setattr__(self, "faces", F)
         object.__setattr__(self, "closed", closed)
 
+    def __getstate__(self) -> dict:
+        """Pickled as its defining fields; what is derived from them is rebuilt on loading."""
+        return {"vertices": self.vertices, "faces": self.faces, "thickness": self.thickness, "source": self.source}
+
+    def __setstate__(self, state: dict) -> None:
+        """Rebuild from the defining fields, so a mesh pickled by an older version (a training checkpoint) gets
+        this version's derived data."""
+        for name in ("vertices", "faces", "thickness", "source"):
+            object.__setattr__(self, name, state.get(name))
+        self.__post_init__()
+
     @property
     def center(self) -> np.ndarray:  # type: ignore[override]
         return (self.vertices.min(axis=0) + self.vertices.max(axis=0)) / 2
