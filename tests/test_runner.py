@@ -302,11 +302,14 @@ def test_bench_run_joins_a_running_ray_cluster_by_address_with_the_serial_rows(t
                               capture_output=True, text=True, timeout=600)
         assert proc.returncode == 0, proc.stderr[-2000:]
     finally:
-        os.killpg(head.pid, signal.SIGTERM)
+        head.send_signal(signal.SIGTERM)  # 'ray start --block' stops what it started
         try:
             head.wait(timeout=60)
         except subprocess.TimeoutExpired:
             os.killpg(head.pid, signal.SIGKILL)
+        record = Path("/tmp/ray/ray_current_cluster")  # Ray's note of the newest head here, if it still names ours
+        if record.exists() and record.read_text().strip().endswith(f":{port}"):
+            record.unlink()
     sweep = Sweep("run", ("oil-tank",), tuple(range(6)), (("sp-rrt", {}), ("sac-per", {})), 5.0)
     serial = run_sweep(sweep, tmp_path / "serial", Backend("serial"), progress=False).rows
     rows = read_rows(tmp_path / "cluster")

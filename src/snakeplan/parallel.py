@@ -159,7 +159,8 @@ def _execute_ray(work, tasks, backend: Backend, args: tuple) -> Iterator:
     if os.environ.get("PYTHONPATH") and backend.address == "local":
         env["PYTHONPATH"] = os.environ["PYTHONPATH"]
     if backend.address == "local":
-        ray.init(num_cpus=backend.slots, include_dashboard=False, log_to_driver=False,
+        # address "local": a new instance even where a cluster (or a stale record of one) exists on this machine
+        ray.init(address="local", num_cpus=backend.slots, include_dashboard=False, log_to_driver=False,
                  runtime_env={"env_vars": env}, configure_logging=False,
                  _system_config={"worker_niceness": RAY_LOCAL_NICENESS})
     else:
