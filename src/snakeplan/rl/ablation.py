@@ -81,7 +81,7 @@ def run_ablation(scene: str, seeds: list[int], steps: int, out_dir: str | Path, 
         f"{'>= ' if result['speedup_is_lower_bound'] else ''}{result['speedup']:.2f}x")
     paper = "" if result["paper_speedup"] is None else f" (paper {result['paper_speedup']:.2f}x)"
     plot_curves(curves, out / f"ablation-{scene}-{compare}.png",
-                title=f"{scene}, {first} vs {second}, seeds {seeds[0]}-{seeds[-1]} (mean, band min-max): "
-                      f"{ours} faster to {threshold:g} success{paper}")
+                title=f"{scene}: {first} vs {second}, seeds {seeds[0]}-{seeds[-1]} (mean, band min-max)\n"
+                      f"{ours} faster to {threshold:g} validation success{paper}")
     atomic_write(out / f"ablation-{scene}-{compare}.json", json.dumps(result, indent=1))
     return result

@@ -475,7 +475,7 @@ def plot_curves(curves: dict[str, list[list[dict]]], path: str | Path, key: str 
     ax.set_ylabel("validation success rate" if key == "success" else key)
     ax.set_ylim(-0.02, 1.02)
     ax.grid(alpha=0.3)
-    ax.legend(loc="lower right")
+    ax.legend(loc="upper left")  # learning curves rise: the early, upper corner is empty
     if title:
         ax.set_title(title, fontsize=9)
     fig.tight_layout()
