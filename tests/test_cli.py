@@ -246,6 +246,36 @@ def test_bench_rl_rejects_bad_repeats(capsys):
     assert code == 2 and "--repeats" in err
 
 
+def test_bench_speed_saves_each_row_and_a_rerun_measures_only_the_rest(capsys, tmp_path, monkeypatch):
+    import os
+    import signal
+
+    from snakeplan.bench import speed
+
+    calls = []
+    judge = {"10^6-point path": {"seconds": 0.5, "peak_mb": 100.0}, "1e8 mm path": {"seconds": 0.1, "peak_mb": 50.0}}
+    command = {"now": {"median_s": 1.0, "max_s": 2.0}, "before": {"median_s": 0.1, "max_s": 0.2}}
+    monkeypatch.setattr(speed, "command_rows", lambda repeats, say: calls.append("command") or command)
+    monkeypatch.setattr(speed, "judge_rows", lambda say: os.kill(os.getpid(), signal.SIGINT))  # Ctrl-C in a row
+    out = tmp_path / "speed.md"
+    partial = tmp_path / "speed.partial.json"
+    argv = ("bench", "speed", "--rows", "judge,command", "--out", str(out))
+    code, _, err = run(capsys, *argv)
+    assert code == 130 and err.splitlines()[-1] == (f"snakeplan: interrupted; 1 of 2 rows saved in {partial}, rerun "
+                                                    "the same command to resume")
+    assert json.loads(partial.read_text())["rows"] == {"plan command": command} and not out.exists()
+    monkeypatch.setattr(speed, "judge_rows", lambda say: calls.append("judge") or judge)
+    code, text, _ = run(capsys, *argv)
+    summary = json.loads(out.with_suffix(".json").read_text())
+    assert code == 0 and calls == ["command", "judge"] and not partial.exists()  # the command row not measured again
+    assert summary["rows"] == {"plan command": command, "judge": judge}
+    assert summary["resumed_rows"] == ["plan command"]
+    assert "| judge, 10^6-point path / 1e8 mm path | 0.50 s, 100 MB / 0.10 s, 50 MB |" in text
+    partial.write_text(json.dumps({**summary, "repeats": 99}))  # saved with other settings: measured afresh
+    code, _, _ = run(capsys, *argv)
+    assert code == 0 and calls == ["command", "judge", "command", "judge"]
+
+
 @pytest.mark.parametrize(("argv", "expected"), [
     (["--seeds", "0"], "snakeplan: error: --seeds: expected a positive integer, got 0\n"),
     (["--station-seeds", "-1"], "snakeplan: error: --station-seeds: expected a positive integer, got -1\n"),

@@ -513,10 +513,13 @@ def cmd_bench_speed(args: argparse.Namespace) -> int:
         raise UsageError(f"--station-baseline-seeds: expected a non-negative integer, "
                          f"got {args.station_baseline_seeds}")
     rows = ROWS if args.rows is None else _name_list(args.rows, list(ROWS), "--rows")
+    state = out.with_suffix(".partial.json")
     summary = run_speed_bench(seeds=args.seeds, station_seeds=args.station_seeds, rows=rows,
                               station_baseline_seeds=args.station_baseline_seeds, repeats=args.repeats,
-                              progress=None if args.json else lambda line: sys.stderr.write(line + "\n"))
+                              progress=None if args.json else lambda line: sys.stderr.write(line + "\n"),
+                              state=state)
     write_speed(summary, out)
+    state.unlink(missing_ok=True)
     if args.json:
         _print_json(summary)
     else:
@@ -914,7 +917,9 @@ def build_parser() -> argparse.ArgumentParser:
                         description="Time every planner row of the speed table (median and worst case over seeds) "
                                     "beside the implementation it replaced, in the same process; the station "
                                     "missions run beside a busy process; the load average is recorded. Writes a "
-                                    "markdown table (--out) and its figures as JSON beside it.")
+                                    "markdown table (--out) and its figures as JSON beside it. Each finished row "
+                                    "is saved at once in a .partial.json beside --out: rerun an interrupted command to "
+                                    "measure only the rows it lacks.")
     p.add_argument("--seeds", type=int, default=100, help="seeds per planner and scene (default 100)")
     p.add_argument("--station-seeds", type=int, default=20, help="station missions (default 20)")
     p.add_argument("--station-baseline-seeds", type=int, default=2,

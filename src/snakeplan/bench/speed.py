@@ -37,6 +37,7 @@ from unittest import mock
 import numpy as np
 
 from snakeplan.files import atomic_write
+from snakeplan.interrupt import Interrupted, interruptible
 
 SCHEMA = "snakeplan.bench.speed/1"
 #: The issue's aims (s): station worst case, rrt-star median, sp-rrt / as-rrt medians, sac-her median and p99,
@@ -195,8 +196,12 @@ def judge_rows(progress: Callable[[str], None]) -> dict:
 
 def run_speed_bench(seeds: int = 100, station_seeds: int = 20, station_baseline_seeds: int = 2,
                     repeats: int = 5, progress: Callable[[str], None] | None = None,
-                    rows: tuple[str, ...] = ROWS) -> dict:
-    """The figures of the speed table (module docs) for ``rows`` (default all); the JSON-ready summary."""
+                    rows: tuple[str, ...] = ROWS, state: Path | None = None) -> dict:
+    """The figures of the speed table (module docs) for ``rows`` (default all); the JSON-ready summary.
+
+    With ``state`` (a JSON file), each finished row is saved there at once and a rerun with the same settings
+    measures only the rows it lacks; SIGINT or SIGTERM stops at once with
+    :class:`~snakeplan.interrupt.Interrupted` saying what was saved. The caller removes ``state`` when done."""
     from snakeplan.planners import get_planner
     from snakeplan.planners.rrt_star import RRTStar
 
@@ -212,29 +217,61 @@ def run_speed_bench(seeds: int = 100, station_seeds: int = 20, station_baseline_
     import scipy.linalg  # noqa: F401  (its BLAS is loaded lazily; list it with NumPy's)
     from threadpoolctl import threadpool_info
 
+    settings = {"seeds": seeds, "station_seeds": station_seeds, "station_baseline_seeds": station_baseline_seeds,
+                "repeats": repeats}
     summary: dict = {"schema": SCHEMA, "python": platform.python_version(), "cpus": os.cpu_count(),
                      "load_before": load(), "blas": [{k: i[k] for k in ("internal_api", "num_threads", "prefix")}
                                                      for i in threadpool_info()],
                      "environment_threads": {k: os.environ.get(k) for k in
                                              ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")},
-                     "seeds": seeds, "station_seeds": station_seeds, "aims_s": AIMS, "rows": {}}
+                     **settings, "aims_s": AIMS, "rows": {}}
+    saved = _saved(state, settings)
+    if saved is not None:
+        summary.update(load_before=saved["load_before"], rows=saved["rows"], resumed_rows=sorted(saved["rows"]))
+        say(f"resuming from {state}: {len(saved['rows'])} rows measured before")
     out = summary["rows"]
+    todo: list[tuple[str, Callable[[], dict]]] = []
     if "rrt-star" in rows:
         for scene in ("fuel-tank", "oil-tank"):
-            out[f"rrt-star {scene}"] = planner_rows("rrt-star", scene, seeds, contextlib.nullcontext, RRTStar,
-                                                    lambda: RRTStar(backend="ompl"), say)
+            todo.append((f"rrt-star {scene}", lambda s=scene: planner_rows(
+                "rrt-star", s, seeds, contextlib.nullcontext, RRTStar, lambda: RRTStar(backend="ompl"), say)))
     for name in ("sp-rrt", "as-rrt", "sac-her"):
         if name in rows:
-            out[f"{name} fuel-tank"] = planner_rows(name, "fuel-tank", seeds, default_threads,
-                                                    lambda n=name: get_planner(n), lambda n=name: get_planner(n), say)
+            todo.append((f"{name} fuel-tank", lambda n=name: planner_rows(
+                n, "fuel-tank", seeds, default_threads, lambda: get_planner(n), lambda: get_planner(n), say)))
     if "command" in rows:
-        out["plan command"] = command_rows(repeats, say)
+        todo.append(("plan command", lambda: command_rows(repeats, say)))
     if "judge" in rows:
-        out["judge"] = judge_rows(say)
+        todo.append(("judge", lambda: judge_rows(say)))
     if "station" in rows:
-        out["station informative"] = station_rows(station_seeds, station_baseline_seeds, say)
+        todo.append(("station informative", lambda: station_rows(station_seeds, station_baseline_seeds, say)))
+    with interruptible(immediate=True):
+        try:
+            for key, measure in todo:
+                if key in out:
+                    continue
+                out[key] = measure()
+                if state is not None:
+                    atomic_write(state, json.dumps(summary, allow_nan=False))
+        except Interrupted as stop:
+            where = (f"; {len(out)} of {len(todo)} rows saved in {state}, rerun the same command to resume"
+                     if state else "")
+            raise Interrupted(f"interrupted{where}", stop.signum) from None
     summary["load_after"] = load()
     return summary
+
+
+def _saved(state: Path | None, settings: dict) -> dict | None:
+    """The rows saved in ``state`` by an interrupted run with the same ``settings``, or None."""
+    if state is None or not state.is_file():
+        return None
+    try:
+        saved = json.loads(state.read_text())
+    except ValueError:
+        return None
+    if saved.get("schema") != SCHEMA or any(saved.get(k) != v for k, v in settings.items()):
+        return None
+    return saved
 
 
 def speed_markdown(summary: dict) -> str:
