@@ -179,13 +179,16 @@ def test_round_trip_and_validation():
 
 
 @settings(max_examples=30, deadline=None)
-@given(seed=st.integers(0, 10_000))
-def test_raycast_culling_keeps_the_first_hit_among_many_obstacles(seed):
-    """Tracing only the obstacles whose bounding boxes a ray meets finds the same first surface as sphere tracing
-    the whole scene's signed distance (NumPy, step by step)."""
+@given(seed=st.integers(0, 10_000), many=st.booleans())
+def test_raycast_culling_keeps_the_first_hit_among_many_obstacles(seed, many):
+    """Tracing only the obstacles whose bounding boxes a ray meets (found through the obstacle tree, several levels
+    deep with ``many``) finds the same first surface as sphere tracing the whole scene's signed distance (NumPy,
+    step by step)."""
     rng = np.random.default_rng(seed)
     obstacles = [Sphere(rng.uniform(-300, 300, 3), rng.uniform(10, 60)) for _ in range(6)]
     obstacles += [Box(c, rng.uniform(20, 120, 3)) for c in rng.uniform(-300, 300, (6, 3))]
+    if many:
+        obstacles += [Box(c, rng.uniform(5, 30, 3)) for c in rng.uniform(-600, 600, (150, 3))]
     scene = ObstacleSet(obstacles)
     origin = rng.uniform(-400, 400, 3)
     dirs = rng.normal(size=(8, 3))

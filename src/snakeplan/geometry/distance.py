@@ -495,17 +495,36 @@ def _ray_meets_box(box, origin, d, max_dist, eps):
 @njit(cache=True)
 def _raycast(W, origins, dirs, max_dist, eps, stats):
     """Sphere tracing of each ray against only the obstacles whose bounding box (grown by ``eps``) its segment
-    [0, max_dist] meets: an obstacle the segment misses can neither stop the ray nor be entered by it, so a ray
-    costs a few obstacles' distances per step instead of the whole scene's."""
-    rows, boxes = W[0], W[1]
+    [0, max_dist] meets, found by walking the obstacle tree: an obstacle the segment misses can neither stop the
+    ray nor be entered by it, so a ray costs a few obstacles' distances per step instead of the whole scene's, and
+    the search for them grows with the obstacles along the ray, not with the scene."""
+    rows, boxes, nodes, links, order = W[0], W[1], W[7], W[8], W[9]
     out = np.full(origins.shape[0], np.inf)
+    if rows.shape[0] == 0:
+        return out
     cand, _, walk, _ = workspace(W)
+    st = walk[0]
     for i in range(origins.shape[0]):
         n = 0
-        for k in range(rows.shape[0]):
-            if _ray_meets_box(boxes[k], origins[i], dirs[i], max_dist, eps):
-                cand[n] = k
-                n += 1
+        st[0] = 0
+        top = 1
+        while top > 0:
+            top -= 1
+            node = st[top]
+            if not _ray_meets_box(nodes[node], origins[i], dirs[i], max_dist, eps):
+                continue
+            first = links[node, 0]
+            second = links[node, 1]
+            if second >= 0:
+                st[top] = first
+                st[top + 1] = second
+                top += 2
+                continue
+            for j in range(first, first - second):
+                k = order[j]
+                if _ray_meets_box(boxes[k], origins[i], dirs[i], max_dist, eps):
+                    cand[n] = k
+                    n += 1
         t = 0.0
         while n > 0 and t <= max_dist:
             step = _min_over(W, cand, n, origins[i] + t * dirs[i], walk, stats)
