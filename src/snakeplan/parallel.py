@@ -200,40 +200,62 @@ def check_ray_address(address: str) -> None:
                          f"the address it prints, or use '--ray local'") from None
 
 
+class ProgressDisplay:
+    """Progress over ``total`` items on ``stream``: a rich bar on a terminal; elsewhere (a log file, a cluster
+    job's output) a plain line ``name: done/total (percent, elapsed s) description`` at the first update and each
+    time the whole percent done goes up, so at most 101 lines. :meth:`update` sets the count; :meth:`close` ends
+    the bar. One mechanism for the runner, training sweeps and single trainings."""
+
+    def __init__(self, total: int, name: str, stream=None):
+        self.total, self.name = max(int(total), 1), name
+        self.stream = sys.stderr if stream is None else stream
+        self.done = 0
+        self._start = time.monotonic()
+        self._bar = None
+        if self.stream.isatty():
+            from rich.console import Console
+            from rich.progress import (
+                BarColumn,
+                MofNCompleteColumn,
+                Progress,
+                TextColumn,
+                TimeElapsedColumn,
+                TimeRemainingColumn,
+            )
+
+            self._bar = Progress(TextColumn(name), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                                 TimeRemainingColumn(), TextColumn("{task.description}"),
+                                 console=Console(file=self.stream))
+            self._task = self._bar.add_task("", total=self.total)
+            self._bar.start()
+
+    def update(self, done: int, description: str = "") -> None:
+        before, self.done = self.done, done
+        if self._bar is not None:
+            self._bar.update(self._task, completed=done, description=description)
+        elif before == 0 or 100 * done // self.total > 100 * before // self.total:
+            self.stream.write(f"{self.name}: {done}/{self.total} ({100 * done // self.total} %, "
+                              f"{time.monotonic() - self._start:.0f} s) {description}\n")
+            self.stream.flush()
+
+    def close(self) -> None:
+        if self._bar is not None:
+            self._bar.stop()
+            self._bar = None
+
+
 @contextmanager
 def progress_bar(total: int, name: str, enabled: bool = True) -> Iterator[Callable[[str], None]]:
-    """One rich progress bar over ``total`` items, drawn by the calling process whatever the backend (or
-    nothing when not ``enabled``); the value ``tick(description)`` advances it by one. When standard error is
-    not a terminal (a log file, a cluster job's output) it is a plain line every 1 % of the items instead."""
+    """One :class:`ProgressDisplay` over ``total`` items on standard error, drawn by the calling process whatever
+    the backend (or nothing when not ``enabled``); the value ``tick(description)`` advances it by one."""
     if not enabled or total == 0:
         yield lambda _description: None
         return
-    if not sys.stderr.isatty():
-        yield _log_lines(total, name)
-        return
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-
-    with Progress(TextColumn(name), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  TextColumn("{task.description}"), transient=False) as bar:
-        task = bar.add_task("", total=total)
-        yield lambda description: bar.update(task, advance=1, description=description)
-
-
-def _log_lines(total: int, name: str) -> Callable[[str], None]:
-    """A ``tick`` that writes ``name: done/total (percent, elapsed s) description`` to standard error whenever
-    the whole percent done goes up (at most 100 lines), and at the first item."""
-    start = time.monotonic()
-    done = 0
-
-    def tick(description: str) -> None:
-        nonlocal done
-        done += 1
-        if done == 1 or 100 * done // total > 100 * (done - 1) // total:
-            sys.stderr.write(f"{name}: {done}/{total} ({100 * done / total:.0f} %, {time.monotonic() - start:.0f} s) "
-                             f"{description}\n")
-            sys.stderr.flush()
-
-    return tick
+    display = ProgressDisplay(total, name)
+    try:
+        yield lambda description: display.update(display.done + 1, description)
+    finally:
+        display.close()
 
 
 @contextmanager

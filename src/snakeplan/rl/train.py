@@ -1,10 +1,10 @@
 """Training entry point for the learned planners: SAC-HER, SAC-PER and plain SAC (paper 000 Algorithms 1-3).
 
 ``train(scene, algorithm, steps, seed, out_dir)`` trains with a progress bar (on a terminal; in a log, a plain
-line every 1 % of the run), evaluates the deterministic policy every ``eval_every`` steps on fixed validation
-episodes (judged by :func:`snakeplan.evaluation.evaluate`), checkpoints every ``checkpoint_every`` steps (default
-:func:`snakeplan.checkpoints.checkpoint_interval`: a tenth of the run, within 1,000-10,000 steps and at most the
-run) and writes into ``out_dir``:
+line at each whole percent of the run), evaluates the deterministic policy every ``eval_every`` steps on fixed
+validation episodes (judged by :func:`snakeplan.evaluation.evaluate`), checkpoints every ``checkpoint_every``
+steps (default :func:`snakeplan.checkpoints.checkpoint_interval`: a tenth of the run, within 1,000-10,000 steps
+and at most the run) and writes into ``out_dir``:
 
 - ``policy.npz``: the best validation policy as plain weights (:class:`snakeplan.planners.sac.NumpyPolicy`),
   ``last.npz`` the final one; ``curve.json`` and ``curve.png``: the learning curve. Each is written atomically.
@@ -63,6 +63,7 @@ from snakeplan.checkpoints import (
 from snakeplan.episode import run_episode
 from snakeplan.files import atomic_path, atomic_write
 from snakeplan.interrupt import Interrupted, StopRequest, interruptible, interruption, report
+from snakeplan.parallel import ProgressDisplay
 from snakeplan.planners import Problem
 from snakeplan.planners.sac import (
     CAPTURE_STEPS,
@@ -254,8 +255,7 @@ class _Run:
         self.best_policy: NumpyPolicy | None = None
         self.model = None
         self.graph: RoomGraph | None = None
-        self._bar = None
-        self._line_every = 0
+        self._bar: ProgressDisplay | None = None
         self.seeds = range(VALIDATION_SEED, VALIDATION_SEED + config.eval_episodes)
 
     @property
@@ -329,39 +329,21 @@ class _Run:
             plot_curves({f"{self.scene} {self.algorithm}": [self.history]}, tmp)
 
     def start_bar(self) -> None:
-        """A progress bar on a terminal; elsewhere (a log file) a plain line every 1 % of the run."""
-        if not self.progress:
-            return
-        if not sys.stdout.isatty():
-            self._line_every = max(1, self.steps // 100)
-            return
-        from rich.progress import (
-            BarColumn,
-            MofNCompleteColumn,
-            Progress,
-            TextColumn,
-            TimeRemainingColumn,
-        )
-
-        self._bar = Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
-                             TimeRemainingColumn(), TextColumn("{task.fields[status]}"))
-        self._task = self._bar.add_task(f"{self.scene} {self.algorithm}", total=self.steps, status="")
-        self._bar.start()
+        """Progress over the run's steps on standard output (:class:`snakeplan.parallel.ProgressDisplay`: a bar on
+        a terminal, in a log a plain line at each whole percent)."""
+        if self.progress:
+            self._bar = ProgressDisplay(self.steps, f"{self.scene} {self.algorithm}", sys.stdout)
 
     def advance(self, n: int) -> None:
-        if not (self._bar is not None and n % 100 == 0 or self._line_every and n % self._line_every == 0):
+        if self._bar is None or (n % 100 and n != self.steps):
             return
         last = self.history[-1]["success"] if self.history else float("nan")
         rolling = float(np.mean(self.episodes)) if self.episodes else 0.0
-        status = f"train {rolling:.0%}  val {last:.0%}  {n / max(self.wall, 1e-9):.0f} steps/s"
-        if self._bar is not None:
-            self._bar.update(self._task, completed=n, status=status)
-        else:
-            print(f"{self.scene} {self.algorithm}: step {n}/{self.steps}  {status}", flush=True)
+        self._bar.update(n, f"train {rolling:.0%}  val {last:.0%}  {n / max(self.wall, 1e-9):.0f} steps/s")
 
     def stop_bar(self) -> None:
         if self._bar is not None:
-            self._bar.stop()
+            self._bar.close()
             self._bar = None
 
 
