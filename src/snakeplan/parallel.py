@@ -202,12 +202,13 @@ def check_ray_address(address: str) -> None:
 
 class ProgressDisplay:
     """Progress over ``total`` items on ``stream``: a rich bar on a terminal; elsewhere (a log file, a cluster
-    job's output) a plain line ``name: done/total (percent, elapsed s) description`` at the first update and each
-    time the whole percent done goes up, so at most 101 lines. :meth:`update` sets the count; :meth:`close` ends
-    the bar. One mechanism for the runner, training sweeps and single trainings."""
+    job's output) a plain line ``name: {unit}done/total (percent, elapsed s) description`` at the first update and
+    each time the whole percent done goes up (at most 101 lines), or with ``every`` each time the count passes a
+    multiple of it. :meth:`update` sets the count; :meth:`close` ends the bar. One mechanism for the runner,
+    training sweeps and single trainings."""
 
-    def __init__(self, total: int, name: str, stream=None):
-        self.total, self.name = max(int(total), 1), name
+    def __init__(self, total: int, name: str, stream=None, every: int | None = None, unit: str = ""):
+        self.total, self.name, self.every, self.unit = max(int(total), 1), name, every, unit
         self.stream = sys.stderr if stream is None else stream
         self.done = 0
         self._start = time.monotonic()
@@ -233,8 +234,9 @@ class ProgressDisplay:
         before, self.done = self.done, done
         if self._bar is not None:
             self._bar.update(self._task, completed=done, description=description)
-        elif before == 0 or 100 * done // self.total > 100 * before // self.total:
-            self.stream.write(f"{self.name}: {done}/{self.total} ({100 * done // self.total} %, "
+        elif before == 0 or (done // self.every > before // self.every if self.every
+                             else 100 * done // self.total > 100 * before // self.total):
+            self.stream.write(f"{self.name}: {self.unit}{done}/{self.total} ({100 * done // self.total} %, "
                               f"{time.monotonic() - self._start:.0f} s) {description}\n")
             self.stream.flush()
 

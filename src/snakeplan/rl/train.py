@@ -1,7 +1,7 @@
 """Training entry point for the learned planners: SAC-HER, SAC-PER and plain SAC (paper 000 Algorithms 1-3).
 
 ``train(scene, algorithm, steps, seed, out_dir)`` trains with a progress bar (on a terminal; in a log, a plain
-line at each whole percent of the run), evaluates the deterministic policy every ``eval_every`` steps on fixed
+line every 1 % of the run), evaluates the deterministic policy every ``eval_every`` steps on fixed
 validation episodes (judged by :func:`snakeplan.evaluation.evaluate`), checkpoints every ``checkpoint_every``
 steps (default :func:`snakeplan.checkpoints.checkpoint_interval`: a tenth of the run, within 1,000-10,000 steps
 and at most the run) and writes into ``out_dir``:
@@ -330,12 +330,17 @@ class _Run:
 
     def start_bar(self) -> None:
         """Progress over the run's steps on standard output (:class:`snakeplan.parallel.ProgressDisplay`: a bar on
-        a terminal, in a log a plain line at each whole percent)."""
+        a terminal; in a log a plain line ``... step n/steps ...`` every 1 % of the run)."""
         if self.progress:
-            self._bar = ProgressDisplay(self.steps, f"{self.scene} {self.algorithm}", sys.stdout)
+            self._bar = ProgressDisplay(self.steps, f"{self.scene} {self.algorithm}", sys.stdout,
+                                        every=self._every, unit="step ")
+
+    @property
+    def _every(self) -> int:
+        return max(1, self.steps // 100)
 
     def advance(self, n: int) -> None:
-        if self._bar is None or (n % 100 and n != self.steps):
+        if self._bar is None or n % self._every:
             return
         last = self.history[-1]["success"] if self.history else float("nan")
         rolling = float(np.mean(self.episodes)) if self.episodes else 0.0
