@@ -8,6 +8,8 @@ import warnings
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from snakeplan.geometry import mesh_distance
 from snakeplan.geometry.distance import ObstacleSet
@@ -123,6 +125,109 @@ def test_collisions_agree_with_coal(part):
     assert keep.sum() > 0.7 * n and theirs[keep].sum() > 0.1 * n
     assert np.array_equal(ours[keep], theirs[keep])
     assert np.all(ours[inside])
+
+
+def test_segment_distance_agrees_with_coal(part):
+    """The segment-to-surface distance (every triangle, the reference the tree walk is held to) agrees with coal's
+    capsule-to-mesh distance plus the capsule's radius, for capsules clear of the part."""
+    coal = pytest.importorskip("coal")
+    model = coal.BVHModelOBBRSS()
+    model.beginModel(len(part.faces), len(part.vertices))
+    model.addVertices(np.asarray(part.vertices, dtype=float))
+    model.addTriangles(np.asarray(part.faces, dtype=np.int64))
+    model.endModel()
+    rng = np.random.default_rng(7)
+    n, radius = 300, 1.0
+    a = _points(part, n, rng)
+    d = rng.normal(size=(n, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    length = rng.uniform(5.0, 150.0, n)
+    b = a + d * length[:, None]
+    ours = mesh_distance.reference_segment_distance(part.vertices, part.faces, a, b)
+    keep = (ours > 2.0 * radius) & (mesh_distance.reference_sdf(part.vertices, part.faces, a) > 0)
+    assert keep.sum() > 0.4 * n
+    for i in np.flatnonzero(keep):
+        z = d[i]
+        x = np.cross(z, [1.0, 0.0, 0.0] if abs(z[0]) < 0.9 else [0.0, 1.0, 0.0])
+        x /= np.linalg.norm(x)
+        T = coal.Transform3s()
+        T.setRotation(np.stack([x, np.cross(z, x), z], axis=1))
+        T.setTranslation(0.5 * (a[i] + b[i]))
+        result = coal.DistanceResult()
+        coal.distance(model, coal.Transform3s(), coal.Capsule(radius, length[i]), T, coal.DistanceRequest(), result)
+        assert ours[i] == pytest.approx(result.min_distance + radius, abs=1e-4)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.floats(-50.0, 50.0, allow_nan=False), min_size=15, max_size=15),
+       st.sampled_from(["free", "parallel", "in-plane", "through"]))
+def test_segment_triangle_is_the_least_of_its_candidate_pairs(coords, kind):
+    """Segment against triangle equals the textbook composition: 0 where the segment crosses, else the least of
+    both ends against the whole triangle and the segment against each edge; with segments parallel to the
+    triangle, lying in its plane and passing through it."""
+    c = np.array(coords).reshape(5, 3)
+    tri = c[:3]
+    a, b = c[3], c[4]
+    n = np.cross(tri[1] - tri[0], tri[2] - tri[0])
+    if np.linalg.norm(n) < 1e-3:
+        return
+    n /= np.linalg.norm(n)
+    if kind == "parallel":
+        b = b - ((b - a) @ n) * n
+    elif kind == "in-plane":
+        a, b = a - ((a - tri[0]) @ n) * n, b - ((b - tri[0]) @ n) * n
+    elif kind == "through":
+        centre = tri.mean(axis=0)
+        a, b = centre + 0.3 * (a - centre), 2.0 * centre - (centre + 0.3 * (a - centre)) + 5.0 * n
+    d2, feature, s, x, y, z = mesh_distance.segment_triangle(a, b, tri[None], 0)
+    crossing = mesh_distance.ray_triangle(a, b - a, tri[0], tri[1], tri[2]) <= 1.0
+    ends = min(mesh_distance.closest_on_triangle(p, tri[0], tri[1], tri[2])[0] for p in (a, b))
+    edges = min(mesh_distance._segments_closest(*a, *b, *tri[j], *tri[(j + 1) % 3])[0] for j in range(3))
+    expected = 0.0 if crossing else min(ends, edges)
+    assert d2 == pytest.approx(expected, abs=1e-7, rel=1e-9)
+    # the pair it reports is attained: the closest points are that far apart
+    assert np.sum((a + s * (b - a) - np.array([x, y, z])) ** 2) == pytest.approx(d2, abs=1e-7, rel=1e-9)
+
+
+def test_crawl_clearance_is_each_chains_own(part):
+    """Along a crawl of four-link chains past and into the part, each chain's clearance (links taken in the
+    previous chain's order, searches started from its values moved by the links' displacement) equals the chain
+    taken alone, and for chains clear of the part the exact least segment distance less the radius (1e-6 mm)."""
+    rng = np.random.default_rng(8)
+    lo, hi = (np.asarray(v) for v in part.aabb())
+    start = np.array([lo[0] - 60.0, 0.5 * (lo[1] + hi[1]), hi[2] + 25.0])
+    links, length, radius = 4, 40.0, 6.0
+    steps = 120
+    chains = np.empty((steps, links + 1, 3))
+    for i in range(steps):
+        tip = start + np.array([3.0 * i, 0.0, -0.35 * i]) + rng.normal(scale=0.3, size=3)
+        chains[i] = tip - np.arange(links + 1)[:, None] * np.array([length, 0.0, 0.0])
+    radii = np.full(links, radius)
+    obstacles = ObstacleSet([part])
+    crawl = obstacles.chain_clearance(chains, radii)
+    alone = np.array([obstacles.chain_clearance(ch[None], radii)[0] for ch in chains])
+    assert np.abs(crawl - alone).max() <= 1e-9
+    a, b = chains[:, :-1].reshape(-1, 3), chains[:, 1:].reshape(-1, 3)
+    surface = mesh_distance.reference_segment_distance(part.vertices, part.faces, a, b).reshape(steps, links)
+    ends = mesh_distance.reference_sdf(part.vertices, part.faces, chains.reshape(-1, 3)).reshape(steps, links + 1)
+    clear = np.all(surface > 1e-9, axis=1) & np.all(ends > 0.0, axis=1)
+    assert 10 < clear.sum() < steps - 10  # the crawl runs both clear of the part and into it
+    assert np.abs(crawl[clear] - (surface[clear].min(axis=1) - radius)).max() <= 1e-6
+    assert np.all(crawl[~clear] < 0.0)
+
+
+def test_inside_test_agrees_with_winding_numbers(part):
+    """The one-ray inside test (first surface met faces away) says inside exactly where the winding number does,
+    for points near and far."""
+    from snakeplan.geometry import bvh
+
+    pts = _points(part, 4000, np.random.default_rng(9))
+    tris, normals, nodes, links = mesh_distance.prepare(part.vertices, part.faces)
+    stack = np.empty(bvh.STACK_SIZE, dtype=np.int64)
+    ours = np.array([mesh_distance.mesh_inside(tris, normals, nodes, links, 0, p, stack) for p in pts])
+    ref = mesh_distance.reference_sdf(part.vertices, part.faces, pts) < 0.0
+    assert ref.sum() > 1000 and (~ref).sum() > 1000
+    assert np.array_equal(ours, ref)
 
 
 def test_open_mesh_is_a_shell(part):

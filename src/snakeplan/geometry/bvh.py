@@ -99,3 +99,19 @@ def box_distance(box: np.ndarray, p: np.ndarray) -> float:
     """Distance from p to the box ``[lo(3), hi(3)]`` (0 inside): a lower bound on the distance to what it holds."""
     return math.sqrt(box_distance2(box, p))
 
+
+
+@njit(cache=True)
+def ray_box(box: np.ndarray, origin: np.ndarray, d: np.ndarray, t_max: float, eps: float = 0.0) -> float:
+    """Where the ray origin + t d, t in [0, t_max], enters the box ``[lo(3), hi(3)]`` grown by ``eps`` (0 when it
+    starts inside), or inf when it misses the box (slab test)."""
+    t0, t1 = 0.0, t_max
+    for a in range(3):
+        lo, hi = box[a] - eps, box[a + 3] + eps
+        if abs(d[a]) < 1e-12:
+            if origin[a] < lo or origin[a] > hi:
+                return math.inf
+        else:
+            ta, tb = (lo - origin[a]) / d[a], (hi - origin[a]) / d[a]
+            t0, t1 = max(t0, min(ta, tb)), min(t1, max(ta, tb))
+    return t0 if t0 <= t1 else math.inf

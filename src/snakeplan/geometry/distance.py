@@ -16,7 +16,7 @@ import numpy as np
 from numba import njit
 
 from snakeplan.geometry import bvh
-from snakeplan.geometry.mesh_distance import mesh_sdf, mesh_segment, triangle_balls
+from snakeplan.geometry.mesh_distance import mesh_inside, mesh_sdf, mesh_segment, triangle_balls
 from snakeplan.geometry.primitives import (
     _P,
     PACK_WIDTH,
@@ -205,10 +205,10 @@ def _sdf_points(W, pts, stats):
 
 
 @njit(cache=True)
-def _candidates(W, a, b, cutoff, work, stats, mid_free=False):
-    """Obstacles that may come within ``cutoff`` of segment ab; returns their count in ``work[0]``. With
-    ``mid_free`` (the segment's midpoint is known to lie outside every obstacle) a mesh whose box is near enough
-    is a candidate without a distance evaluation (its exact segment search decides; its midpoint value is +inf).
+def _candidates(W, a, b, cutoff, work, stats):
+    """Obstacles that may come within ``cutoff`` of segment ab; returns their count in ``work[0]``. A primitive
+    is evaluated at the midpoint (its value kept in ``work[3]``); a mesh whose box is near enough is a candidate
+    without a distance evaluation (its exact segment search, :func:`_meshes_exact`, decides; its value is +inf).
 
     The obstacle tree culls every box that the segment's bounding ball lies outside of and farther than
     ``cutoff`` from, so a link only evaluates obstacles near it, whatever the size of the scene.
@@ -241,7 +241,7 @@ def _candidates(W, a, b, cutoff, work, stats, mid_free=False):
             outside = bvh.box_distance(boxes[k], mid)
             if outside > 0.0 and outside - half >= cutoff:
                 continue
-            if mid_free and int(rows[k, 0]) == KIND_MESH:
+            if int(rows[k, 0]) == KIND_MESH:
                 cand[n] = k
                 value[n] = np.inf
                 n += 1
@@ -259,10 +259,11 @@ def _candidates(W, a, b, cutoff, work, stats, mid_free=False):
 def _meshes_exact(W, a, b, n, bound, work, stats):
     """Settle the mesh candidates of segment ab exactly, by segment-to-surface distance: returns (the least
     signed distance along ab among the settled meshes, or ``bound`` when none comes nearer, and how many
-    candidates remain), moving the rest (primitives, and closed meshes the segment may enter) to the front of
-    the candidate list. A closed mesh is settled when its midpoint value is positive and the closest point is
-    outside (then the segment does not cross the surface and its least distance is the exact one); a shell is
-    always settled (unsigned distance - half thickness)."""
+    candidates remain), moving the rest (primitives, and closed meshes the segment lies in or crosses) to the
+    front of the candidate list. A segment that does not touch a closed mesh's surface lies wholly on one side:
+    outside when its closest surface point says so, or, with no surface within ``bound``, when the inside test
+    of one of its points says so; then its least distance is the exact one (or >= ``bound``). A shell is always
+    settled (unsigned distance - half thickness)."""
     rows, ranges = W[0], W[3]
     cand, _, walk, value = work
     best = bound
@@ -270,7 +271,7 @@ def _meshes_exact(W, a, b, n, bound, work, stats):
     for j in range(n):
         k = cand[j]
         row = rows[k]
-        if int(row[0]) != KIND_MESH or (row[_P + 2] == 0.0 and value[j] <= 0.0):
+        if int(row[0]) != KIND_MESH:
             cand[keep] = k
             value[keep] = value[j]
             keep += 1
@@ -282,7 +283,11 @@ def _meshes_exact(W, a, b, n, bound, work, stats):
         if half > 0.0:
             best = min(best, d - half)
         elif d == np.inf:
-            continue
+            if not mesh_inside(W[2], W[4], W[5], W[6], ranges[m, 2], a, walk[1]):
+                continue
+            cand[keep] = k
+            value[keep] = value[j]
+            keep += 1
         elif d > 0.0 and outside:
             best = min(best, d)
         else:
@@ -304,11 +309,11 @@ def _min_over(W, cand, n, p, walk, stats):
 
 
 @njit(cache=True)
-def _segment_min(W, a, b, cutoff, tol, radius, work, stats, mid_free=False):
+def _segment_min(W, a, b, cutoff, tol, radius, work, stats):
     """Minimum signed distance along segment ab (ends included), accurate to ``tol``; values >= ``cutoff`` come
     back as cutoff. Where the minimum may lie below ``radius - CONTACT_RESOLUTION_MM`` while the best found does
     not, the search goes on to the contact resolution, so the sign of the clearance is never decided by ``tol``."""
-    n = _candidates(W, a, b, cutoff, work, stats, mid_free)
+    n = _candidates(W, a, b, cutoff, work, stats)
     if n == 0:
         return cutoff
     best, n = _meshes_exact(W, a, b, n, cutoff, work, stats)
@@ -381,30 +386,34 @@ def _segment_hits(W, a, b, radius, work, stats):
 
 @njit(cache=True)
 def _chains_clearance(W, joints, radii, tol, stats):
+    """Each chain's clearance. Links are taken nearest first (in the order of their clearances in the previous
+    chain; the first chain's by midpoint distance), and each link's search is cut off at the least found so far.
+    The search starts from an attained bound: a link's value in the previous chain plus the farthest its ends
+    moved (the signed distance is 1-Lipschitz, so the least over a segment moves no more than its ends), so in
+    a crawl of nearby chains even the nearest link's search is pruned from the start."""
     B = joints.shape[0]
     n = radii.shape[0]
     out = np.empty(B)
     work = workspace(W)
     walk = work[2]
-    mids = np.empty(n)
+    last = np.empty(n)
+    attained = np.ones(n, dtype=np.bool_)
+    for k in range(n):
+        last[k] = _scene_sdf(W, 0.5 * (joints[0, k] + joints[0, k + 1]), walk, stats) - radii[k]
     for i in range(B):
-        # Link midpoints give an attained value, an upper bound on the minimum, so every link's search is
-        # pruned from the start instead of refining distances to far obstacles.
+        prev = joints[max(i - 1, 0)]
         best = np.inf
         for k in range(n):
-            mids[k] = _scene_sdf(W, 0.5 * (joints[i, k] + joints[i, k + 1]), walk, stats) - radii[k]
-            if mids[k] < best:
-                best = mids[k]
-        if best == np.inf:
-            out[i] = best
-            continue
-        # the nearest links first: the least clearance found falls fastest, so the later links' searches are cut
-        # off soonest (a mesh link's exact search costs about the triangles within its cutoff)
-        for k in np.argsort(mids):
+            if attained[k]:
+                moved = max(math.sqrt(((joints[i, k] - prev[k]) ** 2).sum()),
+                            math.sqrt(((joints[i, k + 1] - prev[k + 1]) ** 2).sum()))
+                best = min(best, last[k] + moved)
+        for k in np.argsort(last):
             cutoff = best + radii[k]
-            d = _segment_min(W, joints[i, k], joints[i, k + 1], cutoff, tol, radii[k], work, stats,
-                             mids[k] + radii[k] > 0.0)
+            d = _segment_min(W, joints[i, k], joints[i, k + 1], cutoff, tol, radii[k], work, stats)
+            attained[k] = d < cutoff
             d -= radii[k]
+            last[k] = d
             if d < best:
                 best = d
         out[i] = best
@@ -478,21 +487,6 @@ def _segments_clear(W, a, b, radius, stats):
 
 
 @njit(cache=True)
-def _ray_meets_box(box, origin, d, max_dist, eps):
-    """Whether the ray segment origin + t d, t in [0, max_dist], meets the box [lo(3), hi(3)] grown by eps."""
-    t0, t1 = 0.0, max_dist
-    for a in range(3):
-        lo, hi = box[a] - eps, box[a + 3] + eps
-        if abs(d[a]) < 1e-12:
-            if origin[a] < lo or origin[a] > hi:
-                return False
-        else:
-            ta, tb = (lo - origin[a]) / d[a], (hi - origin[a]) / d[a]
-            t0, t1 = max(t0, min(ta, tb)), min(t1, max(ta, tb))
-    return t0 <= t1
-
-
-@njit(cache=True)
 def _raycast(W, origins, dirs, max_dist, eps, stats):
     """Sphere tracing of each ray against only the obstacles whose bounding box (grown by ``eps``) its segment
     [0, max_dist] meets, found by walking the obstacle tree: an obstacle the segment misses can neither stop the
@@ -511,7 +505,7 @@ def _raycast(W, origins, dirs, max_dist, eps, stats):
         while top > 0:
             top -= 1
             node = st[top]
-            if not _ray_meets_box(nodes[node], origins[i], dirs[i], max_dist, eps):
+            if bvh.ray_box(nodes[node], origins[i], dirs[i], max_dist, eps) > max_dist:
                 continue
             first = links[node, 0]
             second = links[node, 1]
@@ -522,7 +516,7 @@ def _raycast(W, origins, dirs, max_dist, eps, stats):
                 continue
             for j in range(first, first - second):
                 k = order[j]
-                if _ray_meets_box(boxes[k], origins[i], dirs[i], max_dist, eps):
+                if bvh.ray_box(boxes[k], origins[i], dirs[i], max_dist, eps) <= max_dist:
                     cand[n] = k
                     n += 1
         t = 0.0
@@ -533,6 +527,12 @@ def _raycast(W, origins, dirs, max_dist, eps, stats):
                 break
             t += step
     return out
+
+
+def _kernel_array(x) -> np.ndarray:
+    """x as a C-contiguous, writable float64 array: one type per kernel argument, so a kernel warmed on a scene's
+    read-only arrays is not compiled again for a planner's own arrays (inside its timed region)."""
+    return np.require(np.asarray(x, dtype=float), requirements=["C", "W"])
 
 
 class ObstacleSet:
@@ -599,7 +599,7 @@ class ObstacleSet:
     def signed_distance(self, points) -> np.ndarray:
         """Signed distance (mm) from points ``(..., 3)`` to the nearest obstacle (+inf with no obstacles)."""
         p = np.asarray(points, dtype=float)
-        flat = np.ascontiguousarray(p.reshape(-1, 3))
+        flat = _kernel_array(p.reshape(-1, 3))
         return _sdf_points(self._packed, flat, self.evaluations).reshape(p.shape[:-1])
 
     def chain_clearance(self, joints, radii, tol: float = CLEARANCE_TOLERANCE_MM) -> np.ndarray:
@@ -611,33 +611,33 @@ class ObstacleSet:
         a value >= ``-CONTACT_RESOLUTION_MM`` means the chain at most touches (as :meth:`chain_collides` says).
         """
         J = np.asarray(joints, dtype=float)
-        r = np.ascontiguousarray(radii, dtype=float)
-        flat = np.ascontiguousarray(J.reshape(-1, J.shape[-2], 3))
+        r = _kernel_array(radii)
+        flat = _kernel_array(J.reshape(-1, J.shape[-2], 3))
         return _chains_clearance(self._packed, flat, r, tol, self.evaluations).reshape(J.shape[:-2])
 
     def chain_collides(self, joints, radii) -> np.ndarray:
         """True where any capsule of a chain ``(..., n+1, 3)`` penetrates an obstacle by more than
         ``CONTACT_RESOLUTION_MM``; exits early per chain."""
         J = np.asarray(joints, dtype=float)
-        r = np.ascontiguousarray(radii, dtype=float)
-        flat = np.ascontiguousarray(J.reshape(-1, J.shape[-2], 3))
+        r = _kernel_array(radii)
+        flat = _kernel_array(J.reshape(-1, J.shape[-2], 3))
         return _chains_collide(self._packed, flat, r, self.evaluations).reshape(J.shape[:-2])
 
     def least_clearance(self, joints, radii, tol: float = CLEARANCE_TOLERANCE_MM) -> tuple[float, int]:
         """(the least :meth:`chain_clearance` over chains ``(B, n+1, 3)``, the first chain that has it): the
         same value, found without settling each chain's own clearance exactly ((inf, -1) with no obstacles)."""
-        flat = np.ascontiguousarray(np.asarray(joints, dtype=float).reshape(-1, np.shape(joints)[-2], 3))
+        flat = _kernel_array(np.asarray(joints, dtype=float).reshape(-1, np.shape(joints)[-2], 3))
         if len(self.obstacles) == 0 or flat.shape[0] == 0:
             return math.inf, -1
-        best, i = _least_clearance(self._packed, flat, np.ascontiguousarray(radii, dtype=float), float(tol),
+        best, i = _least_clearance(self._packed, flat, _kernel_array(radii), float(tol),
                                    self.evaluations)
         return float(best), int(i)
 
     def first_hit(self, joints, radii) -> tuple[int, int] | None:
         """(chain, link) of the first chain of ``(B, n+1, 3)``, in order, that :meth:`chain_collides`, or None;
         the chains after it are not examined."""
-        flat = np.ascontiguousarray(np.asarray(joints, dtype=float).reshape(-1, np.shape(joints)[-2], 3))
-        i, k = _first_hit(self._packed, flat, np.ascontiguousarray(radii, dtype=float), self.evaluations)
+        flat = _kernel_array(np.asarray(joints, dtype=float).reshape(-1, np.shape(joints)[-2], 3))
+        i, k = _first_hit(self._packed, flat, _kernel_array(radii), self.evaluations)
         return None if i < 0 else (int(i), int(k))
 
     def segments_clear(self, a, b, radius: float = 0.0) -> np.ndarray:
@@ -645,8 +645,8 @@ class ObstacleSet:
         A = np.asarray(a, dtype=float)
         Bp = np.asarray(b, dtype=float)
         A, Bp = np.broadcast_arrays(A, Bp)
-        fa = np.ascontiguousarray(A.reshape(-1, 3))
-        fb = np.ascontiguousarray(Bp.reshape(-1, 3))
+        fa = _kernel_array(A.reshape(-1, 3))
+        fb = _kernel_array(Bp.reshape(-1, 3))
         return _segments_clear(self._packed, fa, fb, float(radius), self.evaluations).reshape(A.shape[:-1])
 
     def line_of_sight(self, a, b) -> np.ndarray:
@@ -659,8 +659,8 @@ class ObstacleSet:
         d = np.asarray(directions, dtype=float)
         o, d = np.broadcast_arrays(o, d)
         d = d / np.linalg.norm(d, axis=-1, keepdims=True)
-        fo = np.ascontiguousarray(o.reshape(-1, 3))
-        fd = np.ascontiguousarray(d.reshape(-1, 3))
+        fo = _kernel_array(o.reshape(-1, 3))
+        fd = _kernel_array(d.reshape(-1, 3))
         return _raycast(self._packed, fo, fd, float(max_distance), float(eps), self.evaluations).reshape(o.shape[:-1])
 
 

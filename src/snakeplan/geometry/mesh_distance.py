@@ -277,80 +277,201 @@ def reference_sdf(vertices, faces, points, thickness: float | None = None) -> np
     return _reference(tris, pts, thickness is None, half)
 
 
-@njit(cache=True)
-def _segments_closest(p1, q1, p2, q2):
-    """(squared distance, s, t) of the closest points p1 + s (q1 - p1) and p2 + t (q2 - p2) of two segments
-    (Ericson, Real-Time Collision Detection, 5.1.9)."""
-    d1 = q1 - p1
-    d2 = q2 - p2
-    r = p1 - p2
-    a = (d1 * d1).sum()
-    e = (d2 * d2).sum()
-    f = (d2 * r).sum()
-    if a <= 1e-300 and e <= 1e-300:
-        return (r * r).sum(), 0.0, 0.0
-    if a <= 1e-300:
+@njit(cache=True, inline="always")
+def _segments_closest(ax, ay, az, bx, by, bz, px, py, pz, qx, qy, qz):
+    """(squared distance, s, t) of the closest points a + s (b - a) and p + t (q - p) of two segments
+    (Ericson, Real-Time Collision Detection, 5.1.9); scalar arithmetic only, so a call allocates nothing."""
+    d1x, d1y, d1z = bx - ax, by - ay, bz - az
+    d2x, d2y, d2z = qx - px, qy - py, qz - pz
+    rx, ry, rz = ax - px, ay - py, az - pz
+    aa = d1x * d1x + d1y * d1y + d1z * d1z
+    e = d2x * d2x + d2y * d2y + d2z * d2z
+    f = d2x * rx + d2y * ry + d2z * rz
+    if aa <= 1e-300 and e <= 1e-300:
+        return rx * rx + ry * ry + rz * rz, 0.0, 0.0
+    if aa <= 1e-300:
         s = 0.0
         t = min(max(f / e, 0.0), 1.0)
     else:
-        c = (d1 * r).sum()
+        c = d1x * rx + d1y * ry + d1z * rz
         if e <= 1e-300:
             t = 0.0
-            s = min(max(-c / a, 0.0), 1.0)
+            s = min(max(-c / aa, 0.0), 1.0)
         else:
-            b = (d1 * d2).sum()
-            denom = a * e - b * b
-            s = min(max((b * f - c * e) / denom, 0.0), 1.0) if denom > 0.0 else 0.0
-            t = (b * s + f) / e
+            bb = d1x * d2x + d1y * d2y + d1z * d2z
+            denom = aa * e - bb * bb
+            s = min(max((bb * f - c * e) / denom, 0.0), 1.0) if denom > 0.0 else 0.0
+            t = (bb * s + f) / e
             if t < 0.0:
                 t = 0.0
-                s = min(max(-c / a, 0.0), 1.0)
+                s = min(max(-c / aa, 0.0), 1.0)
             elif t > 1.0:
                 t = 1.0
-                s = min(max((b - c) / a, 0.0), 1.0)
-    x = p1 + s * d1 - (p2 + t * d2)
-    return (x * x).sum(), s, t
+                s = min(max((bb - c) / aa, 0.0), 1.0)
+    x = rx + s * d1x - t * d2x
+    y = ry + s * d1y - t * d2y
+    z = rz + s * d1z - t * d2z
+    return x * x + y * y + z * z, s, t
+
+
+@njit(cache=True, inline="always")
+def _left_of(px, py, pz, qx, qy, qz, x, y, z, nx, ny, nz):
+    """Whether (x, y, z) lies on the inner side of the directed edge p -> q of a triangle of normal n."""
+    ex, ey, ez = qx - px, qy - py, qz - pz
+    wx, wy, wz = x - px, y - py, z - pz
+    return nx * (ey * wz - ez * wy) + ny * (ez * wx - ex * wz) + nz * (ex * wy - ey * wx) >= 0.0
 
 
 @njit(cache=True)
-def segment_triangle(a, b, t0, t1, t2):
+def segment_triangle(a, b, tris, t):
     """(squared distance, feature, s, closest triangle point x, y, z) between segment a + s (b - a) and triangle
-    t0 t1 t2 (features as :func:`closest_on_triangle`; a crossing is distance 0 on the face)."""
-    # crossing: the segment meets the triangle (Moller-Trumbore on the segment)
-    d = b - a
-    e1 = t1 - t0
-    e2 = t2 - t0
-    h0 = d[1] * e2[2] - d[2] * e2[1]
-    h1 = d[2] * e2[0] - d[0] * e2[2]
-    h2 = d[0] * e2[1] - d[1] * e2[0]
-    det = e1[0] * h0 + e1[1] * h1 + e1[2] * h2
-    if det != 0.0:
-        inv = 1.0 / det
-        sx, sy, sz = a[0] - t0[0], a[1] - t0[1], a[2] - t0[2]
-        u = (sx * h0 + sy * h1 + sz * h2) * inv
-        if 0.0 <= u <= 1.0:
-            qx = sy * e1[2] - sz * e1[1]
-            qy = sz * e1[0] - sx * e1[2]
-            qz = sx * e1[1] - sy * e1[0]
-            v = (d[0] * qx + d[1] * qy + d[2] * qz) * inv
-            if v >= 0.0 and u + v <= 1.0:
-                s = (e2[0] * qx + e2[1] * qy + e2[2] * qz) * inv
-                if 0.0 <= s <= 1.0:
-                    return 0.0, 0, s, a[0] + s * d[0], a[1] + s * d[1], a[2] + s * d[2]
-    best, feature, x, y, z = closest_on_triangle(a, t0, t1, t2)
+    ``tris[t]`` (features as :func:`closest_on_triangle`; a crossing is distance 0 on the face).
+
+    The closest pair is a crossing, an end of the segment over the face (its foot on the plane inside the
+    triangle), or a point of the segment against an edge; so each end costs a plane projection, not a full
+    point-triangle search, and the crossing is tested only when the ends lie on both sides of the plane. Scalar
+    arithmetic only: a call allocates nothing."""
+    ax, ay, az, bx, by, bz = a[0], a[1], a[2], b[0], b[1], b[2]
+    x0, y0, z0 = tris[t, 0, 0], tris[t, 0, 1], tris[t, 0, 2]
+    x1, y1, z1 = tris[t, 1, 0], tris[t, 1, 1], tris[t, 1, 2]
+    x2, y2, z2 = tris[t, 2, 0], tris[t, 2, 1], tris[t, 2, 2]
+    e1x, e1y, e1z = x1 - x0, y1 - y0, z1 - z0
+    e2x, e2y, e2z = x2 - x0, y2 - y0, z2 - z0
+    nx = e1y * e2z - e1z * e2y
+    ny = e1z * e2x - e1x * e2z
+    nz = e1x * e2y - e1y * e2x
+    nn = nx * nx + ny * ny + nz * nz
+    best = np.inf
+    feature = 0
     s_best = 0.0
-    d2, f, xb, yb, zb = closest_on_triangle(b, t0, t1, t2)
+    x = y = z = 0.0
+    if nn > 0.0:
+        da = nx * (ax - x0) + ny * (ay - y0) + nz * (az - z0)
+        db = nx * (bx - x0) + ny * (by - y0) + nz * (bz - z0)
+        if (da <= 0.0 <= db or db <= 0.0 <= da) and da != db:
+            s = da / (da - db)
+            cx, cy, cz = ax + s * (bx - ax), ay + s * (by - ay), az + s * (bz - az)
+            if (_left_of(x0, y0, z0, x1, y1, z1, cx, cy, cz, nx, ny, nz)
+                    and _left_of(x1, y1, z1, x2, y2, z2, cx, cy, cz, nx, ny, nz)
+                    and _left_of(x2, y2, z2, x0, y0, z0, cx, cy, cz, nx, ny, nz)):
+                return 0.0, 0, s, cx, cy, cz
+        for end in range(2):
+            px, py, pz, dp = (ax, ay, az, da) if end == 0 else (bx, by, bz, db)
+            d2 = dp * dp / nn
+            if d2 < best:
+                k = dp / nn
+                fx, fy, fz = px - k * nx, py - k * ny, pz - k * nz
+                if (_left_of(x0, y0, z0, x1, y1, z1, fx, fy, fz, nx, ny, nz)
+                        and _left_of(x1, y1, z1, x2, y2, z2, fx, fy, fz, nx, ny, nz)
+                        and _left_of(x2, y2, z2, x0, y0, z0, fx, fy, fz, nx, ny, nz)):
+                    best, feature, s_best, x, y, z = d2, 0, float(end), fx, fy, fz
+    d2, s, u = _segments_closest(ax, ay, az, bx, by, bz, x0, y0, z0, x1, y1, z1)
     if d2 < best:
-        best, feature, x, y, z, s_best = d2, f, xb, yb, zb, 1.0
-    for j in range(3):
-        p = t0 if j == 0 else (t1 if j == 1 else t2)
-        q = t1 if j == 0 else (t2 if j == 1 else t0)
-        d2, s, t = _segments_closest(a, b, p, q)
-        if d2 < best:
-            best, s_best = d2, s
-            feature = 4 + j if t <= 0.0 else (4 + (j + 1) % 3 if t >= 1.0 else 1 + j)
-            x, y, z = p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1]), p[2] + t * (q[2] - p[2])
+        best, s_best = d2, s
+        feature = 4 if u <= 0.0 else (5 if u >= 1.0 else 1)
+        x, y, z = x0 + u * e1x, y0 + u * e1y, z0 + u * e1z
+    d2, s, u = _segments_closest(ax, ay, az, bx, by, bz, x1, y1, z1, x2, y2, z2)
+    if d2 < best:
+        best, s_best = d2, s
+        feature = 5 if u <= 0.0 else (6 if u >= 1.0 else 2)
+        x, y, z = x1 + u * (x2 - x1), y1 + u * (y2 - y1), z1 + u * (z2 - z1)
+    d2, s, u = _segments_closest(ax, ay, az, bx, by, bz, x2, y2, z2, x0, y0, z0)
+    if d2 < best:
+        best, s_best = d2, s
+        feature = 6 if u <= 0.0 else (4 if u >= 1.0 else 3)
+        x, y, z = x2 - u * e2x, y2 - u * e2y, z2 - u * e2z
     return best, feature, s_best, x, y, z
+
+
+@njit(cache=True)
+def ray_triangle(o, d, t0, t1, t2):
+    """Distance t >= 0 along the ray o + t d to triangle t0 t1 t2 (Moller-Trumbore), or inf when it misses."""
+    e1x, e1y, e1z = t1[0] - t0[0], t1[1] - t0[1], t1[2] - t0[2]
+    e2x, e2y, e2z = t2[0] - t0[0], t2[1] - t0[1], t2[2] - t0[2]
+    h0 = d[1] * e2z - d[2] * e2y
+    h1 = d[2] * e2x - d[0] * e2z
+    h2 = d[0] * e2y - d[1] * e2x
+    det = e1x * h0 + e1y * h1 + e1z * h2
+    if det == 0.0:
+        return np.inf
+    inv = 1.0 / det
+    sx, sy, sz = o[0] - t0[0], o[1] - t0[1], o[2] - t0[2]
+    u = (sx * h0 + sy * h1 + sz * h2) * inv
+    if u < 0.0 or u > 1.0:
+        return np.inf
+    qx = sy * e1z - sz * e1y
+    qy = sz * e1x - sx * e1z
+    qz = sx * e1y - sy * e1x
+    v = (d[0] * qx + d[1] * qy + d[2] * qz) * inv
+    if v < 0.0 or u + v > 1.0:
+        return np.inf
+    t = (e2x * qx + e2y * qy + e2z * qz) * inv
+    return t if t >= 0.0 else np.inf
+
+
+@njit(cache=True)
+def mesh_ray(tris, nodes, links, root, o, d, t_max, stack):
+    """(t, triangle) of the first hit of the ray o + t d, t in [0, t_max], on the mesh whose tree has root node
+    ``root``, or (inf, -1): the tree's boxes are entered nearest first and skipped beyond the best hit."""
+    best = t_max
+    tri = -1
+    stack[0] = root
+    top = 1
+    while top > 0:
+        top -= 1
+        node = stack[top]
+        if bvh.ray_box(nodes[node], o, d, best) == np.inf:
+            continue
+        first = links[node, 0]
+        second = links[node, 1]
+        if second < 0:
+            for t in range(first, first - second):
+                h = ray_triangle(o, d, tris[t, 0], tris[t, 1], tris[t, 2])
+                if h <= best and h < np.inf:
+                    best, tri = h, t
+            continue
+        tl = bvh.ray_box(nodes[first], o, d, best)
+        tr = bvh.ray_box(nodes[second], o, d, best)
+        near, far, tnear, tfar = (first, second, tl, tr) if tl <= tr else (second, first, tr, tl)
+        if tfar < np.inf:
+            stack[top] = far
+            top += 1
+        if tnear < np.inf:
+            stack[top] = near
+            top += 1
+    return (best, tri) if tri >= 0 else (np.inf, -1)
+
+
+#: Directions of the inside test's rays: irrational-looking, so a ray rarely runs along an edge of a CAD mesh.
+_INSIDE_RAYS = np.array([[0.5366563146, 0.6260990337, 0.5656854249],
+                         [-0.7071067812, 0.3015113446, 0.6396021491],
+                         [0.2672612419, -0.8017837257, 0.5345224838]])
+
+
+@njit(cache=True)
+def mesh_inside(tris, normals, nodes, links, root, p, stack):
+    """Whether p lies inside the closed mesh whose tree has root node ``root``: the first surface a ray from p
+    meets faces away from p exactly when p is inside (the pseudonormal of the feature hit, so a ray through an
+    edge or a vertex is judged by that feature). A ray that grazes (the normal nearly across it) is cast again in
+    another direction. Cost: one ray through the tree, a few dozen boxes, not a distance search."""
+    box = nodes[root]
+    for a in range(3):
+        if p[a] < box[a] or p[a] > box[a + 3]:
+            return False
+    inside = False
+    for r in range(_INSIDE_RAYS.shape[0]):
+        d = _INSIDE_RAYS[r]
+        t, tri = mesh_ray(tris, nodes, links, root, p, d, np.inf, stack)
+        if tri < 0:
+            return False
+        hx, hy, hz = p[0] + t * d[0], p[1] + t * d[1], p[2] + t * d[2]
+        f = closest_on_triangle(np.array([hx, hy, hz]), tris[tri, 0], tris[tri, 1], tris[tri, 2])[1]
+        n = normals[tri, f]
+        c = d[0] * n[0] + d[1] * n[1] + d[2] * n[2]
+        inside = c > 0.0
+        if abs(c) > 1e-3 * math.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]):
+            return inside
+    return inside
 
 
 def triangle_balls(tris: np.ndarray) -> np.ndarray:
@@ -423,7 +544,7 @@ def mesh_segment(tris, normals, spheres, nodes, links, root, a, b, bound, stack)
                     gap = math.sqrt(ball) - spheres[t, 3]
                     if gap * gap >= best:
                         continue
-                d2, f, s, x, y, z = segment_triangle(a, b, tris[t, 0], tris[t, 1], tris[t, 2])
+                d2, f, s, x, y, z = segment_triangle(a, b, tris, t)
                 if d2 < best:
                     best, tri, feature, s_best = d2, t, f, s
                     qx, qy, qz = x, y, z
@@ -452,7 +573,7 @@ def _reference_segments(tris, a, b):
     for i in range(a.shape[0]):
         best = np.inf
         for t in range(tris.shape[0]):
-            best = min(best, segment_triangle(a[i], b[i], tris[t, 0], tris[t, 1], tris[t, 2])[0])
+            best = min(best, segment_triangle(a[i], b[i], tris, t)[0])
         out[i] = math.sqrt(best)
     return out
 

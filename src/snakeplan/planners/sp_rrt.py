@@ -262,6 +262,23 @@ class SpRRT(Planner):
         self.batch = batch
         self.field_cell_mm = field_cell_mm
 
+    def warm_up(self, problem: Problem) -> None:
+        """The default, the geodesic field's kernels (a field over a few free cells at the entrance, and a distance
+        looked up in it) and the tree's (a one-node tree): cold, they compiled inside the first plan's budget."""
+        super().warm_up(problem)
+        e = problem.scene.entrance
+        position = np.array(e.position, dtype=float)
+        grid = Grid.covering(position - self.field_cell_mm, position + self.field_cell_mm, self.field_cell_mm)
+        field = geodesic_from_sdf(grid, np.full(grid.shape, np.inf), Entrance(position, np.array(e.direction)),
+                                  0.0, DEFAULT_FEED_MM)
+        field.distance_at(position[None, :] + 1.0)
+        tree = _Tree(2)
+        tree.add(position[None, :], np.array([-1]), np.array([0]), np.array([0]), np.array([True]))
+        pts, stages = position[None, :] + 1.0, np.zeros(1, dtype=np.int64)
+        _nearest_kernel(pts, stages, tree.pos, tree.out, tree.has_out, tree.stage, tree.open, np.ones(2), tree.n)
+        _repeats_kernel(pts, _unit(pts - position), stages, tree.pos, tree.out, tree.stage, tree.n, DUPLICATE_MM,
+                        DUPLICATE_COS)
+
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float
                ) -> tuple[Status, np.ndarray | None, dict]:
         t0 = time.perf_counter()

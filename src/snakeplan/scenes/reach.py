@@ -68,8 +68,8 @@ class Grid:
     @classmethod
     def covering(cls, bounds_min, bounds_max, cell_mm: float = DEFAULT_CELL_MM) -> Grid:
         """The grid whose cells (edges <= ``cell_mm``) tile the bounds exactly."""
-        lo = np.asarray(bounds_min, dtype=float)
-        hi = np.asarray(bounds_max, dtype=float)
+        lo = np.array(bounds_min, dtype=float)  # a writable copy: the kernels see one array type, whatever the bounds
+        hi = np.array(bounds_max, dtype=float)
         check_range("cell_mm", cell_mm, 1e-3)
         n = np.maximum(1, np.ceil((hi - lo) / cell_mm - 1e-9)).astype(np.int64)
         if np.prod(n.astype(float)) > MAX_CELLS:
@@ -117,7 +117,7 @@ class GeodesicField:
         gets the best of its reached neighbour cells. Accurate to about one cell.
         """
         p = np.asarray(points, dtype=float)
-        flat = np.ascontiguousarray(p.reshape(-1, 3))
+        flat = np.require(p.reshape(-1, 3), requirements=["C", "W"])
         g = self.grid
         out = _distance_at(self.distance.reshape(-1), self.parent.reshape(-1), np.array(g.shape, dtype=np.int64),
                            g.origin, g.spacing, self.source, flat)
