@@ -16,7 +16,7 @@ import numpy as np
 from numba import njit
 
 from snakeplan.geometry import bvh
-from snakeplan.geometry.mesh_distance import mesh_inside, mesh_sdf, mesh_segment, triangle_balls
+from snakeplan.geometry.mesh_distance import mesh_inside, mesh_ray, mesh_sdf, mesh_segment, triangle_balls
 from snakeplan.geometry.primitives import (
     _P,
     PACK_WIDTH,
@@ -488,14 +488,63 @@ def _segments_clear(W, a, b, radius, stats):
 
 @njit(cache=True)
 def _raycast(W, origins, dirs, max_dist, eps, stats):
-    """Sphere tracing of each ray against only the obstacles whose bounding box (grown by ``eps``) its segment
+    """First surface along each ray, against only the obstacles whose bounding box (grown by ``eps``) its segment
     [0, max_dist] meets, found by walking the obstacle tree: an obstacle the segment misses can neither stop the
-    ray nor be entered by it, so a ray costs a few obstacles' distances per step instead of the whole scene's, and
-    the search for them grows with the obstacles along the ray, not with the scene."""
+    ray nor be entered by it, so the search grows with the obstacles along the ray, not with the scene. A closed
+    mesh is hit exactly (the first triangle along the ray, through the mesh's tree; 0 when the ray starts
+    inside); primitives and shells are sphere traced (stopped within ``eps`` of the surface) up to that hit."""
     rows, boxes, nodes, links, order = W[0], W[1], W[7], W[8], W[9]
+    ranges = W[3]
     out = np.full(origins.shape[0], np.inf)
     if rows.shape[0] == 0:
         return out
+    cand, _, walk, _ = workspace(W)
+    st = walk[0]
+    for i in range(origins.shape[0]):
+        o = origins[i]
+        d = dirs[i]
+        n = 0
+        meshes = np.inf  # the nearest closed mesh's hit
+        st[0] = 0
+        top = 1
+        while top > 0:
+            top -= 1
+            node = st[top]
+            if bvh.ray_box(nodes[node], o, d, max_dist, eps) > max_dist:
+                continue
+            first = links[node, 0]
+            second = links[node, 1]
+            if second >= 0:
+                st[top] = first
+                st[top + 1] = second
+                top += 2
+                continue
+            for j in range(first, first - second):
+                k = order[j]
+                if bvh.ray_box(boxes[k], o, d, max_dist, eps) > max_dist:
+                    continue
+                if int(rows[k, 0]) == KIND_MESH and rows[k, _P + 2] == 0.0:
+                    stats[0] += 1
+                    m = int(rows[k, _P + 1])
+                    root = ranges[m, 2]
+                    if mesh_inside(W[2], W[4], W[5], W[6], root, o, walk[1]):
+                        meshes = 0.0
+                    else:
+                        meshes = min(meshes, mesh_ray(W[2], W[5], W[6], root, o, d, min(meshes, max_dist),
+                                                      walk[1])[0])
+                    continue
+                cand[n] = k
+                n += 1
+        out[i] = meshes
+        limit = min(meshes, max_dist)
+        t = 0.0
+        while n > 0 and t <= limit:
+            step = _min_over(W, cand, n, o + t * d, walk, stats)
+            if step < eps:
+                out[i] = min(t, meshes)
+                break
+            t += step
+    return out
     cand, _, walk, _ = workspace(W)
     st = walk[0]
     for i in range(origins.shape[0]):
