@@ -271,6 +271,50 @@ def test_rays_on_a_closed_mesh_agree_with_embree(part):
     assert np.sum(alone < ours) > 10 and np.sum(np.isfinite(alone) & (alone > ours)) > 10
 
 
+def test_parts_touching_at_a_vertex_keep_exact_signs():
+    """A cone whose apex touches the inner corner of a block's notch (one closed mesh, two parts meeting at a
+    vertex): the vertex is found as the only one with two fans of faces, and points around it (inside the block,
+    inside the cone, in the notch) and links through it get the winding number's side."""
+    from manifold3d import Manifold
+
+    block = Manifold.cube([100.0, 100.0, 100.0]) - Manifold.cube([50.0, 50.0, 50.0]).translate([50.0, 50.0, 50.0])
+    out = block.to_mesh()
+    corner = np.array([50.0, 50.0, 50.0])
+    cone = trimesh.creation.cone(radius=40.0 * np.tan(np.radians(20.0)), height=40.0, sections=16)
+    cone.apply_transform(trimesh.transformations.rotation_matrix(np.pi, [1.0, 0.0, 0.0]))
+    cone.apply_translation([0.0, 0.0, 40.0])  # apex at the origin, body along +z
+    cone.apply_transform(trimesh.geometry.align_vectors([0.0, 0.0, 1.0], np.ones(3) / np.sqrt(3.0)))
+    vertices = cone.vertices.copy()
+    vertices[np.argmin(np.linalg.norm(vertices, axis=1))] = 0.0
+    joined = trimesh.util.concatenate([trimesh.Trimesh(np.asarray(out.vert_properties)[:, :3],
+                                                       np.asarray(out.tri_verts), process=False),
+                                       trimesh.Trimesh(vertices + corner, cone.faces, process=False)])
+    joined.merge_vertices()
+    mesh = Mesh(joined.vertices, joined.faces)
+    assert mesh.closed
+    closed, faces = mesh_distance.topology(mesh.vertices, mesh.faces)
+    normals = mesh_distance.pseudonormals(mesh.vertices, faces)
+    pinched = np.unique(faces[np.all(normals[:, 4:7] == 0.0, axis=2)])
+    assert len(pinched) == 1 and np.array_equal(mesh.vertices[pinched[0]], corner)
+
+    rng = np.random.default_rng(11)
+    pts = corner + rng.normal(size=(20_000, 3)) * 3.0
+    ours = ObstacleSet([mesh]).signed_distance(pts)
+    ref = mesh_distance.reference_sdf(mesh.vertices, mesh.faces, pts)
+    assert (ref < 0).sum() > 1000 and (ref > 0).sum() > 1000
+    assert np.abs(ours - ref).max() <= 1e-9
+    a = corner + rng.normal(size=(500, 3)) * 4.0
+    a[:300] = corner + np.abs(a[:300] - corner)  # in the notch, around the cone
+    b = a + rng.normal(size=(500, 3)) * 2.0
+    clearance = ObstacleSet([mesh]).chain_clearance(np.stack([a, b], axis=1), np.array([0.5]))
+    surface = mesh_distance.reference_segment_distance(mesh.vertices, mesh.faces, a, b)
+    ends = mesh_distance.reference_sdf(mesh.vertices, mesh.faces, np.vstack([a, b]))
+    outside = (surface > 1e-9) & (ends[:500] > 0)
+    assert outside.sum() > 50 and (~outside).sum() > 50
+    assert np.abs(clearance[outside] - (surface[outside] - 0.5)).max() <= 1e-6
+    assert np.all(clearance[~outside] < 0.0)
+
+
 def test_open_mesh_is_a_shell(part):
     """An open mesh (a hemisphere) stands for a shell: unsigned distance minus half its thickness, against the
     brute-force reference; the default thickness is stated and the scene loader warns."""

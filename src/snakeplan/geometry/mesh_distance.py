@@ -4,7 +4,9 @@ The distance is the nearest triangle's, found by a best-first walk of the hierar
 that skips every box farther than the best triangle so far: exact, and about log(n) triangles per query instead of
 all n. The sign of a closed mesh comes from the angle-weighted pseudonormal of the nearest feature (face, edge or
 vertex; Baerentzen and Aanaes 2005): for a closed, consistently oriented, edge-manifold surface, the point lies
-inside exactly when it lies behind that pseudonormal, so the sign costs nothing beyond the nearest triangle.
+inside exactly when it lies behind that pseudonormal, so the sign costs nothing beyond the nearest triangle. At a
+vertex where closed parts touch (its faces form several fans) no one pseudonormal holds, so a point nearest it is
+decided by :func:`mesh_inside` (one ray).
 
 An open mesh (sheet metal exported as surfaces) is a shell: the material is every point within half its
 ``thickness`` of the surface, so its signed distance is ``unsigned distance - thickness / 2``.
@@ -97,7 +99,35 @@ def pseudonormals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     for j in range(3):
         np.add.at(vn, F[:, j], angles[:, j, None] * fn)
     out[:, 4:7] = vn[F]
+    out[:, 4:7][_pinched_corners(F, partner)] = 0.0
     return out
+
+
+def _pinched_corners(F: np.ndarray, partner: np.ndarray) -> np.ndarray:
+    """``(T, 3)`` True at the corners of vertices where closed parts touch: the faces around such a vertex form
+    more than one fan (faces joined through the edges at the vertex, across each edge to its ``partner``). Their
+    vertex pseudonormal is left zero: one sum over several parts' fans says nothing of a side, so the kernels
+    decide a point nearest such a vertex by the inside test instead."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    T = len(F)
+    f = np.repeat(np.arange(T), 3)
+    j = np.tile(np.arange(3), T)
+    g = partner
+    rows, cols = [], []
+    for end in (j, (j + 1) % 3):
+        v = F[f, end]
+        at = np.argmax(F[g] == v[:, None], axis=1)
+        rows.append(3 * f + end)
+        cols.append(3 * g + at)
+    rows, cols = np.concatenate(rows), np.concatenate(cols)
+    graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(3 * T, 3 * T))
+    _, label = connected_components(graph, directed=False)
+    vertex = F.reshape(-1)
+    pairs = np.unique(np.stack([vertex, label]), axis=1)
+    fans = np.bincount(pairs[0], minlength=int(F.max()) + 1)
+    return (fans[vertex] > 1).reshape(T, 3)
 
 
 def _pair_pinched(V, F, directed, partner, fn) -> None:
@@ -230,6 +260,8 @@ def mesh_sdf(tris, normals, nodes, links, root, half_thickness, p, stack):
     if half_thickness > 0.0:
         return d - half_thickness
     n = normals[tri, feature]
+    if n[0] == 0.0 and n[1] == 0.0 and n[2] == 0.0:  # a vertex where closed parts touch
+        return -d if mesh_inside(tris, normals, nodes, links, root, p, stack) else d
     behind = (p[0] - qx) * n[0] + (p[1] - qy) * n[1] + (p[2] - qz) * n[2] < 0.0
     return -d if behind else d
 
@@ -561,6 +593,9 @@ def mesh_segment(tris, normals, spheres, nodes, links, root, a, b, bound, stack)
     if tri < 0:
         return np.inf, True
     n = normals[tri, feature]
+    if n[0] == 0.0 and n[1] == 0.0 and n[2] == 0.0:  # a vertex where closed parts touch
+        x = a + s_best * (b - a)
+        return math.sqrt(best), not mesh_inside(tris, normals, nodes, links, root, x, stack)
     px = a[0] + s_best * (b[0] - a[0]) - qx
     py = a[1] + s_best * (b[1] - a[1]) - qy
     pz = a[2] + s_best * (b[2] - a[2]) - qz
