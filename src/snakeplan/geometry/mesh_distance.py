@@ -108,26 +108,49 @@ def _pinched_corners(F: np.ndarray, partner: np.ndarray) -> np.ndarray:
     more than one fan (faces joined through the edges at the vertex, across each edge to its ``partner``). Their
     vertex pseudonormal is left zero: one sum over several parts' fans says nothing of a side, so the kernels
     decide a point nearest such a vertex by the inside test instead."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
+    return _fans_split(np.ascontiguousarray(F, dtype=np.int64), np.ascontiguousarray(partner, dtype=np.int64),
+                       int(F.max()) + 1)
 
-    T = len(F)
-    f = np.repeat(np.arange(T), 3)
-    j = np.tile(np.arange(3), T)
-    g = partner
-    rows, cols = [], []
-    for end in (j, (j + 1) % 3):
-        v = F[f, end]
-        at = np.argmax(F[g] == v[:, None], axis=1)
-        rows.append(3 * f + end)
-        cols.append(3 * g + at)
-    rows, cols = np.concatenate(rows), np.concatenate(cols)
-    graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(3 * T, 3 * T))
-    _, label = connected_components(graph, directed=False)
-    vertex = F.reshape(-1)
-    pairs = np.unique(np.stack([vertex, label]), axis=1)
-    fans = np.bincount(pairs[0], minlength=int(F.max()) + 1)
-    return (fans[vertex] > 1).reshape(T, 3)
+
+@njit(cache=True)
+def _root(parent, x):
+    while parent[x] != x:
+        parent[x] = parent[parent[x]]
+        x = parent[x]
+    return x
+
+
+@njit(cache=True)
+def _fans_split(F, partner, nv):
+    """Union-find over the corners (3 per face, a few bytes each: a 2-million-triangle mesh needs no more)."""
+    T = F.shape[0]
+    parent = np.arange(3 * T)
+    for f in range(T):
+        for j in range(3):
+            g = partner[3 * f + j]
+            if g == f:
+                continue
+            for end in (j, (j + 1) % 3):
+                v = F[f, end]
+                k = 0 if F[g, 0] == v else (1 if F[g, 1] == v else 2)
+                a = _root(parent, 3 * f + end)
+                b = _root(parent, 3 * g + k)
+                if a != b:
+                    parent[a] = b
+    first = np.full(nv, -1, dtype=np.int64)
+    split = np.zeros(nv, dtype=np.bool_)
+    for c in range(3 * T):
+        v = F[c // 3, c % 3]
+        r = _root(parent, c)
+        if first[v] < 0:
+            first[v] = r
+        elif first[v] != r:
+            split[v] = True
+    out = np.empty((T, 3), dtype=np.bool_)
+    for f in range(T):
+        for j in range(3):
+            out[f, j] = split[F[f, j]]
+    return out
 
 
 def _pair_pinched(V, F, directed, partner, fn) -> None:
