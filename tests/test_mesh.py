@@ -183,7 +183,7 @@ def test_segment_triangle_is_the_least_of_its_candidate_pairs(coords, kind):
     # a crossing passes from one side of the plane to the other (within the plane, ends or edges meet instead)
     sides = (a - tri[0]) @ n, (b - tri[0]) @ n
     crossing = (sides[0] * sides[1] < 0.0 and min(map(abs, sides)) > 1e-9
-                and mesh_distance.ray_triangle(a, b - a, tri[0], tri[1], tri[2]) <= 1.0)
+                and mesh_distance.ray_triangle(a, b - a, tri[0], tri[1], tri[2])[0] <= 1.0)
     ends = min(mesh_distance.closest_on_triangle(p, tri[0], tri[1], tri[2])[0] for p in (a, b))
     edges = min(mesh_distance._segments_closest(*a, *b, *tri[j], *tri[(j + 1) % 3])[0] for j in range(3))
     expected = 0.0 if crossing else min(ends, edges)
@@ -230,6 +230,48 @@ def test_inside_test_agrees_with_winding_numbers(part):
     ours = np.array([mesh_distance.mesh_inside(tris, normals, nodes, links, 0, p, stack) for p in pts])
     ref = mesh_distance.reference_sdf(part.vertices, part.faces, pts) < 0.0
     assert ref.sum() > 1000 and (~ref).sum() > 1000
+    assert np.array_equal(ours, ref)
+
+
+def test_a_link_through_a_mesh_is_found_at_a_zero_cutoff():
+    """A link that passes through a closed mesh collides whatever its radius, also when the radius equals the
+    contact resolution (the search's cutoff is then exactly 0), and a chain's clearance with such a link is that
+    link's own; an empty batch of chains has no clearances."""
+    from snakeplan.geometry.distance import CONTACT_RESOLUTION_MM
+
+    tm = trimesh.creation.box(extents=[20.0, 20.0, 20.0])
+    obstacles = ObstacleSet([Mesh(tm.vertices, tm.faces)])
+    a, b = np.array([-30.0, 0.3, 0.2]), np.array([30.0, 0.3, 0.2])
+    for radius in (0.0, CONTACT_RESOLUTION_MM, 0.02):
+        assert not obstacles.segments_clear(a, b, radius)
+        assert obstacles.chain_collides(np.stack([a, b])[None], np.array([radius]))[0]
+    with_face = ObstacleSet([Mesh(tm.vertices, tm.faces), Box([0.0, 40.0, 0.0], [20.0, 20.0, 20.0])])
+    chain = np.array([[-5.0, 30.0, 0.0], [5.0, 30.0, 0.0], [-30.0, 0.0, 0.0], [-5.0, 0.0, 0.0]])
+    together = with_face.chain_clearance(chain, np.ones(3))
+    assert together == pytest.approx(with_face.chain_clearance(chain[2:], np.ones(1)), abs=0.05)
+    assert together == pytest.approx(-6.0, abs=0.05)
+    assert obstacles.chain_clearance(np.zeros((0, 3, 3)), np.ones(2)).shape == (0,)
+
+
+def test_inside_test_is_not_fooled_by_a_ray_through_an_edge():
+    """Points placed so that the inside test's first ray runs exactly through a concave edge of a notched cube
+    (it grazes the surface there without crossing it) are still judged as the winding number judges them."""
+    from manifold3d import Manifold
+
+    from snakeplan.geometry import bvh
+    from snakeplan.scenes.meshing import to_mesh
+
+    cube = Manifold.cube([20.0, 20.0, 20.0], center=True) - Manifold.cube([20.0, 40.0, 20.0]).translate(
+        [0.0, -20.0, -20.0])
+    mesh = to_mesh([cube])
+    ray = mesh_distance._INSIDE_RAYS[0]
+    y, t = np.meshgrid(np.linspace(-8.0, 8.0, 15), np.linspace(0.5, 8.0, 15))
+    pts = np.stack([np.zeros(y.size), y.ravel(), np.zeros(y.size)], axis=1) - t.reshape(-1, 1) * ray
+    tris, normals, nodes, links = mesh_distance.prepare(mesh.vertices, mesh.faces)
+    stack = np.empty(bvh.STACK_SIZE, dtype=np.int64)
+    ours = np.array([mesh_distance.mesh_inside(tris, normals, nodes, links, 0, p, stack) for p in pts])
+    ref = mesh_distance.reference_sdf(mesh.vertices, mesh.faces, pts) < 0.0
+    assert ref.sum() > 100 and (~ref).sum() > 10  # mostly inside: grazing the concave edge from the material
     assert np.array_equal(ours, ref)
 
 

@@ -279,7 +279,10 @@ def _meshes_exact(W, a, b, n, bound, work, stats):
         stats[0] += 1
         half = row[_P + 2]
         m = int(row[_P + 1])
-        d, outside = mesh_segment(W[2], W[4], W[10], W[5], W[6], ranges[m, 2], a, b, best + half, walk[1])
+        # a bound above 0, so a link that crosses the surface is always found (distance 0) before the inside
+        # test of one end decides a link that meets no surface
+        d, outside = mesh_segment(W[2], W[4], W[10], W[5], W[6], ranges[m, 2], a, b, max(best + half, 1e-9),
+                                  walk[1])
         if half > 0.0:
             best = min(best, d - half)
         elif d == np.inf:
@@ -396,6 +399,8 @@ def _chains_clearance(W, joints, radii, tol, stats):
     out = np.empty(B)
     work = workspace(W)
     walk = work[2]
+    if B == 0:
+        return out
     last = np.empty(n)
     attained = np.ones(n, dtype=np.bool_)
     for k in range(n):
@@ -542,37 +547,6 @@ def _raycast(W, origins, dirs, max_dist, eps, stats):
             step = _min_over(W, cand, n, o + t * d, walk, stats)
             if step < eps:
                 out[i] = min(t, meshes)
-                break
-            t += step
-    return out
-    cand, _, walk, _ = workspace(W)
-    st = walk[0]
-    for i in range(origins.shape[0]):
-        n = 0
-        st[0] = 0
-        top = 1
-        while top > 0:
-            top -= 1
-            node = st[top]
-            if bvh.ray_box(nodes[node], origins[i], dirs[i], max_dist, eps) > max_dist:
-                continue
-            first = links[node, 0]
-            second = links[node, 1]
-            if second >= 0:
-                st[top] = first
-                st[top + 1] = second
-                top += 2
-                continue
-            for j in range(first, first - second):
-                k = order[j]
-                if bvh.ray_box(boxes[k], origins[i], dirs[i], max_dist, eps) <= max_dist:
-                    cand[n] = k
-                    n += 1
-        t = 0.0
-        while n > 0 and t <= max_dist:
-            step = _min_over(W, cand, n, origins[i] + t * dirs[i], walk, stats)
-            if step < eps:
-                out[i] = t
                 break
             t += step
     return out

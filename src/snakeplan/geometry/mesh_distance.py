@@ -440,7 +440,8 @@ def segment_triangle(a, b, tris, t):
 
 @njit(cache=True)
 def ray_triangle(o, d, t0, t1, t2):
-    """Distance t >= 0 along the ray o + t d to triangle t0 t1 t2 (Moller-Trumbore), or inf when it misses."""
+    """(t, u, v): distance t >= 0 along the ray o + t d to triangle t0 t1 t2 and the hit's barycentric
+    coordinates (t0 + u (t1 - t0) + v (t2 - t0); Moller-Trumbore), or (inf, 0, 0) when it misses."""
     e1x, e1y, e1z = t1[0] - t0[0], t1[1] - t0[1], t1[2] - t0[2]
     e2x, e2y, e2z = t2[0] - t0[0], t2[1] - t0[1], t2[2] - t0[2]
     h0 = d[1] * e2z - d[2] * e2y
@@ -448,28 +449,30 @@ def ray_triangle(o, d, t0, t1, t2):
     h2 = d[0] * e2y - d[1] * e2x
     det = e1x * h0 + e1y * h1 + e1z * h2
     if det == 0.0:
-        return np.inf
+        return np.inf, 0.0, 0.0
     inv = 1.0 / det
     sx, sy, sz = o[0] - t0[0], o[1] - t0[1], o[2] - t0[2]
     u = (sx * h0 + sy * h1 + sz * h2) * inv
     if u < 0.0 or u > 1.0:
-        return np.inf
+        return np.inf, 0.0, 0.0
     qx = sy * e1z - sz * e1y
     qy = sz * e1x - sx * e1z
     qz = sx * e1y - sy * e1x
     v = (d[0] * qx + d[1] * qy + d[2] * qz) * inv
     if v < 0.0 or u + v > 1.0:
-        return np.inf
+        return np.inf, 0.0, 0.0
     t = (e2x * qx + e2y * qy + e2z * qz) * inv
-    return t if t >= 0.0 else np.inf
+    return (t, u, v) if t >= 0.0 else (np.inf, 0.0, 0.0)
 
 
 @njit(cache=True)
 def mesh_ray(tris, nodes, links, root, o, d, t_max, stack):
-    """(t, triangle) of the first hit of the ray o + t d, t in [0, t_max], on the mesh whose tree has root node
-    ``root``, or (inf, -1): the tree's boxes are entered nearest first and skipped beyond the best hit."""
+    """(t, triangle, u, v) of the first hit of the ray o + t d, t in [0, t_max], on the mesh whose tree has root
+    node ``root`` (u, v: its barycentric coordinates, as :func:`ray_triangle`), or (inf, -1, 0, 0): the tree's
+    boxes are entered nearest first and skipped beyond the best hit."""
     best = t_max
     tri = -1
+    bu = bv = 0.0
     stack[0] = root
     top = 1
     while top > 0:
@@ -481,9 +484,9 @@ def mesh_ray(tris, nodes, links, root, o, d, t_max, stack):
         second = links[node, 1]
         if second < 0:
             for t in range(first, first - second):
-                h = ray_triangle(o, d, tris[t, 0], tris[t, 1], tris[t, 2])
+                h, u, v = ray_triangle(o, d, tris[t, 0], tris[t, 1], tris[t, 2])
                 if h <= best and h < np.inf:
-                    best, tri = h, t
+                    best, tri, bu, bv = h, t, u, v
             continue
         tl = bvh.ray_box(nodes[first], o, d, best)
         tr = bvh.ray_box(nodes[second], o, d, best)
@@ -494,21 +497,27 @@ def mesh_ray(tris, nodes, links, root, o, d, t_max, stack):
         if tnear < np.inf:
             stack[top] = near
             top += 1
-    return (best, tri) if tri >= 0 else (np.inf, -1)
+    return (best, tri, bu, bv) if tri >= 0 else (np.inf, -1, 0.0, 0.0)
 
 
 #: Directions of the inside test's rays: irrational-looking, so a ray rarely runs along an edge of a CAD mesh.
 _INSIDE_RAYS = np.array([[0.5366563146, 0.6260990337, 0.5656854249],
                          [-0.7071067812, 0.3015113446, 0.6396021491],
-                         [0.2672612419, -0.8017837257, 0.5345224838]])
+                         [0.2672612419, -0.8017837257, 0.5345224838],
+                         [-0.3713906764, -0.5570860145, -0.7427813527],
+                         [0.8164965809, -0.4082482905, -0.4082482905],
+                         [-0.2236067977, 0.8944271910, -0.3872983346]])
+#: Least barycentric coordinate of a hit that the inside test trusts: nearer a triangle's edge, the ray may cross
+#: an edge or a vertex without crossing the surface (a graze), so it is cast again in another direction.
+_INSIDE_MARGIN = 1e-6
 
 
 @njit(cache=True)
 def mesh_inside(tris, normals, nodes, links, root, p, stack):
-    """Whether p lies inside the closed mesh whose tree has root node ``root``: the first surface a ray from p
-    meets faces away from p exactly when p is inside (the pseudonormal of the feature hit, so a ray through an
-    edge or a vertex is judged by that feature). A ray that grazes (the normal nearly across it) is cast again in
-    another direction. Cost: one ray through the tree, a few dozen boxes, not a distance search."""
+    """Whether p lies inside the closed mesh whose tree has root node ``root``: a ray from p whose first surface
+    it meets inside a face (not at an edge or a vertex, where a ray may graze the surface without crossing it)
+    crosses that face outward exactly when p is inside. A ray that meets an edge, a vertex or a face edge-on is
+    cast again in another direction. Cost: one ray through the tree, a few dozen boxes, not a distance search."""
     box = nodes[root]
     for a in range(3):
         if p[a] < box[a] or p[a] > box[a + 3]:
@@ -516,15 +525,13 @@ def mesh_inside(tris, normals, nodes, links, root, p, stack):
     inside = False
     for r in range(_INSIDE_RAYS.shape[0]):
         d = _INSIDE_RAYS[r]
-        t, tri = mesh_ray(tris, nodes, links, root, p, d, np.inf, stack)
+        t, tri, u, v = mesh_ray(tris, nodes, links, root, p, d, np.inf, stack)
         if tri < 0:
             return False
-        hx, hy, hz = p[0] + t * d[0], p[1] + t * d[1], p[2] + t * d[2]
-        f = closest_on_triangle(np.array([hx, hy, hz]), tris[tri, 0], tris[tri, 1], tris[tri, 2])[1]
-        n = normals[tri, f]
+        n = normals[tri, 0]
         c = d[0] * n[0] + d[1] * n[1] + d[2] * n[2]
         inside = c > 0.0
-        if abs(c) > 1e-3 * math.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]):
+        if min(u, v, 1.0 - u - v) > _INSIDE_MARGIN and abs(c) > 1e-6:
             return inside
     return inside
 
