@@ -288,3 +288,14 @@ def test_spec_validation_names_the_field():
     with pytest.raises(ValueError, match=r"policies\['sac'\]"):
         SceneSpec("x", policies={"sac": "policy.npz"})
 
+
+
+def test_titles_name_the_seed_only_where_there_is_one():
+    """A generated scene's label carries its seed; a scene from a file (no seed) is its name alone, not 'seed None'."""
+    from dataclasses import replace
+
+    from snakeplan.scenes import make_scene
+
+    scene = make_scene("fuel-tank", 3)
+    assert scene.label == "fuel-tank seed 3"
+    assert replace(scene, name="my tank", seed=None).label == "my tank"

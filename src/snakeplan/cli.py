@@ -467,7 +467,7 @@ def _write_mission_views(args: argparse.Namespace, problem, result, record) -> N
     """The pictures of an inspection mission: --plot its maps (true field, mean with the camera path, variance),
     --animate the flight with the map filling in, --html the station with the map at every measurement."""
     scene = problem.scene
-    title = (f"{scene.name} seed {scene.seed}, {problem.robot.name}, {result.planner}: final RMSE "
+    title = (f"{scene.label}, {problem.robot.name}, {result.planner}: final RMSE "
              f"{result.rmse[-1]:.2f} K, covariance trace {result.trace[-1]:.0f} K^2")
     if args.plot:
         from snakeplan.viz.figures import save_figure

@@ -94,6 +94,12 @@ class Scene:
         return ObstacleSet(self.obstacles)
 
     @property
+    def label(self) -> str:
+        """The scene's name for titles: "fuel-tank seed 3" for a generated scene, the name alone for one from a
+        file (which has no seed)."""
+        return self.name if self.seed is None else f"{self.name} seed {self.seed}"
+
+    @property
     def size(self) -> np.ndarray:
         return self.bounds_max - self.bounds_min
 

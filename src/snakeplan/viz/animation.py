@@ -227,7 +227,7 @@ def crawl_title(frames: CrawlFrames, planner: str = "") -> str:
     verdict = "feasible" if r.success else f"infeasible ({r.reason})"
     by = f", planned by {planner}" if planner else ""
     timed = ", timed by TOPP-RA" if frames.times is not None else ", evenly in depth"
-    return f"{frames.scene.name} seed {frames.scene.seed}, {frames.robot.name}{by}: {verdict}{timed}"
+    return f"{frames.scene.label}, {frames.robot.name}{by}: {verdict}{timed}"
 
 
 def save_crawl_video(filename: str | Path, frames: CrawlFrames, fps: float = DEFAULT_FPS,

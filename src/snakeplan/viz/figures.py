@@ -108,7 +108,7 @@ def save_plan_figure(filename: str | Path, scene: Scene, robot, path=None, repor
     """The scene with a tip path and the body at the judge's last depth, titled with the planner and the verdict,
     in two views, beside the path's curvature profile and its bends at every crawl step (when judged), the first
     collision marked; written as PNG."""
-    title = f"{scene.name} seed {scene.seed}, {robot.name}" + (f", planned by {planner}" if planner else "")
+    title = f"{scene.label}, {robot.name}" + (f", planned by {planner}" if planner else "")
     collision = bends = curvature = None
     if report is not None:
         title += f": {'feasible' if report.success else 'infeasible'} ({report.reason}"
