@@ -88,15 +88,32 @@ def test_capsule_distance_matches_brute_force(part, n):
     assert np.all(clearance[~outside] < 0.0)
 
 
+def _coal_model(coal, mesh: Mesh):
+    """The mesh as coal's bounding volume hierarchy (the independent library the collision tests compare with)."""
+    model = coal.BVHModelOBBRSS()
+    model.beginModel(len(mesh.faces), len(mesh.vertices))
+    model.addVertices(np.asarray(mesh.vertices, dtype=float))
+    model.addTriangles(np.asarray(mesh.faces, dtype=np.int64))
+    model.endModel()
+    return model
+
+
+def _coal_pose(coal, a: np.ndarray, b: np.ndarray):
+    """coal's pose of a capsule along segment a -> b (its axis is the local z, centred at the origin)."""
+    z = (b - a) / np.linalg.norm(b - a)
+    x = np.cross(z, [1.0, 0.0, 0.0] if abs(z[0]) < 0.9 else [0.0, 1.0, 0.0])
+    x /= np.linalg.norm(x)
+    T = coal.Transform3s()
+    T.setRotation(np.stack([x, np.cross(z, x), z], axis=1))
+    T.setTranslation(0.5 * (a + b))
+    return T
+
+
 def test_collisions_agree_with_coal(part):
     """Capsule against mesh, yes or no, agrees with coal (a surface test: capsules wholly inside the part, which
     coal does not see, and contacts within the contact resolution are left out)."""
     coal = pytest.importorskip("coal")
-    model = coal.BVHModelOBBRSS()
-    model.beginModel(len(part.faces), len(part.vertices))
-    model.addVertices(np.asarray(part.vertices, dtype=float))
-    model.addTriangles(np.asarray(part.faces, dtype=np.int64))
-    model.endModel()
+    model = _coal_model(coal, part)
     rng = np.random.default_rng(4)
     n = 300
     a = _points(part, n, rng)
@@ -112,12 +129,7 @@ def test_collisions_agree_with_coal(part):
     clear_cut = np.abs(surface - radius) > 0.02
     theirs = np.empty(n, dtype=bool)
     for i in range(n):
-        z = d[i]
-        x = np.cross(z, [1.0, 0.0, 0.0] if abs(z[0]) < 0.9 else [0.0, 1.0, 0.0])
-        x /= np.linalg.norm(x)
-        T = coal.Transform3s()
-        T.setRotation(np.stack([x, np.cross(z, x), z], axis=1))
-        T.setTranslation(0.5 * (a[i] + b[i]))
+        T = _coal_pose(coal, a[i], b[i])
         result = coal.CollisionResult()
         theirs[i] = coal.collide(model, coal.Transform3s(), coal.Capsule(radius[i], length[i]), T,
                                  coal.CollisionRequest(), result) > 0
@@ -131,11 +143,7 @@ def test_segment_distance_agrees_with_coal(part):
     """The segment-to-surface distance (every triangle, the reference the tree walk is held to) agrees with coal's
     capsule-to-mesh distance plus the capsule's radius, for capsules clear of the part."""
     coal = pytest.importorskip("coal")
-    model = coal.BVHModelOBBRSS()
-    model.beginModel(len(part.faces), len(part.vertices))
-    model.addVertices(np.asarray(part.vertices, dtype=float))
-    model.addTriangles(np.asarray(part.faces, dtype=np.int64))
-    model.endModel()
+    model = _coal_model(coal, part)
     rng = np.random.default_rng(7)
     n, radius = 300, 1.0
     a = _points(part, n, rng)
@@ -147,12 +155,7 @@ def test_segment_distance_agrees_with_coal(part):
     keep = (ours > 2.0 * radius) & (mesh_distance.reference_sdf(part.vertices, part.faces, a) > 0)
     assert keep.sum() > 0.4 * n
     for i in np.flatnonzero(keep):
-        z = d[i]
-        x = np.cross(z, [1.0, 0.0, 0.0] if abs(z[0]) < 0.9 else [0.0, 1.0, 0.0])
-        x /= np.linalg.norm(x)
-        T = coal.Transform3s()
-        T.setRotation(np.stack([x, np.cross(z, x), z], axis=1))
-        T.setTranslation(0.5 * (a[i] + b[i]))
+        T = _coal_pose(coal, a[i], b[i])
         result = coal.DistanceResult()
         coal.distance(model, coal.Transform3s(), coal.Capsule(radius, length[i]), T, coal.DistanceRequest(), result)
         assert ours[i] == pytest.approx(result.min_distance + radius, abs=1e-4)
