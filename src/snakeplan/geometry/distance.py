@@ -285,15 +285,14 @@ def _meshes_exact(W, a, b, n, bound, work, stats):
                                   walk[1])
         if half > 0.0:
             best = min(best, d - half)
-        elif d == np.inf:
-            if not mesh_inside(W[2], W[4], W[5], W[6], ranges[m, 2], a, walk[1]):
-                continue
-            cand[keep] = k
-            value[keep] = value[j]
-            keep += 1
-        elif d > 0.0 and outside:
-            best = min(best, d)
+            continue
+        if d == np.inf:  # no surface within the bound: wholly outside, or inside and kept
+            settled = not mesh_inside(W[2], W[4], W[5], W[6], ranges[m, 2], a, walk[1])
         else:
+            settled = d > 0.0 and outside
+            if settled:
+                best = min(best, d)
+        if not settled:
             cand[keep] = k
             value[keep] = value[j]
             keep += 1
@@ -388,6 +387,15 @@ def _segment_hits(W, a, b, radius, work, stats):
 
 
 @njit(cache=True)
+def _midpoint_clearances(W, chain, radii, walk, stats):
+    """Each link's clearance at its midpoint: attained values, the first chain's link order and bounds."""
+    out = np.empty(radii.shape[0])
+    for k in range(radii.shape[0]):
+        out[k] = _scene_sdf(W, 0.5 * (chain[k] + chain[k + 1]), walk, stats) - radii[k]
+    return out
+
+
+@njit(cache=True)
 def _chains_clearance(W, joints, radii, tol, stats):
     """Each chain's clearance. Links are taken nearest first (in the order of their clearances in the previous
     chain; the first chain's by midpoint distance), and each link's search is cut off at the least found so far.
@@ -401,10 +409,8 @@ def _chains_clearance(W, joints, radii, tol, stats):
     walk = work[2]
     if B == 0:
         return out
-    last = np.empty(n)
+    last = _midpoint_clearances(W, joints[0], radii, walk, stats)
     attained = np.ones(n, dtype=np.bool_)
-    for k in range(n):
-        last[k] = _scene_sdf(W, 0.5 * (joints[0, k] + joints[0, k + 1]), walk, stats) - radii[k]
     for i in range(B):
         prev = joints[max(i - 1, 0)]
         best = np.inf
@@ -431,12 +437,9 @@ def _least_clearance(W, joints, radii, tol, stats):
     so far, so chains and links farther than it cost a pruned search; the links of each chain are taken in the
     order of their clearances in the previous chain (nearest first), the first chain's by midpoint distance."""
     B = joints.shape[0]
-    n = radii.shape[0]
     work = workspace(W)
     walk = work[2]
-    last = np.empty(n)
-    for k in range(n):
-        last[k] = _scene_sdf(W, 0.5 * (joints[0, k] + joints[0, k + 1]), walk, stats) - radii[k]
+    last = _midpoint_clearances(W, joints[0], radii, walk, stats)
     best = np.inf
     arg = -1
     for i in range(B):
