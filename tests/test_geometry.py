@@ -114,6 +114,30 @@ def test_least_clearance_is_the_least_of_every_chains_clearance(chains, radius):
     assert ObstacleSet([]).least_clearance(joints, radii) == (math.inf, -1)
 
 
+@settings(max_examples=30, deadline=None)
+@given(st.lists(point, min_size=1, max_size=40), st.floats(0.0, 300.0))
+def test_capped_signed_distance_is_the_least_of_each_obstacles_and_the_cap(points, cap):
+    """A capped query equals min(the distance to each obstacle alone, cap) and evaluates no more obstacles than
+    the uncapped one; free_space on a grid is the capped distance at the cell centres."""
+    from snakeplan.scenes.reach import Grid, free_space
+
+    shapes = [Box([0, 0, 0], [100, 200, 150]), Sphere([250, 50, 0], 60), cube_mesh(40.0),
+              Pipe([0, 250, 0], [0, 0, 1], 60, 80, 300),
+              Plate([-250, 0, 0], [1, 0, 0], [0, 0, 1], [600, 500], 10, {"offset": [0, 50], "semi_axes": [120, 80]})]
+    obstacles = ObstacleSet(shapes)
+    p = np.array(points, dtype=float)
+    each = np.min([ObstacleSet([o]).signed_distance(p) for o in shapes], axis=0)
+    before = int(obstacles.evaluations[0])
+    np.testing.assert_allclose(obstacles.signed_distance(p, cap), np.minimum(each, cap), rtol=0, atol=1e-9)
+    capped = int(obstacles.evaluations[0]) - before
+    obstacles.signed_distance(p)
+    assert capped <= int(obstacles.evaluations[0]) - before - capped
+    grid = Grid.covering(np.array([-400.0, -300, -300]), np.array([400.0, 400, 300]), 50.0)
+    centres = grid.centres().reshape(-1, 3)
+    np.testing.assert_allclose(free_space(obstacles, grid, cap).reshape(-1),
+                               np.minimum(obstacles.signed_distance(centres), cap), rtol=0, atol=1e-9)
+
+
 def test_an_obstacle_set_pickles_as_its_obstacles_and_loads_an_older_versions_state():
     # A training checkpoint pickles the environment, obstacle sets included; the packed arrays are derived, so a
     # state written before they changed (here: a dict without them) must load into today's form.

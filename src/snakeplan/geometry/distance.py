@@ -153,12 +153,12 @@ def workspace(W):
 
 
 @njit(cache=True)
-def _scene_sdf(W, p, walk, stats):
-    """Signed distance from p to the nearest obstacle: a best-first walk of the obstacle tree that skips every
-    box p lies outside of and farther than the best obstacle so far (outside its box, an obstacle is at least as
-    far as the box)."""
+def _scene_sdf(W, p, walk, stats, cap=np.inf):
+    """Signed distance from p to the nearest obstacle, or ``cap`` when that is less: a best-first walk of the
+    obstacle tree that skips every box p lies outside of and farther than the best so far (outside its box, an
+    obstacle is at least as far as the box), so a finite cap skips every obstacle beyond it."""
     rows, nodes, links, order = W[0], W[7], W[8], W[9]
-    best = np.inf
+    best = cap
     if rows.shape[0] == 0:
         return best
     st = walk[0]
@@ -196,11 +196,11 @@ def _scene_sdf(W, p, walk, stats):
 
 
 @njit(cache=True)
-def _sdf_points(W, pts, stats):
+def _sdf_points(W, pts, cap, stats):
     walk = workspace(W)[2]
     out = np.empty(pts.shape[0])
     for i in range(pts.shape[0]):
-        out[i] = _scene_sdf(W, pts[i], walk, stats)
+        out[i] = _scene_sdf(W, pts[i], walk, stats, cap)
     return out
 
 
@@ -622,11 +622,12 @@ class ObstacleSet:
         nodes and links, obstacle tree nodes, links and order, triangle balls)."""
         return self._packed
 
-    def signed_distance(self, points) -> np.ndarray:
-        """Signed distance (mm) from points ``(..., 3)`` to the nearest obstacle (+inf with no obstacles)."""
+    def signed_distance(self, points, cap: float = math.inf) -> np.ndarray:
+        """Signed distance (mm) from points ``(..., 3)`` to the nearest obstacle (+inf with no obstacles), or
+        ``cap`` where that is less: obstacles farther than a finite cap are never evaluated."""
         p = np.asarray(points, dtype=float)
         flat = _kernel_array(p.reshape(-1, 3))
-        return _sdf_points(self._packed, flat, self.evaluations).reshape(p.shape[:-1])
+        return _sdf_points(self._packed, flat, float(cap), self.evaluations).reshape(p.shape[:-1])
 
     def chain_clearance(self, joints, radii, tol: float = CLEARANCE_TOLERANCE_MM) -> np.ndarray:
         """Minimum clearance (mm) between obstacles and chains of capsules.
