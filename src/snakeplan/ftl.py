@@ -33,6 +33,10 @@ ENTRANCE_TOL = 1e-6
 #: Joint 0 may lie this far (mm) ahead of the entrance and the insertion still counts as ok (round-off).
 INSERTION_TOL = 1e-9
 
+#: The joint walk skips path vertices more than ``l - SKIP_SLACK_MM`` behind along the path without measuring
+#: them (mm): they cannot be ``l`` away; the slack keeps round-off from skipping the vertex that is.
+SKIP_SLACK_MM = 1e-6
+
 
 @njit(cache=True)
 def fit_into(p, cum, lengths, u, s, joints, arc):
@@ -64,6 +68,11 @@ def fit_into(p, cum, lengths, u, s, joints, arc):
             joints[k, 2] = p[0, 2] + a * u[2]
             arc[k] = a
             continue
+        # a vertex less than l behind along the path is less than l away (a chord is no longer than its arc):
+        # skip those without computing distances (less a micrometre, so round-off cannot skip the crossing)
+        reach = arc[k + 1] - l + SKIP_SLACK_MM
+        if cum[j] > reach:
+            j = max(np.searchsorted(cum[:j + 1], reach, side="right") - 1, 0)
         found = False
         while j >= 0:
             dx, dy, dz = p[j, 0] - qx, p[j, 1] - qy, p[j, 2] - qz
