@@ -5,6 +5,8 @@ import time
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from snakeplan.evaluation import evaluate
 from snakeplan.geometry.polyline import densify
@@ -93,14 +95,13 @@ def test_compiled_tree_is_a_shortest_path_tree_of_free_motions():
     start = scene.entrance.position + rrt_star.LEAD_MM * arm.direction
     goal = scene.targets[0]
     tip_rrt_star.seed_stream(5)
-    tree = tip_rrt_star._Tree(start, capacity=64)  # small: the arrays must grow
+    hi = scene.bounds_max.astype(float)
+    tree = tip_rrt_star._Tree(start, scene.bounds_min.astype(float), hi, rrt_star.RANGE_MM,
+                              capacity=64)  # small: the arrays must grow
     k_rrt = tip_rrt_star.REWIRE_FACTOR * np.e * 4.0 / 3.0
     for _ in range(12):
-        tree.reserve(tip_rrt_star.CHUNK)
-        tip_rrt_star.grow(tree.pos, tree.parent, tree.cost, tree.inc, tree.child, tree.sibling, tree.goals,
-                          tree.state, goal, scene.bounds_min.astype(float), scene.bounds_max.astype(float),
-                          rrt_star.RANGE_MM, rrt_star.GOAL_BIAS, k_rrt, 10**6, tip_rrt_star.CHUNK, arm.obstacles.packed,
-                          arm.tip_radius, arm.obstacles.evaluations)
+        tree.grow(goal, hi, rrt_star.RANGE_MM, rrt_star.GOAL_BIAS, k_rrt, 10**6, tip_rrt_star.CHUNK,
+                  arm.obstacles.packed, arm.tip_radius, arm.obstacles.evaluations)
     n = int(tree.state[0])
     assert n > 500 and tree.state[3] >= 0
     v = np.arange(1, n)
@@ -122,6 +123,33 @@ def test_compiled_tree_is_a_shortest_path_tree_of_free_motions():
     assert best in at_goal and tree.cost[best] == tree.cost[at_goal].min()
     path = tree.path()
     assert np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1)) == pytest.approx(tree.cost[best])
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(1, 400), k=st.integers(1, 40),
+       radius=st.floats(1.0, 400.0), clustered=st.booleans())
+def test_grid_neighbours_are_the_brute_force_ones(seed, n, k, radius, clustered):
+    """The grid's nearest vertex and its k nearest within a radius are those of a brute-force search over every
+    vertex, ties to the older vertex (points on a coarse lattice make ties), inside and outside the bounds."""
+    from snakeplan.planners import tip_rrt_star
+
+    rng = np.random.default_rng(seed)
+    lo, hi = np.array([0.0, -300.0, 100.0]), np.array([1000.0, 300.0, 400.0])
+    span = hi - lo
+    pts = lo + (np.round(rng.random((n, 3)) * 4) / 4 if clustered else rng.random((n, 3))) * span
+    tree = tip_rrt_star._Tree(pts[0], lo, hi, radius, capacity=n)
+    tree.pos[:n] = pts
+    for v in range(1, n):
+        tip_rrt_star.grid_add(tree.head, tree.nxt, tree.dims, tree.cell, tree.lo, tree.pos, v)
+    kd, ki = np.empty(k), np.empty(k, dtype=np.int64)
+    for x in lo - 0.2 * span + rng.random((20, 3)) * 1.4 * span:
+        d = np.linalg.norm(pts - x, axis=1)
+        order = np.lexsort((np.arange(n), d))
+        near, dn = tip_rrt_star.nearest(tree.pos, tree.head, tree.nxt, tree.dims, tree.cell, tree.lo, x)
+        assert near == order[0] and np.sqrt(dn) == pytest.approx(d[order[0]])
+        within = [int(j) for j in order if d[j] <= radius][:k]
+        m = tip_rrt_star.near_k(tree.pos, tree.head, tree.nxt, tree.dims, tree.cell, tree.lo, x, k, radius, kd, ki)
+        assert list(ki[:m]) == within
 
 
 @pytest.mark.parametrize(("name", "seed"), [("fuel-tank", 4), ("oil-tank", 5)])

@@ -15,9 +15,13 @@ whole (mm):
   motion is free (reusing the checks already made), and its subtree's costs are updated;
 * the goal is reached when the goal state itself joins the tree; the best goal vertex is kept.
 
-Nearest and k-nearest searches are brute force over the tree (a few thousand vertices: cheaper here than
-keeping a spatial index). The random stream is numba's, seeded per plan; the trees therefore differ from
-OMPL's for the same seed, and :mod:`snakeplan.bench.speed` compares the two on the same problems.
+Nearest and k-nearest searches use a uniform grid over the bounds (a vertex list per cell, half a range wide):
+the nearest vertex by rings of cells around the sample, the k nearest among the cells within a range of it. Only
+neighbours within the range can become parents or be rewired, so the k nearest within the range are all the
+brute-force search over the whole tree would use; ties go to the older vertex as they would there. The tree is
+therefore the one a brute-force search grows (tested), at a fraction of the search's cost. The random stream is
+numba's, seeded per plan; the trees therefore differ from OMPL's for the same seed, and
+:mod:`snakeplan.bench.speed` compares the two on the same problems.
 """
 
 from __future__ import annotations
@@ -38,6 +42,10 @@ REWIRE_FACTOR = 1.1
 CHUNK = 256
 #: Vertices allocated at first (the arrays double when full).
 CAPACITY = 4096
+#: Grid cells per range (the k-nearest search looks this many cells each way), and the most cells along one
+#: axis of the bounds (cells grow in larger scenes).
+GRID_CELLS_PER_RANGE = 2
+MAX_GRID_SIDE = 128
 
 # indices into the integer state of a search: vertices, iterations, iteration of the first solution (-1: none yet),
 # best goal vertex (-1: none), goal vertices
@@ -52,17 +60,78 @@ def seed_stream(seed):
 
 @njit(cache=True)
 def _insert_k(kd, ki, m, k, d, j):
-    """Insert (d, j) into the ascending list kd/ki of length m (at most k kept); return the new length."""
-    if m == k and d >= kd[m - 1]:
+    """Insert (d, j) into the list kd/ki of length m, ascending by (distance, index), at most k kept; return the
+    new length."""
+    if m == k and (d > kd[m - 1] or (d == kd[m - 1] and j > ki[m - 1])):
         return m
     pos = m if m < k else k - 1
-    while pos > 0 and kd[pos - 1] > d:
+    while pos > 0 and (kd[pos - 1] > d or (kd[pos - 1] == d and ki[pos - 1] > j)):
         kd[pos] = kd[pos - 1]
         ki[pos] = ki[pos - 1]
         pos -= 1
     kd[pos] = d
     ki[pos] = j
     return m + 1 if m < k else m
+
+
+@njit(cache=True)
+def _cell(dims, cell, lo, x, a):
+    """The grid index of coordinate ``a`` of point x (clamped to the grid)."""
+    return min(max(int((x[a] - lo[a]) / cell), 0), dims[a] - 1)
+
+
+@njit(cache=True)
+def grid_add(head, nxt, dims, cell, lo, pos, v):
+    """Put vertex v (at ``pos[v]``) on its cell's list."""
+    c = (_cell(dims, cell, lo, pos[v], 0) * dims[1] + _cell(dims, cell, lo, pos[v], 1)) * dims[2] \
+        + _cell(dims, cell, lo, pos[v], 2)
+    nxt[v] = head[c]
+    head[c] = v
+
+
+@njit(cache=True)
+def nearest(pos, head, nxt, dims, cell, lo, x):
+    """(the vertex nearest to x, its squared distance), the older vertex on a tie: cells are searched in rings
+    around x's cell until every cell not yet searched is farther than the best found."""
+    ci, cj, ck = _cell(dims, cell, lo, x, 0), _cell(dims, cell, lo, x, 1), _cell(dims, cell, lo, x, 2)
+    best, dn = -1, np.inf
+    for r in range(max(dims[0], max(dims[1], dims[2]))):
+        for i in range(max(ci - r, 0), min(ci + r, dims[0] - 1) + 1):
+            for j in range(max(cj - r, 0), min(cj + r, dims[1] - 1) + 1):
+                for k in range(max(ck - r, 0), min(ck + r, dims[2] - 1) + 1):
+                    if max(abs(i - ci), max(abs(j - cj), abs(k - ck))) != r:
+                        continue
+                    v = head[(i * dims[1] + j) * dims[2] + k]
+                    while v >= 0:
+                        d = (pos[v, 0] - x[0]) ** 2 + (pos[v, 1] - x[1]) ** 2 + (pos[v, 2] - x[2]) ** 2
+                        if d < dn or (d == dn and v < best):
+                            best, dn = v, d
+                        v = nxt[v]
+        # a vertex outside rings 0..r is at least r cells from x along some axis
+        if best >= 0 and dn < (r * cell) ** 2:
+            break
+    return best, dn
+
+
+@njit(cache=True)
+def near_k(pos, head, nxt, dims, cell, lo, x, k, radius, kd, ki):
+    """The k vertices nearest to x among those within ``radius`` into kd/ki, ascending by (distance, index);
+    returns their count. Only the cells that reach within ``radius`` of x's cell are searched, and a vertex
+    farther than the k-th so far is dropped on its squared distance."""
+    ci, cj, ck = _cell(dims, cell, lo, x, 0), _cell(dims, cell, lo, x, 1), _cell(dims, cell, lo, x, 2)
+    reach = int(math.ceil(radius / cell))
+    r2 = radius * radius
+    m = 0
+    for i in range(max(ci - reach, 0), min(ci + reach, dims[0] - 1) + 1):
+        for j in range(max(cj - reach, 0), min(cj + reach, dims[1] - 1) + 1):
+            for c in range(max(ck - reach, 0), min(ck + reach, dims[2] - 1) + 1):
+                v = head[(i * dims[1] + j) * dims[2] + c]
+                while v >= 0:
+                    d2 = (pos[v, 0] - x[0]) ** 2 + (pos[v, 1] - x[1]) ** 2 + (pos[v, 2] - x[2]) ** 2
+                    if d2 <= r2 and (m < k or d2 <= kd[m - 1] * kd[m - 1] * (1.0 + 1e-12)):
+                        m = _insert_k(kd, ki, m, k, math.sqrt(d2), v)
+                    v = nxt[v]
+    return m
 
 
 @njit(cache=True)
@@ -80,10 +149,11 @@ def _detach(child, sibling, parent_of, v):
 
 
 @njit(cache=True)
-def grow(pos, parent, cost, inc, child, sibling, goals, state, goal, lo, hi, range_mm, goal_bias, k_rrt, improve,
-         iterations, W, radius, stats):
-    """Run up to ``iterations`` RRT* iterations on the tree (arrays with room for that many more vertices);
-    True when the search is done (``improve`` iterations after the first solution)."""
+def grow(pos, parent, cost, inc, child, sibling, goals, state, head, nxt, dims, cell, goal, lo, hi, range_mm,
+         goal_bias, k_rrt, improve, iterations, W, radius, stats):
+    """Run up to ``iterations`` RRT* iterations on the tree (arrays with room for that many more vertices, and
+    its grid: cell lists ``head``/``nxt`` of ``dims`` cells ``cell`` mm wide from ``lo``); True when the search
+    is done (``improve`` iterations after the first solution)."""
     cap = pos.shape[0]
     joints = np.empty((2, 3))
     radii = np.empty(1)
@@ -106,11 +176,7 @@ def grow(pos, parent, cost, inc, child, sibling, goals, state, goal, lo, hi, ran
         else:
             for a in range(3):
                 x[a] = lo[a] + np.random.random() * (hi[a] - lo[a])
-        near, dn = 0, np.inf
-        for j in range(n):
-            d = (pos[j, 0] - x[0]) ** 2 + (pos[j, 1] - x[1]) ** 2 + (pos[j, 2] - x[2]) ** 2
-            if d < dn:
-                near, dn = j, d
+        near, dn = nearest(pos, head, nxt, dims, cell, lo, x)
         dn = math.sqrt(dn)
         if dn > range_mm:
             for a in range(3):
@@ -119,10 +185,8 @@ def grow(pos, parent, cost, inc, child, sibling, goals, state, goal, lo, hi, ran
                            x[2], radius, joints, radii, work, stats):
             continue
         k = min(int(math.ceil(k_rrt * math.log(n + 1.0))), kmax)
-        m = 0
-        for j in range(n):
-            d = math.sqrt((pos[j, 0] - x[0]) ** 2 + (pos[j, 1] - x[1]) ** 2 + (pos[j, 2] - x[2]) ** 2)
-            m = _insert_k(kd, ki, m, k, d, j)
+        # the steered x is within the range of its nearest vertex, which is therefore among these
+        m = near_k(pos, head, nxt, dims, cell, lo, x, k, range_mm * (1.0 + 1e-12), kd, ki)
         for i in range(m):
             through[i] = cost[ki[i]] + kd[i]
             valid[i] = 0
@@ -151,6 +215,7 @@ def grow(pos, parent, cost, inc, child, sibling, goals, state, goal, lo, hi, ran
         sibling[v] = child[parent[v]]
         child[parent[v]] = v
         state[_N] = n + 1
+        grid_add(head, nxt, dims, cell, lo, pos, v)
         improved = False
         for i in range(m):
             j = ki[i]
@@ -202,9 +267,11 @@ def grow(pos, parent, cost, inc, child, sibling, goals, state, goal, lo, hi, ran
 
 
 class _Tree:
-    """The arrays of one search (vertices in insertion order; the root is vertex 0)."""
+    """The arrays of one search (vertices in insertion order; the root is vertex 0) and its grid over the bounds
+    ``lo``-``hi`` (mm): cells ``range_mm / GRID_CELLS_PER_RANGE`` wide, at most ``MAX_GRID_SIDE`` along an axis."""
 
-    def __init__(self, root: np.ndarray, capacity: int = CAPACITY) -> None:
+    def __init__(self, root: np.ndarray, lo: np.ndarray, hi: np.ndarray, range_mm: float,
+                 capacity: int = CAPACITY) -> None:
         self.pos = np.zeros((capacity, 3))
         self.parent = np.full(capacity, -1, dtype=np.int64)
         self.cost = np.zeros(capacity)
@@ -212,8 +279,15 @@ class _Tree:
         self.child = np.full(capacity, -1, dtype=np.int64)
         self.sibling = np.full(capacity, -1, dtype=np.int64)
         self.goals = np.zeros(capacity, dtype=np.int64)
+        self.nxt = np.full(capacity, -1, dtype=np.int64)
         self.state = np.array([1, 0, -1, -1, 0], dtype=np.int64)
+        self.lo = np.asarray(lo, dtype=float)
+        extent = np.maximum(np.asarray(hi, dtype=float) - self.lo, 1e-9)
+        self.cell = float(max(range_mm / GRID_CELLS_PER_RANGE, float(extent.max()) / MAX_GRID_SIDE))
+        self.dims = np.maximum(np.ceil(extent / self.cell), 1).astype(np.int64)
+        self.head = np.full(int(np.prod(self.dims)), -1, dtype=np.int64)
         self.pos[0] = root
+        grid_add(self.head, self.nxt, self.dims, self.cell, self.lo, self.pos, 0)
 
     def reserve(self, extra: int) -> None:
         """Room for ``extra`` more vertices (the arrays double as needed)."""
@@ -223,11 +297,19 @@ class _Tree:
             return
         new = max(need, 2 * cap)
         for name, fill in (("pos", 0.0), ("parent", -1), ("cost", 0.0), ("inc", 0.0), ("child", -1),
-                           ("sibling", -1), ("goals", 0)):
+                           ("sibling", -1), ("goals", 0), ("nxt", -1)):
             old = getattr(self, name)
             grown = np.full((new, *old.shape[1:]), fill, dtype=old.dtype)
             grown[:cap] = old
             setattr(self, name, grown)
+
+    def grow(self, goal: np.ndarray, hi: np.ndarray, range_mm: float, goal_bias: float, k_rrt: float,
+             improve: int, iterations: int, W: tuple, radius: float, stats: np.ndarray) -> bool:
+        """Up to ``iterations`` more iterations (room for them is made first); True when the search is done."""
+        self.reserve(iterations)
+        return grow(self.pos, self.parent, self.cost, self.inc, self.child, self.sibling, self.goals, self.state,
+                    self.head, self.nxt, self.dims, self.cell, goal, self.lo, hi, float(range_mm), float(goal_bias),
+                    float(k_rrt), int(improve), int(iterations), W, float(radius), stats)
 
     def path(self) -> np.ndarray | None:
         """Vertices from the root to the best goal vertex (mm), or None."""
@@ -258,16 +340,14 @@ def plan_leg(arm: ValidityChecker, start: np.ndarray, goal: np.ndarray, radius: 
     lo = np.asarray(arm.world.scene.bounds_min, dtype=float)
     hi = np.asarray(arm.world.scene.bounds_max, dtype=float)
     k_rrt = REWIRE_FACTOR * math.e * (1.0 + 1.0 / 3.0)
-    tree = _Tree(np.asarray(start, dtype=float))
+    tree = _Tree(np.asarray(start, dtype=float), lo, hi, range_mm)
     g = np.asarray(goal, dtype=float)
     left = math.inf if iterations is None else int(iterations)
     while time.perf_counter() < deadline and left > 0:
         chunk = int(min(CHUNK, left))
         left -= chunk
-        tree.reserve(chunk)
-        if grow(tree.pos, tree.parent, tree.cost, tree.inc, tree.child, tree.sibling, tree.goals, tree.state, g, lo,
-                hi, float(range_mm), float(goal_bias), k_rrt, int(improve), chunk, obstacles.packed,
-                float(radius), obstacles.evaluations):
+        if tree.grow(g, hi, range_mm, goal_bias, k_rrt, improve, chunk, obstacles.packed, radius,
+                     obstacles.evaluations):
             break
     pts = tree.path()
     if pts is not None:
