@@ -6,14 +6,18 @@ import json
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from snakeplan.planners.coverage import helix_points
 from snakeplan.planners.inspection import (
     KEEP_OUT_MM,
+    SPLINE_SAMPLES,
     InspectionProblem,
     Trajectory,
     get_inspection_planner,
     inspection_planner_names,
+    natural_spline_samples,
 )
 from snakeplan.robots import get_robot
 from snakeplan.scenes import make_scene
@@ -57,6 +61,38 @@ def test_trajectory_spline_through_points_at_constant_speed():
     assert steps.max() / steps.mean() < 1.05
     line = Trajectory(pts, 500.0, "polyline")
     assert line.length == pytest.approx(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(3, 9), st.integers(0, 2**31 - 1))
+def test_spline_samples_are_scipys_natural_cubic_spline(n, seed):
+    """The trajectory's spline is SciPy's natural CubicSpline on the chord-length parameter, sampled the same."""
+    from scipy.interpolate import CubicSpline
+
+    pts = np.random.default_rng(seed).normal(size=(n, 3)) * 2000.0
+    u = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+    t = np.concatenate([np.linspace(u[i], u[i + 1], SPLINE_SAMPLES, endpoint=False) for i in range(n - 1)] + [u[-1:]])
+    np.testing.assert_allclose(natural_spline_samples(pts, SPLINE_SAMPLES), CubicSpline(u, pts, bc_type="natural")(t),
+                               rtol=0, atol=1e-8)
+
+
+def test_distance_field_interpolates_as_scipy_does(world):
+    """The field's trilinear lookup of the distance and its gradient equals SciPy's RegularGridInterpolator on
+    the same grid, and outside the grid the distance grows by the distance to it."""
+    from scipy.interpolate import RegularGridInterpolator
+
+    f = world.field
+    axes = tuple(f.lo[d] + f.spacing * np.arange(f._values.shape[d]) for d in range(3))
+    pts = f.lo + np.random.default_rng(0).random((500, 3)) * (f.hi - f.lo)
+    _, values = f._at(pts)
+    for c in range(4):
+        ref = RegularGridInterpolator(axes, f._values[..., c])(pts)
+        np.testing.assert_allclose(values[:, c], ref, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(f.distance(pts), values[:, 0], rtol=0, atol=0)
+    np.testing.assert_allclose(f.look_direction(pts), -values[:, 1:] / np.linalg.norm(values[:, 1:], axis=1,
+                                                                                       keepdims=True), atol=1e-12)
+    out = f.hi + np.array([300.0, 0.0, 400.0])
+    assert f.distance(out) == pytest.approx(f.distance(f.hi) + 500.0)
 
 
 def test_helix_fits_requested_length():

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import trimesh
+from numba import njit
 from numpy.typing import ArrayLike
 
 from snakeplan.mapping.gp import vertex_normals
@@ -96,15 +97,9 @@ class SurfaceCamera:
         v = np.asarray(directions, dtype=float).reshape(-1, 3)
         v = v / np.linalg.norm(v, axis=1, keepdims=True)
         m = self.model
-        diff = self.nodes[None] - c[:, None]
-        d = np.linalg.norm(diff, axis=2)
-        along = np.einsum("knj,kj->kn", diff, v)
-        facing = -np.einsum("knj,nj->kn", diff, self.normals)
-        ok = (d >= m.d_min) & (d <= m.d_max)
-        ok &= along >= math.cos(m.fov_half_angle) * d
-        ok &= facing >= math.cos(m.incidence_max) * d
-        pose, node = np.nonzero(ok)
-        return Sightings(pose, node, d[pose, node])
+        pose, node, d = _sightings(self.nodes, self.normals, np.ascontiguousarray(c), np.ascontiguousarray(v),
+                                   m.d_min, m.d_max, math.cos(m.fov_half_angle), math.cos(m.incidence_max))
+        return Sightings(pose, node, d)
 
     def visible(self, positions: ArrayLike, directions: ArrayLike) -> Sightings:
         """Sightings from each pose (positions (k, 3) mm, view directions (k, 3)) that pass all four tests."""
@@ -132,3 +127,26 @@ class SurfaceCamera:
         r = self.model.noise_variance(s.distance)
         y = np.asarray(truth, dtype=float)[s.node] + rng.normal(0.0, np.sqrt(r))
         return s.node, y, r
+
+
+@njit(cache=True)
+def _sightings(nodes, normals, c, v, d_min, d_max, cos_fov, cos_incidence):
+    """(pose, node, distance) of every node within [d_min, d_max] of a pose, inside its field of view and
+    facing it within the incidence limit, pose by pose and in node order (one pass, no (poses, nodes) arrays)."""
+    count = 0
+    pose = np.empty(c.shape[0] * nodes.shape[0], dtype=np.int64)
+    node = np.empty_like(pose)
+    dist = np.empty(pose.shape[0])
+    for k in range(c.shape[0]):
+        for n in range(nodes.shape[0]):
+            dx, dy, dz = nodes[n, 0] - c[k, 0], nodes[n, 1] - c[k, 1], nodes[n, 2] - c[k, 2]
+            d = math.sqrt(dx * dx + dy * dy + dz * dz)
+            if d < d_min or d > d_max:
+                continue
+            if dx * v[k, 0] + dy * v[k, 1] + dz * v[k, 2] < cos_fov * d:
+                continue
+            if -(dx * normals[n, 0] + dy * normals[n, 1] + dz * normals[n, 2]) < cos_incidence * d:
+                continue
+            pose[count], node[count], dist[count] = k, n, d
+            count += 1
+    return pose[:count].copy(), node[:count].copy(), dist[:count].copy()

@@ -17,6 +17,7 @@ Repeated measurements of one node are first merged (precisions add), which is ex
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike
 from scipy.linalg import lapack
 
@@ -118,10 +119,33 @@ class GainEvaluator:
         nodes, r, _ = fuse_repeats(idx, noise_var)
         if nodes.size == 0:
             return 0.0
-        S = self.cov[np.ix_(nodes, nodes)] + np.diag(r)
+        S = _innovation(self.cov, nodes, r)
         if not self._use_product(nodes.size):
             X, _ = lapack.dtrtrs(_cholesky(S), self._A[nodes], lower=1)
             return float(np.vdot(X, X))
         inv, _ = lapack.dpotri(_cholesky(S), lower=1)
-        Q = self._PWP[np.ix_(nodes, nodes)]
-        return float(2.0 * np.sum(np.tril(inv, -1) * Q) + np.sum(np.diag(inv) * np.diag(Q)))
+        return _lower_dot(inv, self._PWP, nodes)
+
+
+@njit(cache=True)
+def _innovation(cov, nodes, r):
+    """S = P[nodes, nodes] + diag(r), gathered in one pass (m x m)."""
+    m = nodes.shape[0]
+    S = np.empty((m, m))
+    for i in range(m):
+        for j in range(m):
+            S[i, j] = cov[nodes[i], nodes[j]]
+        S[i, i] += r[i]
+    return S
+
+
+@njit(cache=True)
+def _lower_dot(inv, Q, nodes):
+    """sum(S^-1 * Q[nodes, nodes]) for symmetric S^-1 given by its lower triangle ``inv`` (potri) and symmetric
+    Q: the diagonal once, each entry below it twice, without gathering the block."""
+    total = 0.0
+    for j in range(nodes.shape[0]):
+        total += inv[j, j] * Q[nodes[j], nodes[j]]
+        for i in range(j + 1, nodes.shape[0]):
+            total += 2.0 * inv[i, j] * Q[nodes[i], nodes[j]]
+    return total

@@ -43,7 +43,7 @@ from typing import ClassVar
 import numpy as np
 import trimesh
 from numpy.typing import ArrayLike
-from scipy.interpolate import CubicSpline, RegularGridInterpolator
+from numba import njit
 from scipy.spatial import cKDTree
 
 from snakeplan.geometry.distance import ObstacleSet
@@ -168,25 +168,72 @@ class DistanceField:
         values = np.where(inside, -dist, dist).reshape(tuple(len(a) for a in self.axes))
         self.lo = np.array([a[0] for a in self.axes])
         self.hi = np.array([a[-1] for a in self.axes])
-        self._d = RegularGridInterpolator(self.axes, values)
-        grads = np.gradient(values, spacing)
-        self._g = [RegularGridInterpolator(self.axes, g) for g in grads]
+        self.spacing = float(spacing)
+        #: per grid point: the distance and its gradient (one array, so one lookup interpolates all four)
+        self._values = np.ascontiguousarray(np.stack([values, *np.gradient(values, spacing)], axis=-1))
+
+    def _at(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(points clipped to the grid, interpolated distance and gradient there (k, 4)) for points (k, 3)."""
+        q = np.clip(points.reshape(-1, 3), self.lo, self.hi)
+        return q, _trilinear(self._values, self.lo, self.spacing, np.require(q, requirements=["C", "W"]))
 
     def distance(self, points: ArrayLike) -> np.ndarray:
         """Signed distance (mm) at points (..., 3)."""
         p = np.asarray(points, dtype=float)
-        q = np.clip(p, self.lo, self.hi)
-        return self._d(q.reshape(-1, 3)).reshape(p.shape[:-1]) + np.linalg.norm(p - q, axis=-1)
+        q, v = self._at(p)
+        return v[:, 0].reshape(p.shape[:-1]) + np.linalg.norm(p - q.reshape(p.shape), axis=-1)
 
     def look_direction(self, points: ArrayLike) -> np.ndarray:
         """Unit directions (..., 3) towards the closest surface point (minus the distance gradient)."""
         p = np.asarray(points, dtype=float)
-        q = np.clip(p, self.lo, self.hi).reshape(-1, 3)
-        g = np.stack([gi(q) for gi in self._g], axis=-1).reshape(p.shape)
-        return -_unit(g)
+        _, v = self._at(p)
+        return -_unit(v[:, 1:].reshape(p.shape))
+
+
+@njit(cache=True)
+def _trilinear(values, lo, spacing, pts):
+    """Trilinear interpolation of ``values (nx, ny, nz, c)`` on the grid ``lo + spacing * index`` at points
+    ``(k, 3)`` inside it: ``(k, c)``."""
+    out = np.zeros((pts.shape[0], values.shape[3]))
+    base = np.empty(3, dtype=np.int64)
+    frac = np.empty(3)
+    for n in range(pts.shape[0]):
+        for a in range(3):
+            x = (pts[n, a] - lo[a]) / spacing
+            i = min(max(int(math.floor(x)), 0), values.shape[a] - 2)
+            base[a] = i
+            frac[a] = x - i
+        for corner in range(8):
+            di, dj, dk = corner >> 2, (corner >> 1) & 1, corner & 1
+            w = ((frac[0] if di else 1.0 - frac[0]) * (frac[1] if dj else 1.0 - frac[1])
+                 * (frac[2] if dk else 1.0 - frac[2]))
+            for c in range(values.shape[3]):
+                out[n, c] += w * values[base[0] + di, base[1] + dj, base[2] + dk, c]
+    return out
 
 
 # ---------------------------------------------------------------------------------------------- trajectory
+def natural_spline_samples(points: np.ndarray, per_segment: int) -> np.ndarray:
+    """Points along the natural cubic spline through ``points (n >= 3, 3)`` (mm), chord-length parameter:
+    ``per_segment`` evenly spaced in each segment's parameter from its start, then the last point.
+
+    The knots' second derivatives M solve the tridiagonal system h_{i-1} M_{i-1} + 2 (h_{i-1} + h_i) M_i + h_i
+    M_{i+1} = 6 (slope_i - slope_{i-1}) with M_0 = M_{n-1} = 0 (natural ends); a few control points, so it is
+    solved dense."""
+    h = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    slope = np.diff(points, axis=0) / h[:, None]
+    n = len(points)
+    A = np.diag(2.0 * (h[:-1] + h[1:])) + np.diag(h[1:-1], 1) + np.diag(h[1:-1], -1)
+    M = np.zeros_like(points)
+    M[1:-1] = np.linalg.solve(A, 6.0 * np.diff(slope, axis=0))
+    b = np.arange(per_segment) / per_segment  # fraction of each segment
+    a = 1.0 - b
+    seg = (a[None, :, None] * points[:-1, None] + b[None, :, None] * points[1:, None]
+           + ((a ** 3 - a)[None, :, None] * M[:-1, None] + (b ** 3 - b)[None, :, None] * M[1:, None])
+           * (h ** 2 / 6.0)[:, None, None])
+    return np.concatenate([seg.reshape((n - 1) * per_segment, 3), points[-1:]])
+
+
 class Trajectory:
     """A camera path through control points (mm), flown at constant ``speed`` (mm/s).
 
@@ -203,10 +250,7 @@ class Trajectory:
         if len(self.points) < 2:
             dense = self.points
         elif kind == "spline" and len(self.points) >= 3:
-            u = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(self.points, axis=0), axis=1))])
-            spline = CubicSpline(u, self.points, bc_type="natural")
-            dense = spline(np.concatenate([np.linspace(u[i], u[i + 1], SPLINE_SAMPLES, endpoint=False)
-                                           for i in range(len(u) - 1)] + [u[-1:]]))
+            dense = natural_spline_samples(self.points, SPLINE_SAMPLES)
         elif kind in ("spline", "polyline"):
             dense = self.points
         else:
@@ -384,7 +428,9 @@ class InspectionWorld:
         """True where a point is within REACH_RADIUS_MM of a reachable viewpoint."""
         if self._reachable_tree is None:
             self._reachable_tree = cKDTree(self.library.positions[self.library.reachable])
-        d, _ = self._reachable_tree.query(np.asarray(points, dtype=float).reshape(-1, 3))
+        # the search stops at the radius (points farther from every viewpoint come back inf)
+        d, _ = self._reachable_tree.query(np.asarray(points, dtype=float).reshape(-1, 3),
+                                          distance_upper_bound=REACH_RADIUS_MM + 1.0)
         return (d <= REACH_RADIUS_MM).reshape(np.shape(points)[:-1])
 
     def clear(self, points: ArrayLike) -> np.ndarray:
