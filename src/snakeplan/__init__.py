@@ -3,7 +3,7 @@
 Lengths are millimetres, angles radians, time seconds. Layers, lowest first (docs/ARCHITECTURE.md):
 geometry -> robots -> ftl -> scenes -> world -> evaluation -> trajectory -> mapping -> planners -> episode -> rl
 -> viz -> bench -> cli, over a base of utilities (registry, extras, jsonable, files, inputs, interrupt,
-checkpoints) that import nothing of snakeplan but each other.
+checkpoints, threads, parallel, jit) that import nothing of snakeplan but each other.
 """
 
 __version__ = "0.1.0"

@@ -26,6 +26,7 @@ from numpy.typing import ArrayLike
 
 from snakeplan.geometry.polyline import arclength_grid, cumulative_length, validate_path
 from snakeplan.geometry.transforms import normalize
+from snakeplan.jit import leaf
 
 #: How far (mm) P[0] may be from a given entrance point.
 ENTRANCE_TOL = 1e-6
@@ -38,7 +39,7 @@ INSERTION_TOL = 1e-9
 SKIP_SLACK_MM = 1e-6
 
 
-@njit(cache=True)
+@leaf
 def fit_into(p, cum, lengths, u, s, joints, arc):
     """Fit one configuration at depth ``s`` into ``joints (n+1, 3)`` and their arc parameters ``arc (n+1,)``
     (jitted; higher layers' kernels call it)."""
@@ -119,7 +120,7 @@ def _fit_many(p, cum, lengths, u, s_values, joints, arc):
         fit_into(p, cum, lengths, u, s_values[b], joints[b], arc[b])
 
 
-@njit(cache=True)
+@leaf
 def bends_into(u, joints, bends):
     """Bend angles (rad) of one configuration ``joints (n+1, 3)`` into ``bends (n,)``: feed direction ``u`` against
     link 0, then each link against the next (jitted)."""

@@ -23,6 +23,7 @@ import numpy as np
 from numba import njit
 
 from snakeplan.geometry import bvh
+from snakeplan.jit import leaf
 
 #: Thickness (mm) of the shell an open mesh stands for when its ``thickness`` is not given.
 DEFAULT_SHELL_MM = 1.0
@@ -245,7 +246,7 @@ def closest_on_triangle(p, a, b, c):
     return rx * rx + ry * ry + rz * rz, 0, qx, qy, qz
 
 
-@njit(cache=True)
+@leaf
 def mesh_sdf(tris, normals, nodes, links, root, half_thickness, p, stack):
     """Signed distance from p to the mesh whose tree has root node ``root``: a closed solid when
     ``half_thickness`` is 0 (pseudonormal sign), else a shell (unsigned distance - half_thickness).
@@ -465,7 +466,7 @@ def ray_triangle(o, d, t0, t1, t2):
     return (t, u, v) if t >= 0.0 else (np.inf, 0.0, 0.0)
 
 
-@njit(cache=True)
+@leaf
 def mesh_ray(tris, nodes, links, root, o, d, t_max, stack):
     """(t, triangle, u, v) of the first hit of the ray o + t d, t in [0, t_max], on the mesh whose tree has root
     node ``root`` (u, v: its barycentric coordinates, as :func:`ray_triangle`), or (inf, -1, 0, 0): the tree's
@@ -512,7 +513,7 @@ _INSIDE_RAYS = np.array([[0.5366563146, 0.6260990337, 0.5656854249],
 _INSIDE_MARGIN = 1e-6
 
 
-@njit(cache=True)
+@leaf
 def mesh_inside(tris, normals, nodes, links, root, p, stack):
     """Whether p lies inside the closed mesh whose tree has root node ``root``: a ray from p whose first surface
     it meets inside a face (not at an edge or a vertex, where a ray may graze the surface without crossing it)
@@ -556,9 +557,9 @@ def _segment_point2(a, b, c):
 
 
 @njit(cache=True)
-def _node_gap2(node, a, b, lo, hi):
-    """A lower bound on the squared distance between segment ab (its box lo..hi) and anything inside the box
-    ``node`` [lo(3), hi(3)]: the larger of the gap between the two boxes and the segment's distance to the box's
+def _node_gap2(node, a, b):
+    """A lower bound on the squared distance between segment ab and anything inside the box ``node`` [lo(3),
+    hi(3)]: the larger of the gap between the box and the segment's box and the segment's distance to the box's
     circumscribed ball (tight for small boxes near a slanted segment, where the box gap is loose)."""
     acc = 0.0
     cx = 0.5 * (node[0] + node[3])
@@ -566,7 +567,7 @@ def _node_gap2(node, a, b, lo, hi):
     cz = 0.5 * (node[2] + node[5])
     r2 = 0.0
     for k in range(3):
-        g = max(node[k] - hi[k], lo[k] - node[k + 3], 0.0)
+        g = max(node[k] - max(a[k], b[k]), min(a[k], b[k]) - node[k + 3], 0.0)
         acc += g * g
         e = 0.5 * (node[k + 3] - node[k])
         r2 += e * e
@@ -576,14 +577,13 @@ def _node_gap2(node, a, b, lo, hi):
     return acc
 
 
-@njit(cache=True)
-def mesh_segment(tris, normals, spheres, nodes, links, root, a, b, bound, stack):
+@leaf
+def mesh_segment(tris, normals, spheres, nodes, links, root, a, b, bound, stack, point):
     """(distance, outside) between segment ab and the mesh surface when less than ``bound``, else (inf, True).
     ``outside`` says on which side of a closed mesh the segment's closest point lies (pseudonormal of the closest
     surface feature, which is that point's nearest); meaningless when the distance is 0 (the segment crosses).
-    ``spheres (T, 4)``: each triangle's bounding ball (:func:`triangle_balls`)."""
-    lo = np.minimum(a, b)
-    hi = np.maximum(a, b)
+    ``spheres (T, 4)``: each triangle's bounding ball (:func:`triangle_balls`); ``point (3,)``: scratch (the
+    closest point, where an inside test decides). Allocates nothing."""
     best = bound * bound
     tri = -1
     feature = 0
@@ -594,7 +594,7 @@ def mesh_segment(tris, normals, spheres, nodes, links, root, a, b, bound, stack)
     while top > 0:
         top -= 1
         node = stack[top]
-        if _node_gap2(nodes[node], a, b, lo, hi) >= best:
+        if _node_gap2(nodes[node], a, b) >= best:
             continue
         first = links[node, 0]
         second = links[node, 1]
@@ -611,8 +611,8 @@ def mesh_segment(tris, normals, spheres, nodes, links, root, a, b, bound, stack)
                     best, tri, feature, s_best = d2, t, f, s
                     qx, qy, qz = x, y, z
             continue
-        dl = _node_gap2(nodes[first], a, b, lo, hi)
-        dr = _node_gap2(nodes[second], a, b, lo, hi)
+        dl = _node_gap2(nodes[first], a, b)
+        dr = _node_gap2(nodes[second], a, b)
         near, far, dnear, dfar = (first, second, dl, dr) if dl <= dr else (second, first, dr, dl)
         if dfar < best:
             stack[top] = far
@@ -624,8 +624,9 @@ def mesh_segment(tris, normals, spheres, nodes, links, root, a, b, bound, stack)
         return np.inf, True
     n = normals[tri, feature]
     if n[0] == 0.0 and n[1] == 0.0 and n[2] == 0.0:  # a vertex where closed parts touch
-        x = a + s_best * (b - a)
-        return math.sqrt(best), not mesh_inside(tris, normals, nodes, links, root, x, stack)
+        for k in range(3):
+            point[k] = a[k] + s_best * (b[k] - a[k])
+        return math.sqrt(best), not mesh_inside(tris, normals, nodes, links, root, point, stack)
     px = a[0] + s_best * (b[0] - a[0]) - qx
     py = a[1] + s_best * (b[1] - a[1]) - qy
     pz = a[2] + s_best * (b[2] - a[2]) - qz

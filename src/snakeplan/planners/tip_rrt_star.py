@@ -33,6 +33,7 @@ import numpy as np
 from numba import njit
 
 from snakeplan.geometry.distance import workspace
+from snakeplan.jit import leaf
 from snakeplan.world import ValidityChecker
 from snakeplan.world.validity import motion_free
 
@@ -58,7 +59,7 @@ def seed_stream(seed):
     np.random.seed(seed)
 
 
-@njit(cache=True)
+@leaf
 def _insert_k(kd, ki, m, k, d, j):
     """Insert (d, j) into the list kd/ki of length m, ascending by (distance, index), at most k kept; return the
     new length."""
@@ -74,13 +75,13 @@ def _insert_k(kd, ki, m, k, d, j):
     return m + 1 if m < k else m
 
 
-@njit(cache=True)
+@leaf
 def _cell(dims, cell, lo, x, a):
     """The grid index of coordinate ``a`` of point x (clamped to the grid)."""
     return min(max(int((x[a] - lo[a]) / cell), 0), dims[a] - 1)
 
 
-@njit(cache=True)
+@leaf
 def grid_add(head, nxt, dims, cell, lo, pos, v):
     """Put vertex v (at ``pos[v]``) on its cell's list."""
     c = (_cell(dims, cell, lo, pos[v], 0) * dims[1] + _cell(dims, cell, lo, pos[v], 1)) * dims[2] \
@@ -89,7 +90,7 @@ def grid_add(head, nxt, dims, cell, lo, pos, v):
     head[c] = v
 
 
-@njit(cache=True)
+@leaf
 def nearest(pos, head, nxt, dims, cell, lo, x):
     """(the vertex nearest to x, its squared distance), the older vertex on a tie: cells are searched in rings
     around x's cell until every cell not yet searched is farther than the best found."""
@@ -113,7 +114,7 @@ def nearest(pos, head, nxt, dims, cell, lo, x):
     return best, dn
 
 
-@njit(cache=True)
+@leaf
 def near_k(pos, head, nxt, dims, cell, lo, x, k, radius, kd, ki):
     """The k vertices nearest to x among those within ``radius`` into kd/ki, ascending by (distance, index);
     returns their count. Only the cells that reach within ``radius`` of x's cell are searched, and a vertex
@@ -134,7 +135,7 @@ def near_k(pos, head, nxt, dims, cell, lo, x, k, radius, kd, ki):
     return m
 
 
-@njit(cache=True)
+@leaf
 def _detach(child, sibling, parent_of, v):
     """Remove vertex v from its parent's list of children."""
     p = parent_of[v]

@@ -30,9 +30,15 @@ from numba import njit
 from snakeplan import ftl
 from snakeplan.geometry.distance import ObstacleSet, chain_hit, workspace
 from snakeplan.geometry.polyline import arclength_grid, cumulative_length, validate_path
+from snakeplan.jit import leaf
 from snakeplan.robots import Chain
 from snakeplan.world.knowledge import KnowledgeView
-from snakeplan.world.tolerances import BEND_TOLERANCE_RAD, PLANNING, REACH_TOLERANCE_MM, Tolerances
+from snakeplan.world.tolerances import (
+    BEND_TOLERANCE_RAD,
+    PLANNING,
+    REACH_TOLERANCE_MM,
+    Tolerances,
+)
 
 FailureKind = Literal["collision", "bend_limit", "insertion", "out_of_bounds"]
 #: Failure kinds in the order that breaks a tie at one depth.
@@ -96,7 +102,7 @@ def _scan(p, cum, lengths, u, depths, max_bends, radii, W, stats):
     return -1, -1, -1
 
 
-@njit(cache=True)
+@leaf
 def motion_free(W, lo, hi, ax, ay, az, bx, by, bz, radius, joints, radii, work, stats):
     """Whether the capsule of ``radius`` along (ax, ay, az) -> (bx, by, bz) is clear and both ends are in the
     bounds [lo, hi] (one segment, scalars in: the per-motion check of a sampling planner; jitted, so compiled
