@@ -264,10 +264,13 @@ class SpRRT(Planner):
 
     def warm_up(self, problem: Problem) -> None:
         """The default, the geodesic field's kernels (a field over a few free cells at the entrance, and a distance
-        looked up in it) and the tree's (a one-node tree): cold, they compiled inside the first plan's budget."""
+        looked up in it), the tree's (a one-node tree) and the repair's (a fit at one depth, a subtree): cold, they
+        compiled inside the first plan's budget."""
         super().warm_up(problem)
         e = problem.scene.entrance
         position = np.array(e.position, dtype=float)
+        model = ValidityChecker(problem.world, problem.robot, PLANNING)
+        ftl.fit_states(np.vstack([position, position + model.direction]), model.lengths, [0.5], model.direction)
         grid = Grid.covering(position - self.field_cell_mm, position + self.field_cell_mm, self.field_cell_mm)
         field = geodesic_from_sdf(grid, np.full(grid.shape, np.inf), Entrance(position, np.array(e.direction)),
                                   0.0, DEFAULT_FEED_MM)
@@ -278,6 +281,7 @@ class SpRRT(Planner):
         _nearest_kernel(pts, stages, tree.pos, tree.out, tree.has_out, tree.stage, tree.open, np.ones(2), tree.n)
         _repeats_kernel(pts, _unit(pts - position), stages, tree.pos, tree.out, tree.stage, tree.n, DUPLICATE_MM,
                         DUPLICATE_COS)
+        _subtree_kernel(tree.parent, 0, tree.n)
 
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float
                ) -> tuple[Status, np.ndarray | None, dict]:
