@@ -127,6 +127,13 @@ class GainEvaluator:
         return _lower_dot(inv, self._PWP, nodes)
 
 
+def warm_up() -> None:
+    """Load the gain's kernels (numba's cache, or a compile when cold) on a three-node map, so that a mission's
+    timed planning never pays for them: the first gain of so small a map reads the full product, and both
+    kernels run with the array layouts of a real one (two nodes seen: LAPACK's inverse in column order)."""
+    GainEvaluator(np.eye(3)).gain(np.array([0, 1]), np.array([1.0, 1.0]))
+
+
 @njit(cache=True)
 def _innovation(cov, nodes, r):
     """S = P[nodes, nodes] + diag(r), gathered in one pass (m x m)."""

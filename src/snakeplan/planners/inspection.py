@@ -48,7 +48,7 @@ from scipy.spatial import cKDTree
 
 from snakeplan.geometry.distance import ObstacleSet
 from snakeplan.geometry.primitives import Mesh
-from snakeplan.mapping import CameraModel, GaussianMap, SurfaceCamera, surface_prior
+from snakeplan.mapping import CameraModel, GaussianMap, SurfaceCamera, kalman, surface_prior
 from snakeplan.mapping.gp import DEFAULT_LENGTH_SCALE_MM, DEFAULT_SIGMA_F, SurfacePrior
 from snakeplan.registry import Registry, named_subclass
 from snakeplan.robots import Chain
@@ -482,6 +482,7 @@ def build_world(scene: Scene, robot: Chain, camera: CameraModel, sigma_f: float,
             seen.append(nodes)
             noise.append(camera.noise_variance(dist))
         lib = ViewpointLibrary(pos, dirs, ok, tuple(seen), tuple(noise))
+        kalman.warm_up()  # the planners' gain kernels, before any mission's clock
         _WORLDS[key] = InspectionWorld(frame, prior, cam, dfield, reach, lib, time.perf_counter() - t0)
     return _WORLDS[key]
 
