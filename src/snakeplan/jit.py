@@ -16,7 +16,8 @@ from collections.abc import Callable
 from numba import njit
 from numba.core.cpu import CPUTargetOptions
 
-#: numba's option that turns reference counting off, where this numba has it (every release since 0.40).
+#: numba's option that turns reference counting off, where this numba has it (0.68 does); without it ``leaf`` is
+#: plain ``njit``: the same results, without the saving.
 _NO_COUNTING = {"_nrt": False} if hasattr(CPUTargetOptions, "_nrt") else {}
 
 

@@ -16,21 +16,15 @@ import numpy as np
 from numba import njit
 
 from snakeplan.geometry import bvh
-from snakeplan.geometry.mesh_distance import (
-    mesh_inside,
-    mesh_ray,
-    mesh_sdf,
-    mesh_segment,
-    triangle_balls,
-)
+from snakeplan.geometry.mesh_distance import mesh_inside, mesh_ray, mesh_sdf, mesh_segment, triangle_balls
 from snakeplan.geometry.primitives import (
     _P,
+    PACK_WIDTH,
     KIND_BOX,
     KIND_CYLINDER,
     KIND_MESH,
     KIND_PIPE,
     KIND_SPHERE,
-    PACK_WIDTH,
     Mesh,
     Obstacle,
 )
@@ -708,11 +702,11 @@ class ObstacleSet:
         """Distance (mm) along unit ``directions`` to the first surface (inf when none within max_distance)."""
         o = np.asarray(origins, dtype=float)
         d = np.asarray(directions, dtype=float)
-        o, d = np.broadcast_arrays(o, d)
+        shape = np.broadcast_shapes(o.shape, d.shape)
         d = d / np.linalg.norm(d, axis=-1, keepdims=True)
-        fo = _kernel_array(o.reshape(-1, 3))
-        fd = _kernel_array(d.reshape(-1, 3))
-        return _raycast(self._packed, fo, fd, float(max_distance), float(eps), self.evaluations).reshape(o.shape[:-1])
+        fo = _kernel_array(np.broadcast_to(o, shape).reshape(-1, 3))
+        fd = _kernel_array(np.broadcast_to(d, shape).reshape(-1, 3))
+        return _raycast(self._packed, fo, fd, float(max_distance), float(eps), self.evaluations).reshape(shape[:-1])
 
 
 def sampled_chain_clearance(obstacles: ObstacleSet, joints, radii, step: float = 1.0) -> np.ndarray:

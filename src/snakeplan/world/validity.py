@@ -33,12 +33,7 @@ from snakeplan.geometry.polyline import arclength_grid, cumulative_length, valid
 from snakeplan.jit import leaf
 from snakeplan.robots import Chain
 from snakeplan.world.knowledge import KnowledgeView
-from snakeplan.world.tolerances import (
-    BEND_TOLERANCE_RAD,
-    PLANNING,
-    REACH_TOLERANCE_MM,
-    Tolerances,
-)
+from snakeplan.world.tolerances import BEND_TOLERANCE_RAD, PLANNING, REACH_TOLERANCE_MM, Tolerances
 
 FailureKind = Literal["collision", "bend_limit", "insertion", "out_of_bounds"]
 #: Failure kinds in the order that breaks a tie at one depth.
