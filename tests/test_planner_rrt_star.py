@@ -95,12 +95,11 @@ def test_compiled_tree_is_a_shortest_path_tree_of_free_motions():
     start = scene.entrance.position + rrt_star.LEAD_MM * arm.direction
     goal = scene.targets[0]
     tip_rrt_star.seed_stream(5)
-    hi = scene.bounds_max.astype(float)
-    tree = tip_rrt_star._Tree(start, scene.bounds_min.astype(float), hi, rrt_star.RANGE_MM,
-                              capacity=64)  # small: the arrays must grow
+    tree = tip_rrt_star._Tree(start, scene.bounds_min.astype(float), scene.bounds_max.astype(float),
+                              rrt_star.RANGE_MM, capacity=64)  # small: the arrays must grow
     k_rrt = tip_rrt_star.REWIRE_FACTOR * np.e * 4.0 / 3.0
     for _ in range(12):
-        tree.grow(goal, hi, rrt_star.RANGE_MM, rrt_star.GOAL_BIAS, k_rrt, 10**6, tip_rrt_star.CHUNK,
+        tree.grow(goal, rrt_star.RANGE_MM, rrt_star.GOAL_BIAS, k_rrt, 10**6, tip_rrt_star.CHUNK,
                   arm.obstacles.packed, arm.tip_radius, arm.obstacles.evaluations)
     n = int(tree.state[0])
     assert n > 500 and tree.state[3] >= 0

@@ -269,8 +269,7 @@ class SpRRT(Planner):
         super().warm_up(problem)
         e = problem.scene.entrance
         position = np.array(e.position, dtype=float)
-        model = ValidityChecker(problem.world, problem.robot, PLANNING)
-        ftl.fit_states(np.vstack([position, position + model.direction]), model.lengths, [0.5], model.direction)
+        ftl.fit_states(np.vstack([position, position + e.direction]), problem.robot.lengths, [0.5], e.direction)
         grid = Grid.covering(position - self.field_cell_mm, position + self.field_cell_mm, self.field_cell_mm)
         field = geodesic_from_sdf(grid, np.full(grid.shape, np.inf), Entrance(position, np.array(e.direction)),
                                   0.0, DEFAULT_FEED_MM)

@@ -283,7 +283,8 @@ class _Tree:
         self.nxt = np.full(capacity, -1, dtype=np.int64)
         self.state = np.array([1, 0, -1, -1, 0], dtype=np.int64)
         self.lo = np.asarray(lo, dtype=float)
-        extent = np.maximum(np.asarray(hi, dtype=float) - self.lo, 1e-9)
+        self.hi = np.asarray(hi, dtype=float)
+        extent = np.maximum(self.hi - self.lo, 1e-9)
         self.cell = float(max(range_mm / GRID_CELLS_PER_RANGE, float(extent.max()) / MAX_GRID_SIDE))
         self.dims = np.maximum(np.ceil(extent / self.cell), 1).astype(np.int64)
         self.head = np.full(int(np.prod(self.dims)), -1, dtype=np.int64)
@@ -304,12 +305,12 @@ class _Tree:
             grown[:cap] = old
             setattr(self, name, grown)
 
-    def grow(self, goal: np.ndarray, hi: np.ndarray, range_mm: float, goal_bias: float, k_rrt: float,
-             improve: int, iterations: int, W: tuple, radius: float, stats: np.ndarray) -> bool:
+    def grow(self, goal: np.ndarray, range_mm: float, goal_bias: float, k_rrt: float, improve: int,
+             iterations: int, W: tuple, radius: float, stats: np.ndarray) -> bool:
         """Up to ``iterations`` more iterations (room for them is made first); True when the search is done."""
         self.reserve(iterations)
         return grow(self.pos, self.parent, self.cost, self.inc, self.child, self.sibling, self.goals, self.state,
-                    self.head, self.nxt, self.dims, self.cell, goal, self.lo, hi, float(range_mm), float(goal_bias),
+                    self.head, self.nxt, self.dims, self.cell, goal, self.lo, self.hi, float(range_mm), float(goal_bias),
                     float(k_rrt), int(improve), int(iterations), W, float(radius), stats)
 
     def path(self) -> np.ndarray | None:
@@ -338,17 +339,15 @@ def plan_leg(arm: ValidityChecker, start: np.ndarray, goal: np.ndarray, radius: 
     value) or ``improve`` iterations after the first solution (or after ``iterations`` in all, when given);
     (waypoints or None, tree size). Seed the stream (:func:`seed_stream`) before a plan's first leg."""
     obstacles = arm.obstacles
-    lo = np.asarray(arm.world.scene.bounds_min, dtype=float)
-    hi = np.asarray(arm.world.scene.bounds_max, dtype=float)
+    scene = arm.world.scene
     k_rrt = REWIRE_FACTOR * math.e * (1.0 + 1.0 / 3.0)
-    tree = _Tree(np.asarray(start, dtype=float), lo, hi, range_mm)
+    tree = _Tree(np.asarray(start, dtype=float), scene.bounds_min, scene.bounds_max, range_mm)
     g = np.asarray(goal, dtype=float)
     left = math.inf if iterations is None else int(iterations)
     while time.perf_counter() < deadline and left > 0:
         chunk = int(min(CHUNK, left))
         left -= chunk
-        if tree.grow(g, hi, range_mm, goal_bias, k_rrt, improve, chunk, obstacles.packed, radius,
-                     obstacles.evaluations):
+        if tree.grow(g, range_mm, goal_bias, k_rrt, improve, chunk, obstacles.packed, radius, obstacles.evaluations):
             break
     pts = tree.path()
     if pts is not None:
