@@ -6,7 +6,9 @@ dozen arrays then spends about 150 ns a call on them (measured: the candidate se
 counting, 12 ns without), more than its arithmetic. A kernel that allocates no array and keeps none it is
 given needs no counting: the arrays belong to its caller for the whole call. ``leaf`` compiles such a kernel
 without it (numba's ``_nrt`` target option, off), cached like every other kernel. Only for such kernels: one that
-allocates, or returns or stores an array, must use plain ``njit``.
+allocates, or returns or stores an array, must use plain ``njit``. Mark the functions a leaf kernel calls
+``leaf`` too: numba compiles a callee without counting only when it compiles it fresh for that caller, and reuses
+a version compiled or cached for another, so a helper's own decorator is what guarantees it.
 """
 
 from __future__ import annotations

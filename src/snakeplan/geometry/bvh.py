@@ -19,6 +19,8 @@ import math
 import numpy as np
 from numba import njit
 
+from snakeplan.jit import leaf
+
 #: Most items in a leaf.
 LEAF_SIZE = 4
 #: Deepest tree the walkers' fixed stacks allow (a median split halves the items, so 2^60 items would be needed).
@@ -84,7 +86,7 @@ def build(boxes: np.ndarray, leaf_size: int = LEAF_SIZE) -> tuple[np.ndarray, np
     return _build(b, int(leaf_size))
 
 
-@njit(cache=True)
+@leaf
 def box_distance2(box: np.ndarray, p: np.ndarray) -> float:
     """Squared distance from p to the box ``[lo(3), hi(3)]`` (0 inside)."""
     acc = 0.0
@@ -94,14 +96,14 @@ def box_distance2(box: np.ndarray, p: np.ndarray) -> float:
     return acc
 
 
-@njit(cache=True)
+@leaf
 def box_distance(box: np.ndarray, p: np.ndarray) -> float:
     """Distance from p to the box ``[lo(3), hi(3)]`` (0 inside): a lower bound on the distance to what it holds."""
     return math.sqrt(box_distance2(box, p))
 
 
 
-@njit(cache=True)
+@leaf
 def ray_box(box: np.ndarray, origin: np.ndarray, d: np.ndarray, t_max: float, eps: float = 0.0) -> float:
     """Where the ray origin + t d, t in [0, t_max], enters the box ``[lo(3), hi(3)]`` grown by ``eps`` (0 when it
     starts inside), or inf when it misses the box (slab test)."""

@@ -198,7 +198,7 @@ def prepare(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.nda
     return np.ascontiguousarray(tris[order]), np.ascontiguousarray(normals[order]), nodes, links
 
 
-@njit(cache=True)
+@leaf
 def closest_on_triangle(p, a, b, c):
     """(squared distance, feature, closest point x, y, z) from p to triangle abc; feature indexes the normals
     layout (0 face, 1-3 edges ab, bc, ca, 4-6 vertices a, b, c). Voronoi regions as in Ericson, Real-Time
@@ -378,7 +378,7 @@ def _left_of(px, py, pz, qx, qy, qz, x, y, z, nx, ny, nz):
     return nx * (ey * wz - ez * wy) + ny * (ez * wx - ex * wz) + nz * (ex * wy - ey * wx) >= 0.0
 
 
-@njit(cache=True)
+@leaf
 def segment_triangle(a, b, tris, t):
     """(squared distance, feature, s, closest triangle point x, y, z) between segment a + s (b - a) and triangle
     ``tris[t]`` (features as :func:`closest_on_triangle`; a crossing is distance 0 on the face).
@@ -439,7 +439,7 @@ def segment_triangle(a, b, tris, t):
     return best, feature, s_best, x, y, z
 
 
-@njit(cache=True)
+@leaf
 def ray_triangle(o, d, t0, t1, t2):
     """(t, u, v): distance t >= 0 along the ray o + t d to triangle t0 t1 t2 and the hit's barycentric
     coordinates (t0 + u (t1 - t0) + v (t2 - t0); Moller-Trumbore), or (inf, 0, 0) when it misses."""
@@ -545,7 +545,7 @@ def triangle_balls(tris: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(np.concatenate([centre, radius[:, None]], axis=1))
 
 
-@njit(cache=True)
+@leaf
 def _segment_point2(a, b, c):
     """Squared distance from point c (its first 3 entries) to segment ab."""
     dx, dy, dz = b[0] - a[0], b[1] - a[1], b[2] - a[2]
@@ -556,7 +556,7 @@ def _segment_point2(a, b, c):
     return ux * ux + uy * uy + uz * uz
 
 
-@njit(cache=True)
+@leaf
 def _node_gap2(node, a, b):
     """A lower bound on the squared distance between segment ab and anything inside the box ``node`` [lo(3),
     hi(3)]: the larger of the gap between the box and the segment's box and the segment's distance to the box's

@@ -132,7 +132,8 @@ class SurfaceCamera:
 @njit(cache=True)
 def _sightings(nodes, normals, c, v, d_min, d_max, cos_fov, cos_incidence):
     """(pose, node, distance) of every node within [d_min, d_max] of a pose, inside its field of view and
-    facing it within the incidence limit, pose by pose and in node order (one pass, no (poses, nodes) arrays)."""
+    facing it within the incidence limit, pose by pose and in node order: one pass, no (poses, nodes, 3)
+    differences. A NaN pose or direction sees nothing (every test must hold, as a comparison with NaN does not)."""
     count = 0
     pose = np.empty(c.shape[0] * nodes.shape[0], dtype=np.int64)
     node = np.empty_like(pose)
@@ -141,11 +142,11 @@ def _sightings(nodes, normals, c, v, d_min, d_max, cos_fov, cos_incidence):
         for n in range(nodes.shape[0]):
             dx, dy, dz = nodes[n, 0] - c[k, 0], nodes[n, 1] - c[k, 1], nodes[n, 2] - c[k, 2]
             d = math.sqrt(dx * dx + dy * dy + dz * dz)
-            if d < d_min or d > d_max:
+            if not (d >= d_min and d <= d_max):
                 continue
-            if dx * v[k, 0] + dy * v[k, 1] + dz * v[k, 2] < cos_fov * d:
+            if not (dx * v[k, 0] + dy * v[k, 1] + dz * v[k, 2] >= cos_fov * d):
                 continue
-            if -(dx * normals[n, 0] + dy * normals[n, 1] + dz * normals[n, 2]) < cos_incidence * d:
+            if not (-(dx * normals[n, 0] + dy * normals[n, 1] + dz * normals[n, 2]) >= cos_incidence * d):
                 continue
             pose[count], node[count], dist[count] = k, n, d
             count += 1

@@ -130,8 +130,11 @@ class GainEvaluator:
 def warm_up() -> None:
     """Load the gain's kernels (numba's cache, or a compile when cold) on a three-node map, so that a mission's
     timed planning never pays for them: the first gain of so small a map reads the full product, and both
-    kernels run with the array layouts of a real one (two nodes seen: LAPACK's inverse in column order)."""
-    GainEvaluator(np.eye(3)).gain(np.array([0, 1]), np.array([1.0, 1.0]))
+    kernels run with the array layouts of a real one (LAPACK's inverse is in column order for two nodes or more;
+    for one node numba sees it as a row-ordered 1 x 1)."""
+    ev = GainEvaluator(np.eye(3))
+    ev.gain(np.array([0, 1]), np.array([1.0, 1.0]))
+    ev.gain(np.array([0]), np.array([1.0]))
 
 
 @njit(cache=True)

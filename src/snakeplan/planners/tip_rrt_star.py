@@ -15,11 +15,12 @@ whole (mm):
   motion is free (reusing the checks already made), and its subtree's costs are updated;
 * the goal is reached when the goal state itself joins the tree; the best goal vertex is kept.
 
-Nearest and k-nearest searches use a uniform grid over the bounds (a vertex list per cell, half a range wide):
-the nearest vertex by rings of cells around the sample, the k nearest among the cells within a range of it. Only
-neighbours within the range can become parents or be rewired, so the k nearest within the range are all the
-brute-force search over the whole tree would use; ties go to the older vertex as they would there. The tree is
-therefore the one a brute-force search grows (tested), at a fraction of the search's cost. The random stream is
+Nearest and k-nearest searches use a uniform grid over the bounds (a vertex list per cell, half a range wide,
+wider in large scenes): the nearest vertex by shells of cells around the sample, the k nearest among the cells
+within a range of it. Only neighbours within the range can become parents or be rewired, so the k nearest within
+the range are all the brute-force search over the whole tree would use; ties go to the older vertex as they
+would there. The tree is therefore the one a brute-force search grows: the two queries are tested against brute
+force, and grown trees kept their sizes and distance evaluations when the grid replaced it. The random stream is
 numba's, seeded per plan; the trees therefore differ from OMPL's for the same seed, and
 :mod:`snakeplan.bench.speed` compares the two on the same problems.
 """
@@ -43,8 +44,8 @@ REWIRE_FACTOR = 1.1
 CHUNK = 256
 #: Vertices allocated at first (the arrays double when full).
 CAPACITY = 4096
-#: Grid cells per range (the k-nearest search looks this many cells each way), and the most cells along one
-#: axis of the bounds (cells grow in larger scenes).
+#: Grid cells per range, and the most cells along one axis of the bounds (cells grow in larger scenes; the
+#: k-nearest search looks as many cells each way as a range spans).
 GRID_CELLS_PER_RANGE = 2
 MAX_GRID_SIDE = 128
 
@@ -99,15 +100,19 @@ def nearest(pos, head, nxt, dims, cell, lo, x):
     for r in range(max(dims[0], max(dims[1], dims[2]))):
         for i in range(max(ci - r, 0), min(ci + r, dims[0] - 1) + 1):
             for j in range(max(cj - r, 0), min(cj + r, dims[1] - 1) + 1):
-                for k in range(max(ck - r, 0), min(ck + r, dims[2] - 1) + 1):
-                    if max(abs(i - ci), max(abs(j - cj), abs(k - ck))) != r:
-                        continue
-                    v = head[(i * dims[1] + j) * dims[2] + k]
+                # the ring's shell only: every k on its faces across i or j, else its two ends along k
+                if abs(i - ci) == r or abs(j - cj) == r:
+                    k, last, step = max(ck - r, 0), min(ck + r, dims[2] - 1), 1
+                else:
+                    k, last, step = ck - r, ck + r, 2 * r
+                while k <= last:
+                    v = head[(i * dims[1] + j) * dims[2] + k] if 0 <= k < dims[2] else -1
                     while v >= 0:
                         d = (pos[v, 0] - x[0]) ** 2 + (pos[v, 1] - x[1]) ** 2 + (pos[v, 2] - x[2]) ** 2
                         if d < dn or (d == dn and v < best):
                             best, dn = v, d
                         v = nxt[v]
+                    k += step
         # a vertex outside rings 0..r is at least r cells from x along some axis
         if best >= 0 and dn < (r * cell) ** 2:
             break
@@ -186,7 +191,7 @@ def grow(pos, parent, cost, inc, child, sibling, goals, state, head, nxt, dims, 
                            x[2], radius, joints, radii, work, stats):
             continue
         k = min(int(math.ceil(k_rrt * math.log(n + 1.0))), kmax)
-        # the steered x is within the range of its nearest vertex, which is therefore among these
+        # the steered x is within the range of its nearest vertex, so the candidates within the range include it
         m = near_k(pos, head, nxt, dims, cell, lo, x, k, range_mm * (1.0 + 1e-12), kd, ki)
         for i in range(m):
             through[i] = cost[ki[i]] + kd[i]
@@ -310,8 +315,8 @@ class _Tree:
         """Up to ``iterations`` more iterations (room for them is made first); True when the search is done."""
         self.reserve(iterations)
         return grow(self.pos, self.parent, self.cost, self.inc, self.child, self.sibling, self.goals, self.state,
-                    self.head, self.nxt, self.dims, self.cell, goal, self.lo, self.hi, float(range_mm), float(goal_bias),
-                    float(k_rrt), int(improve), int(iterations), W, float(radius), stats)
+                    self.head, self.nxt, self.dims, self.cell, goal, self.lo, self.hi, float(range_mm),
+                    float(goal_bias), float(k_rrt), int(improve), int(iterations), W, float(radius), stats)
 
     def path(self) -> np.ndarray | None:
         """Vertices from the root to the best goal vertex (mm), or None."""
