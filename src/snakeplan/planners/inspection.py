@@ -42,13 +42,19 @@ from typing import ClassVar
 
 import numpy as np
 import trimesh
-from numpy.typing import ArrayLike
 from numba import njit
+from numpy.typing import ArrayLike
 from scipy.spatial import cKDTree
 
 from snakeplan.geometry.distance import ObstacleSet
 from snakeplan.geometry.primitives import Mesh
-from snakeplan.mapping import CameraModel, GaussianMap, SurfaceCamera, kalman, surface_prior
+from snakeplan.mapping import (
+    CameraModel,
+    GaussianMap,
+    SurfaceCamera,
+    kalman,
+    surface_prior,
+)
 from snakeplan.mapping.gp import DEFAULT_LENGTH_SCALE_MM, DEFAULT_SIGMA_F, SurfacePrior
 from snakeplan.registry import Registry, named_subclass
 from snakeplan.robots import Chain
@@ -200,7 +206,7 @@ def _trilinear(values, lo, spacing, pts):
     for n in range(pts.shape[0]):
         for a in range(3):
             x = (pts[n, a] - lo[a]) / spacing
-            i = min(max(int(math.floor(x)), 0), values.shape[a] - 2)
+            i = min(max(math.floor(x), 0), values.shape[a] - 2)
             base[a] = i
             frac[a] = x - i
         for corner in range(8):

@@ -125,7 +125,7 @@ def near_k(pos, head, nxt, dims, cell, lo, x, k, radius, kd, ki):
     returns their count. Only the cells that reach within ``radius`` of x's cell are searched, and a vertex
     farther than the k-th so far is dropped on its squared distance."""
     ci, cj, ck = _cell(dims, cell, lo, x, 0), _cell(dims, cell, lo, x, 1), _cell(dims, cell, lo, x, 2)
-    reach = int(math.ceil(radius / cell))
+    reach = math.ceil(radius / cell)
     r2 = radius * radius
     m = 0
     for i in range(max(ci - reach, 0), min(ci + reach, dims[0] - 1) + 1):
