@@ -16,15 +16,22 @@ import numpy as np
 from numba import njit
 
 from snakeplan.geometry import bvh
-from snakeplan.geometry.mesh_distance import mesh_inside, mesh_ray, mesh_sdf, mesh_segment, triangle_balls
+from snakeplan.geometry.mesh_distance import (
+    mesh_inside,
+    mesh_ray,
+    mesh_sdf,
+    mesh_segment,
+    point_on,
+    triangle_balls,
+)
 from snakeplan.geometry.primitives import (
     _P,
-    PACK_WIDTH,
     KIND_BOX,
     KIND_CYLINDER,
     KIND_MESH,
     KIND_PIPE,
     KIND_SPHERE,
+    PACK_WIDTH,
     Mesh,
     Obstacle,
 )
@@ -147,19 +154,11 @@ def _sdf_row(row, W, p, walk):
 
 @njit(cache=True)
 def workspace(W):
-    """Scratch arrays of the kernels for the packed set W: (candidates, interval stack, tree stacks, the
-    candidates' distances at the segment's midpoint, a point). The kernels below allocate nothing per call: an
-    array temporary costs about 60 ns, several times a box test."""
+    """Scratch arrays of the kernels for the packed set W: (candidates, interval stack, tree stacks, a point).
+    The kernels below allocate nothing per call: an array temporary costs about 60 ns, several times a box
+    test."""
     return (np.empty(W[0].shape[0], dtype=np.int64), np.empty((256, 2)),
-            np.empty((2, bvh.STACK_SIZE), dtype=np.int64), np.empty(W[0].shape[0]), np.empty(3))
-
-
-@leaf
-def _point_on(a, b, t, out):
-    """a + t (b - a) into ``out`` (3,), no temporary."""
-    out[0] = a[0] + t * (b[0] - a[0])
-    out[1] = a[1] + t * (b[1] - a[1])
-    out[2] = a[2] + t * (b[2] - a[2])
+            np.empty((2, bvh.STACK_SIZE), dtype=np.int64), np.empty(3))
 
 
 @leaf
@@ -223,17 +222,17 @@ def _sdf_points(W, pts, cap, stats):
 @leaf
 def _candidates(W, a, b, cutoff, work, stats):
     """Obstacles that may come within ``cutoff`` of segment ab; returns their count in ``work[0]``. A primitive
-    is evaluated at the midpoint (its value kept in ``work[3]``); a mesh whose box is near enough is a candidate
-    without a distance evaluation (its exact segment search, :func:`_meshes_exact`, decides; its value is +inf).
+    is evaluated at the midpoint and kept when that value allows; a mesh whose box is near enough is a candidate
+    without a distance evaluation (its exact segment search, :func:`_meshes_exact`, decides).
 
     The obstacle tree culls every box that the segment's bounding ball lies outside of and farther than
     ``cutoff`` from, so a link only evaluates obstacles near it, whatever the size of the scene.
     """
     rows, boxes, nodes, links, order = W[0], W[1], W[7], W[8], W[9]
-    cand, _, walk, value, mid = work
+    cand, _, walk, mid = work
     if rows.shape[0] == 0:
         return 0
-    _point_on(a, b, 0.5, mid)
+    point_on(a, b, 0.5, mid)
     half = 0.5 * _length(a, b)
     n = 0
     st = walk[0]
@@ -259,14 +258,12 @@ def _candidates(W, a, b, cutoff, work, stats):
                 continue
             if int(rows[k, 0]) == KIND_MESH:
                 cand[n] = k
-                value[n] = np.inf
                 n += 1
                 continue
             stats[0] += 1
             d = _sdf_row(rows[k], W, mid, walk)
             if d - half < cutoff:
                 cand[n] = k
-                value[n] = d
                 n += 1
     return n
 
@@ -281,7 +278,7 @@ def _meshes_exact(W, a, b, n, bound, work, stats):
     of one of its points says so; then its least distance is the exact one (or >= ``bound``). A shell is always
     settled (unsigned distance - half thickness)."""
     rows, ranges = W[0], W[3]
-    cand, _, walk, value, point = work
+    cand, _, walk, point = work
     best = bound
     keep = 0
     for j in range(n):
@@ -289,7 +286,6 @@ def _meshes_exact(W, a, b, n, bound, work, stats):
         row = rows[k]
         if int(row[0]) != KIND_MESH:
             cand[keep] = k
-            value[keep] = value[j]
             keep += 1
             continue
         stats[0] += 1
@@ -310,7 +306,6 @@ def _meshes_exact(W, a, b, n, bound, work, stats):
                 best = min(best, d)
         if not settled:
             cand[keep] = k
-            value[keep] = value[j]
             keep += 1
     return best, keep
 
@@ -337,7 +332,7 @@ def _segment_min(W, a, b, cutoff, tol, radius, work, stats):
     best, n = _meshes_exact(W, a, b, n, cutoff, work, stats)
     if n == 0:
         return best
-    cand, stack, walk, _, point = work
+    cand, stack, walk, point = work
     contact = radius - CONTACT_RESOLUTION_MM
     length = _length(a, b)
     best = min(best, _min_over(W, cand, n, a, walk, stats), _min_over(W, cand, n, b, walk, stats))
@@ -349,7 +344,7 @@ def _segment_min(W, a, b, cutoff, tol, radius, work, stats):
         t0 = stack[top, 0]
         t1 = stack[top, 1]
         tm = 0.5 * (t0 + t1)
-        _point_on(a, b, tm, point)
+        point_on(a, b, tm, point)
         f = _min_over(W, cand, n, point, walk, stats)
         if f < best:
             best = f
@@ -380,7 +375,7 @@ def _segment_hits(W, a, b, radius, work, stats):
         return True
     if n == 0:
         return False
-    cand, stack, walk, _, point = work
+    cand, stack, walk, point = work
     length = _length(a, b)
     stack[0, 0] = 0.0
     stack[0, 1] = 1.0
@@ -390,7 +385,7 @@ def _segment_hits(W, a, b, radius, work, stats):
         t0 = stack[top, 0]
         t1 = stack[top, 1]
         tm = 0.5 * (t0 + t1)
-        _point_on(a, b, tm, point)
+        point_on(a, b, tm, point)
         f = _min_over(W, cand, n, point, walk, stats)
         if f < contact:
             return True
@@ -409,8 +404,8 @@ def _midpoint_clearances(W, chain, radii, work, stats):
     """Each link's clearance at its midpoint: attained values, the first chain's link order and bounds."""
     out = np.empty(radii.shape[0])
     for k in range(radii.shape[0]):
-        _point_on(chain[k], chain[k + 1], 0.5, work[4])
-        out[k] = _scene_sdf(W, work[4], work[2], stats) - radii[k]
+        point_on(chain[k], chain[k + 1], 0.5, work[3])
+        out[k] = _scene_sdf(W, work[3], work[2], stats) - radii[k]
     return out
 
 
@@ -522,7 +517,7 @@ def _raycast(W, origins, dirs, max_dist, eps, stats):
     out = np.full(origins.shape[0], np.inf)
     if rows.shape[0] == 0:
         return out
-    cand, _, walk, _, point = workspace(W)
+    cand, _, walk, point = workspace(W)
     st = walk[0]
     for i in range(origins.shape[0]):
         o = origins[i]

@@ -546,6 +546,14 @@ def triangle_balls(tris: np.ndarray) -> np.ndarray:
 
 
 @leaf
+def point_on(a, b, t, out):
+    """a + t (b - a) into ``out`` (3,) (mm), without a temporary array (the kernels allocate nothing per call)."""
+    out[0] = a[0] + t * (b[0] - a[0])
+    out[1] = a[1] + t * (b[1] - a[1])
+    out[2] = a[2] + t * (b[2] - a[2])
+
+
+@leaf
 def _segment_point2(a, b, c):
     """Squared distance from point c (its first 3 entries) to segment ab."""
     dx, dy, dz = b[0] - a[0], b[1] - a[1], b[2] - a[2]
@@ -624,8 +632,7 @@ def mesh_segment(tris, normals, spheres, nodes, links, root, a, b, bound, stack,
         return np.inf, True
     n = normals[tri, feature]
     if n[0] == 0.0 and n[1] == 0.0 and n[2] == 0.0:  # a vertex where closed parts touch
-        for k in range(3):
-            point[k] = a[k] + s_best * (b[k] - a[k])
+        point_on(a, b, s_best, point)
         return math.sqrt(best), not mesh_inside(tris, normals, nodes, links, root, point, stack)
     px = a[0] + s_best * (b[0] - a[0]) - qx
     py = a[1] + s_best * (b[1] - a[1]) - qy
