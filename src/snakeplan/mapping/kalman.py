@@ -70,7 +70,7 @@ class GaussianMap:
         idx, r, y = fuse_repeats(idx, noise_var, y)
         if idx.size == 0:
             return
-        L = _cholesky(self.cov[np.ix_(idx, idx)] + np.diag(r))
+        L = _cholesky(_innovation(self.cov, idx, r))
         X, _ = lapack.dtrtrs(L, self.cov[idx], lower=1)
         if y is not None:
             z, _ = lapack.dtrtrs(L, np.asarray(y, dtype=float) - self.mean[idx], lower=1)
