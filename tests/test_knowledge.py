@@ -14,10 +14,11 @@ ROBOT = get_robot("sjtu-snake-iii")
 
 
 def spheres_scene():
-    """Spheres of radius 10 whose surfaces lie 100, 300 and 500 mm from the origin along x."""
+    """Spheres of radius 10, all discovered (unknown before the job), whose surfaces lie 100, 300 and 500 mm from
+    the origin along x, y and -z."""
     obstacles = [Sphere([110.0, 0.0, 0.0], 10.0), Sphere([0.0, 310.0, 0.0], 10.0), Sphere([0.0, 0.0, -510.0], 10.0)]
     return Scene("spheres", 0, [-1000.0] * 3, [1000.0] * 3, Entrance([0.0, 0.0, 0.0], [1.0, 0.0, 0.0]),
-                 np.array([[500.0, 0.0, 0.0]]), obstacles)
+                 np.array([[500.0, 0.0, 0.0]]), obstacles, discovered=(0, 1, 2))
 
 
 def test_sensing_reveals_exactly_the_obstacles_within_range():
@@ -106,7 +107,47 @@ def test_a_sensed_views_scene_is_structure_only():
     assert np.array_equal(view.scene.targets, scene.targets)
     with pytest.raises(UnsensedObstacleError):
         view.scene.obstacles
-    assert len(view.fresh().obstacle_set) == 0
+    assert len(view.fresh().obstacle_set) == len(scene.obstacles) - scene.metadata["clutter"]
+
+
+def test_fuel_tank_clutter_is_discovered_and_the_structure_prior():
+    """The generator marks its clutter (the last ``metadata["clutter"]`` obstacles) as discovered; a sensed view
+    starts knowing the walls, partitions and frame and none of the clutter."""
+    for seed in range(3):
+        scene = make_scene("fuel-tank", seed)
+        n, clutter = len(scene.obstacles), scene.metadata["clutter"]
+        assert clutter >= 3 and scene.discovered == tuple(range(n - clutter, n))
+        view = SensedView.of(scene)
+        assert list(view.known) == [True] * (n - clutter) + [False] * clutter
+        assert not SensedView.of(scene, prior=False).known.any()
+    assert make_scene("oil-tank", 0).prior.all()
+
+
+def test_prior_flags_round_trip_through_scene_json():
+    scene = make_scene("fuel-tank", 2)
+    d = scene.to_dict()
+    flagged = [i for i, o in enumerate(d["obstacles"]) if "prior" in o]
+    assert flagged == list(scene.discovered) and all(d["obstacles"][i]["prior"] is False for i in flagged)
+    back = Scene.from_dict(d)
+    assert back.discovered == scene.discovered and np.array_equal(back.prior, scene.prior)
+    d["obstacles"][0]["prior"] = True  # explicit true is the default
+    d["obstacles"][1]["prior"] = False
+    assert Scene.from_dict(d).discovered == (1, *scene.discovered)
+
+
+@pytest.mark.parametrize("value", [0, "no", None, 1.0])
+def test_a_prior_flag_that_is_not_a_boolean_is_refused(value):
+    d = make_scene("oil-tank", 0).to_dict()
+    d["obstacles"][3]["prior"] = value
+    with pytest.raises(ValueError, match=r"^obstacles\[3\]\.prior: expected true or false"):
+        Scene.from_dict(d)
+
+
+def test_discovered_indices_are_checked():
+    scene = spheres_scene()
+    with pytest.raises(ValueError, match="discovered"):
+        Scene("spheres", 0, scene.bounds_min, scene.bounds_max, scene.entrance, scene.targets, scene.obstacles,
+              discovered=(3,))
 
 
 class _PeeksThroughTheView(_Peeking):

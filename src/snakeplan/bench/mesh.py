@@ -45,7 +45,7 @@ def fuel_tank_mesh(triangles: int = SPEED_TRIANGLES) -> tuple[Scene, Scene]:
     from snakeplan.scenes.meshing import obstacles_mesh
 
     scene = make_scene("fuel-tank", 0)
-    return scene, replace(scene, obstacles=(obstacles_mesh(scene.obstacles, triangles),))
+    return scene, replace(scene, obstacles=(obstacles_mesh(scene.obstacles, triangles),), discovered=())
 
 
 def _plan(scene: Scene, planner: str, seed: int, time_limit: float):

@@ -13,7 +13,8 @@ lies between ``MIN_TARGET_GEODESIC_MM`` and the reach limit, so paths are as lon
 tighter than the arm's bend limits allow (``TURN_RADIUS_MM``; see :func:`outside_turning_region`).
 
 Obstacles are listed as: the six outer walls (x-, x+, y-, y+, floor, ceiling), the seven partitions, the frame
-boxes, then the clutter (the last ``metadata["clutter"]`` obstacles).
+boxes, then the clutter (the last ``metadata["clutter"]`` obstacles). The clutter is ``discovered`` (unknown before
+the job); everything else is prior.
 """
 
 from __future__ import annotations
@@ -385,5 +386,6 @@ def fuel_tank(seed: int, *, arm_length_mm: float = ARM_LENGTH_MM, reach_fraction
                                    "target_clearance_mm": target_clearance_mm,
                                    "wall_thickness_mm": WALL_THICKNESS_MM},
                 }
-                return Scene("fuel-tank", seed, bounds_min, bounds_max, entrance, target[None], obstacles, meta)
+                return Scene("fuel-tank", seed, bounds_min, bounds_max, entrance, target[None], obstacles, meta,
+                             discovered=tuple(range(len(fixed), len(obstacles))))
     raise RuntimeError(f"fuel-tank: no valid scene for seed {seed} in {MAX_ATTEMPTS} attempts")

@@ -58,6 +58,9 @@ class Entrance:
 class Scene:
     """A workspace to plan in. ``targets`` are visited in order; ``metadata`` holds generator facts.
 
+    ``discovered``: indices of the obstacles that are not known before the job (clutter, debris: a sensed planner
+    meets them only through its sensor); every other obstacle is prior (walls, partitions, the CAD structure).
+
     Immutable: its arrays are read-only and its obstacles a tuple, so the packed obstacles it caches can never go
     stale. Build a changed scene with ``dataclasses.replace``.
     """
@@ -70,6 +73,7 @@ class Scene:
     targets: np.ndarray
     obstacles: tuple[Obstacle, ...] = ()
     metadata: dict = field(default_factory=dict)
+    discovered: tuple[int, ...] = ()
 
     def __post_init__(self) -> None:
         lo, hi = inputs.corners(self.bounds_min, self.bounds_max, "bounds")
@@ -83,7 +87,8 @@ class Scene:
                   "seed": None if self.seed is None else inputs.integer(self.seed, "seed", 0, 2**64 - 1),
                   "bounds_min": _frozen(lo), "bounds_max": _frozen(hi),
                   "targets": _frozen(inputs.points(self.targets, "targets")), "obstacles": obstacles,
-                  "metadata": inputs.mapping(self.metadata, "metadata")}
+                  "metadata": inputs.mapping(self.metadata, "metadata"),
+                  "discovered": _indices(self.discovered, len(obstacles))}
         for name, value in fields.items():
             object.__setattr__(self, name, value)
 
@@ -92,6 +97,13 @@ class Scene:
     def obstacle_set(self) -> ObstacleSet:
         """The packed obstacles (built once; a scene is not mutated after construction)."""
         return ObstacleSet(self.obstacles)
+
+    @property
+    def prior(self) -> np.ndarray:
+        """One flag per obstacle: True where it is known before the job (not in ``discovered``)."""
+        flags = np.ones(len(self.obstacles), dtype=bool)
+        flags[list(self.discovered)] = False
+        return flags
 
     @property
     def label(self) -> str:
@@ -134,7 +146,8 @@ class Scene:
             "bounds": {"min": self.bounds_min.tolist(), "max": self.bounds_max.tolist()},
             "entrance": self.entrance.to_dict(),
             "targets": self.targets.tolist(),
-            "obstacles": [o.to_dict() for o in self.obstacles],
+            "obstacles": [o.to_dict() if known else {**o.to_dict(), "prior": False}
+                          for o, known in zip(self.obstacles, self.prior)],
             "metadata": self.metadata,
         }
 
@@ -163,7 +176,15 @@ class Scene:
         raw = inputs.items(d.get("obstacles", []), "obstacles")
         if len(raw) > MAX_OBSTACLES:
             raise ValueError(f"obstacles: more than {MAX_OBSTACLES} obstacles ({len(raw)}); join small ones into a mesh")
-        obstacles = [obstacle_from_dict(o, f"obstacles[{i}]", base_dir) for i, o in enumerate(raw)]
+        discovered = []
+        for i, o in enumerate(raw):
+            if isinstance(o, dict) and "prior" in o:
+                if type(o["prior"]) is not bool:
+                    raise ValueError(f"obstacles[{i}].prior: expected true or false, got {inputs.show(o['prior'])}")
+                if not o["prior"]:
+                    discovered.append(i)
+        obstacles = [obstacle_from_dict({k: v for k, v in o.items() if k != "prior"} if isinstance(o, dict) else o,
+                                        f"obstacles[{i}]", base_dir) for i, o in enumerate(raw)]
         for i, o in enumerate(obstacles):
             note = open_mesh_note(o) if isinstance(o, Mesh) else None
             if note is not None:
@@ -174,7 +195,7 @@ class Scene:
         check_metadata(metadata, obstacles)
         scene = cls(name=d["name"], seed=d.get("seed"), bounds_min=bounds["min"], bounds_max=bounds["max"],
                     entrance=Entrance(entrance["position"], entrance["direction"]), targets=d.get("targets", []),
-                    obstacles=obstacles, metadata=metadata)
+                    obstacles=obstacles, metadata=metadata, discovered=tuple(discovered))
         check_placement(scene)
         return scene
 
@@ -261,6 +282,13 @@ def _rooms(value: Any, name: str) -> int:
         room = inputs.mapping(room, f"{name}[{i}]", required=("min", "max"))
         inputs.corners(room["min"], room["max"], f"{name}[{i}]")
     return len(rooms)
+
+
+def _indices(value: Any, n: int) -> tuple[int, ...]:
+    """``discovered`` as sorted unique obstacle indices below ``n``."""
+    items = inputs.items(value, "discovered", "[index, ...]")
+    out = sorted({inputs.integer(k, f"discovered[{i}]", 0, n - 1) for i, k in enumerate(items)}) if items else []
+    return tuple(int(k) for k in out)
 
 
 def _fmt(p: np.ndarray) -> str:

@@ -4,7 +4,8 @@ A planner reaches obstacles only through a knowledge view (``Problem.world``): i
 now, and its ``raycast`` is the range sensor. Two views:
 
 - :class:`FullView`: every obstacle of the scene.
-- :class:`SensedView`: the obstacles known before the job (``prior``; none unless given) plus every obstacle that
+- :class:`SensedView`: the obstacles known before the job (``prior``; the scene's prior obstacles, see
+  :attr:`snakeplan.scenes.Scene.discovered`) plus every obstacle that
   came within ``sensor_range_mm`` of a point the tip has visited. A planner reports the points its tip reaches
   with :meth:`SensedView.sense` (rays sense at their origins); the view reveals an obstacle when the exact distance
   from one of those points to it is at most the range. A retry after a failed check re-plans with what has been
@@ -106,9 +107,9 @@ class SensedView(KnowledgeView):
         self._set: ObstacleSet | None = None
 
     @classmethod
-    def of(cls, scene: Scene, sensor_range_mm: float = DEFAULT_SENSOR_RANGE_MM) -> SensedView:
-        """The sensed view of ``scene``: nothing known before the job."""
-        return cls(scene, scene.obstacles, sensor_range_mm)
+    def of(cls, scene: Scene, sensor_range_mm: float = DEFAULT_SENSOR_RANGE_MM, prior: bool = True) -> SensedView:
+        """The sensed view of ``scene``: its prior obstacles known before the job (none with ``prior=False``)."""
+        return cls(scene, scene.obstacles, sensor_range_mm, scene.prior if prior else None)
 
     @property
     def obstacle_set(self) -> ObstacleSet:
@@ -171,7 +172,7 @@ _OBSTACLE_READS = frozenset({"obstacles", "obstacle_set", "signed_distance", "ch
 def guarded(scene: Scene) -> Scene:
     """``scene`` with its structure (bounds, entrance, targets, metadata) but obstacles that raise when read."""
     g = object.__new__(_GuardedScene)
-    for f in ("name", "seed", "bounds_min", "bounds_max", "entrance", "targets", "metadata"):
+    for f in ("name", "seed", "bounds_min", "bounds_max", "entrance", "targets", "metadata", "discovered"):
         object.__setattr__(g, f, getattr(scene, f))
     object.__setattr__(g, "obstacles", ())
     return g
