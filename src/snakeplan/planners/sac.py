@@ -49,6 +49,7 @@ from snakeplan.planners.registry import register_planner
 from snakeplan.planners.weights import read_npz, read_weights_file
 from snakeplan.robots import Chain, get_robot
 from snakeplan.scenes import Scene, scene_spec, spec_for
+from snakeplan.scenes.reach import RouteGuide, route_guide
 from snakeplan.world import PLANNING, REACH_TOLERANCE_MM, ROLLOUT, FullView, KnowledgeView, ValidityChecker
 
 #: Tip advance per step (mm).
@@ -76,7 +77,18 @@ FEATURE_CLIP = 4.0
 #: A heading closer than this (|cos|) to world z takes world x as the frame's reference.
 VERTICAL_COS = 0.9
 #: Observation designs.
-OBSERVATIONS = ("local", "paper")
+OBSERVATIONS = ("local", "paper", "guide")
+#: ``guide`` design: the route guide's points this far (mm of its arc length) ahead of the tip's place on it, never
+#: past the current target, and the half-span (mm) of the chord that gives the guide's direction at the first.
+GUIDE_AHEAD_MM = (140.0, 350.0)
+GUIDE_TANGENT_MM = 20.0
+#: How many steps ahead of its last place the tip's place on the guide is looked for (it never moves back).
+GUIDE_AHEAD_STEPS = 3
+#: Values the guide adds to a ``guide`` observation: two guide points (unit direction in the tip frame and scaled
+#: length each) and the guide's direction at the first, in the tip frame.
+GUIDE_DIM = 11
+#: Clearance (mm) beyond the arm's largest radius that a route guide keeps from the known obstacles.
+GUIDE_MARGIN_MM = 2.5
 
 
 
@@ -123,14 +135,16 @@ LOOKAHEAD_DIM = 4
 
 
 def observation_dim(mode: str, lookahead: bool = False) -> int:
-    """Length of the ``observation`` vector for a design (with the next target's look-ahead, ``local`` only)."""
-    if mode != "local":
+    """Length of the ``observation`` vector for a design (with the next target's look-ahead: ``local`` and
+    ``guide``)."""
+    if mode == "paper":
         return 3
-    return 3 + 9 + len(ray_directions()) + 2 + 1 + (LOOKAHEAD_DIM if lookahead else 0)
+    return (3 + 9 + len(ray_directions()) + 2 + 1 + (LOOKAHEAD_DIM if lookahead else 0)
+            + (GUIDE_DIM if mode == "guide" else 0))
 
 
 def action_dim(mode: str) -> int:
-    return 2 if mode == "local" else 3
+    return 3 if mode == "paper" else 2
 
 
 # --- coarse structure ---------------------------------------------------------------------------------------
@@ -310,12 +324,16 @@ def policy_input(observation, achieved_goal, desired_goal, mode: str, graph: Roo
     ``paper``: observation, achieved and desired goal as given. ``local``: the observation, then the goal, the
     next route waypoint and the one after (each as a unit direction in the tip frame and a scaled length) and
     the route's portal normal in the tip frame (without a graph every waypoint is the goal, the normal zero).
+    ``guide``: the observation (which carries the route guide's features), then the goal in the tip frame.
     """
     obs = np.asarray(observation, dtype=float)
     ag = np.asarray(achieved_goal, dtype=float)
     dg = np.asarray(desired_goal, dtype=float)
     if mode == "paper":
         return np.concatenate([obs, ag, dg], axis=-1)
+    if mode == "guide":
+        frame = obs[..., 3:12].reshape(*obs.shape[:-1], 3, 3)
+        return np.concatenate([obs, _relative(frame, (dg - ag) * GOAL_SCALE_MM)], axis=-1)
     lead = obs.shape[:-1]
     o2, a2, d2 = (np.ascontiguousarray(x.reshape(-1, x.shape[-1])) for x in (obs, ag, dg))
     out = np.empty((o2.shape[0], o2.shape[1] + 15))
@@ -325,9 +343,17 @@ def policy_input(observation, achieved_goal, desired_goal, mode: str, graph: Roo
     return out.reshape(*lead, out.shape[1])
 
 
+def _relative(frame: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Vectors ``v (..., 3)`` (mm) in tip frames ``(..., 3, 3)``: unit direction and scaled, clipped length."""
+    local = np.einsum("...ij,...j->...i", frame, v)
+    dist = np.linalg.norm(local, axis=-1, keepdims=True)
+    return np.concatenate([local / np.maximum(dist, 1e-9), np.minimum(dist / FEATURE_SCALE_MM, FEATURE_CLIP)],
+                          axis=-1)
+
+
 def input_dim(mode: str, obs_dim: int) -> int:
     """Length of :func:`policy_input`'s output for observations of ``obs_dim`` values."""
-    return obs_dim + (6 if mode == "paper" else 15)
+    return obs_dim + {"paper": 6, "local": 15, "guide": 4}[mode]
 
 
 # --- the crawl ----------------------------------------------------------------------------------------------
@@ -344,16 +370,19 @@ class Crawler:
         self.step_mm = float(step_mm)
         self.max_turn = self.step_mm / float(turn_radius_mm)
         self.check_body = check_body
-        self.capture_mm = capture_steps * self.step_mm if mode == "local" else 0.0
-        self.lookahead = lookahead and mode == "local"
+        self.capture_mm = capture_steps * self.step_mm if mode != "paper" else 0.0
+        self.lookahead = lookahead and mode != "paper"
         self.rays = ray_directions()
 
-    def reset(self, scene: Scene, world: KnowledgeView | None = None) -> None:
+    def reset(self, scene: Scene, world: KnowledgeView | None = None, guide: RouteGuide | None = None) -> None:
         """Start at the entrance of ``scene``, heading along the feed direction, sensing through ``world`` (default:
-        the whole scene) and checking each step's crawl with the ``ROLLOUT`` profile."""
+        the whole scene) and checking each step's crawl with the ``ROLLOUT`` profile. The ``guide`` design follows
+        ``guide`` (default: :meth:`route_guide` of what ``world`` knows now)."""
         self.scene = scene
         self.world = FullView(scene) if world is None else world
         self.checker = ValidityChecker(self.world, self.robot, ROLLOUT)
+        self.guide = (guide or self.route_guide(scene, self.world)) if self.mode == "guide" else None
+        self.guide_s = 0.0
         self.tank_scale = float(np.max(scene.bounds_max))
         self.path = [scene.entrance.position.copy()]
         self.heading = scene.entrance.direction.copy()
@@ -362,6 +391,12 @@ class Crawler:
         self.steps = 0
         self.target_index = 0
         self.prev_action = np.zeros(action_dim(self.mode))
+
+    def route_guide(self, scene: Scene, world: KnowledgeView) -> RouteGuide:
+        """The route guide through what ``world`` knows, kept ``GUIDE_MARGIN_MM`` beyond the arm's radius."""
+        inflate = float(np.max(self.robot.radii)) + GUIDE_MARGIN_MM
+        return route_guide(world.obstacle_set, scene.bounds_min, scene.bounds_max, scene.entrance, scene.targets,
+                           inflate)
 
     @property
     def tip(self) -> np.ndarray:
@@ -385,17 +420,43 @@ class Crawler:
     def observation(self) -> dict[str, np.ndarray]:
         """The goal-conditioned observation dict (float32)."""
         tip = self.tip
-        if self.mode == "local":
+        if self.mode != "paper":
             parts = [tip / self.tank_scale, self.frame.ravel(), self.ranges() / RAY_RANGE_MM, self.prev_action,
                      [self.depth / self.robot.total_length]]
             if self.lookahead:
                 parts.append(self._next_target())
+            if self.mode == "guide":
+                parts.append(self._guide_features())
             vec = np.concatenate(parts)
         else:
             vec = tip / self.tank_scale
         return {"observation": vec.astype(np.float32),
                 "achieved_goal": (tip / GOAL_SCALE_MM).astype(np.float32),
                 "desired_goal": (self.goal / GOAL_SCALE_MM).astype(np.float32)}
+
+    def _guide_end(self) -> float:
+        """Arc length (mm) of the current target on the guide."""
+        return float(self.guide.target_arc[min(self.target_index, len(self.guide.target_arc) - 1)])
+
+    def _guide_features(self) -> np.ndarray:
+        """The guide points ``GUIDE_AHEAD_MM`` ahead of the tip's place on it (never past the current target) and
+        the guide's direction at the first, in the tip frame."""
+        end = self._guide_end()
+        s1, s2 = (min(self.guide_s + d, end) for d in GUIDE_AHEAD_MM)
+        pts = self.guide.at([s1, s2, max(s1 - GUIDE_TANGENT_MM, 0.0), min(s1 + GUIDE_TANGENT_MM, end)])
+        chord = pts[3] - pts[2]
+        n = float(np.linalg.norm(chord))
+        direction = chord / n if n > 1e-9 else np.zeros(3)
+        return np.concatenate([_relative(self.frame, pts[:2] - self.tip).ravel(), self.frame @ direction])
+
+    def _follow_guide(self) -> None:
+        """Move the tip's place on the guide to the guide point nearest the tip among those from the last place to
+        a few steps ahead of it, and past a target once it is reached."""
+        if self.target_index > 0:
+            self.guide_s = max(self.guide_s, float(self.guide.target_arc[min(self.target_index,
+                                                                              len(self.guide.target_arc)) - 1]))
+        ahead = min(self.guide_s + GUIDE_AHEAD_STEPS * self.step_mm, self._guide_end())
+        self.guide_s = self.guide.progress(self.tip, self.guide_s, ahead)
 
     def _next_target(self) -> np.ndarray:
         """The target after the current one in the tip frame (unit direction, scaled length), or zeros."""
@@ -424,7 +485,7 @@ class Crawler:
         dist = float(np.linalg.norm(to))
         if dist > SNAP_FACTOR * self.step_mm or dist < 1e-9:
             return None
-        bound = self.max_turn if self.mode == "local" else math.pi / 2
+        bound = math.pi / 2 if self.mode == "paper" else self.max_turn
         return self.goal.copy() if float(to @ self.heading) / dist >= math.cos(bound) else None
 
     def _capture(self) -> np.ndarray | None:
@@ -480,6 +541,8 @@ class Crawler:
         reached = failure is None and float(np.linalg.norm(new - self.goal)) <= REACH_TOLERANCE_MM
         if reached:
             self.target_index += 1
+        if self.guide is not None:
+            self._follow_guide()
         return failure, reached
 
     def tip_path(self) -> np.ndarray:
@@ -629,7 +692,7 @@ class NumpyPolicy:
                  graph: RoomGraph | None = None):
         meta = _check_meta(meta)
         mode = meta["observation"]
-        lookahead = bool(meta.get("lookahead", False)) and mode == "local"
+        lookahead = bool(meta.get("lookahead", False)) and mode != "paper"
         if len(layers) != meta["hidden_layers"]:
             raise _bad(f"meta.hidden_layers: {meta['hidden_layers']}, but the network has {len(layers)}")
         width = input_dim(mode, observation_dim(mode, lookahead))
@@ -745,19 +808,21 @@ def check_policy_fits(policy: NumpyPolicy, scene: Scene, robot: Chain) -> None:
     if step > robot.total_length:
         raise _bad(f"meta.step_mm: a {step:g} mm step is longer than {robot.name} ({robot.total_length:g} mm)")
     family = policy.meta.get("scene")
-    if family is not None and family != scene.name:
+    if family is not None and scene.name not in family.split("+"):
         warnings.warn(f"policy: trained in {family}, planning in {scene.name}", PolicyTransferWarning, stacklevel=3)
 
 
 def rollout(policy: NumpyPolicy, scene: Scene, robot: Chain, deadline: float = math.inf,
             max_steps: int | None = None, check_body: bool = False, noise: float = 0.0,
-            rng: np.random.Generator | None = None, world: KnowledgeView | None = None) -> tuple[np.ndarray, str]:
+            rng: np.random.Generator | None = None, world: KnowledgeView | None = None,
+            guide: RouteGuide | None = None) -> tuple[np.ndarray, str]:
     """Roll the policy out in ``scene``: (tip path, outcome), outcome "reached", a failure name, "steps" (out of
     steps) or "timeout". Deterministic unless ``noise`` (std of Gaussian action noise, drawn from ``rng``).
     Without ``check_body`` (planning: the path is checked afterwards) the crawl stops only on reaching, leaving
-    the bounds or running out of arm. The crawler senses through ``world`` (default: the whole scene)."""
+    the bounds or running out of arm. The crawler senses through ``world`` (default: the whole scene) and, in the
+    ``guide`` design, follows ``guide`` (default: the route guide of what ``world`` knows)."""
     crawler = policy.crawler(robot, check_body)
-    crawler.reset(scene, world)
+    crawler.reset(scene, world, guide)
     limit = max_steps or math.ceil(robot.total_length / crawler.step_mm) + 1
     for _ in range(limit):
         if time.perf_counter() > deadline:
@@ -874,10 +939,14 @@ class SacPlanner(Planner):
         model = ValidityChecker(problem.world, problem.robot, PLANNING)
         details = {"policy": policy.meta.get("name", str(self.policy or self.name))}
         best, best_reach = None, -1.0
+        guide, known = None, -1
         for attempt in range(self.attempts):
             noise = self.noise_levels[(attempt - 1) % RETRY_LEVELS] if attempt else 0.0
+            if policy.mode == "guide" and len(problem.world.obstacle_set) != known:  # re-route on what was sensed
+                known = len(problem.world.obstacle_set)
+                guide = policy.crawler(problem.robot).route_guide(problem.scene, problem.world)
             path, outcome = rollout(policy, problem.scene, problem.robot, deadline, noise=noise, rng=rng,
-                                    world=problem.world)
+                                    world=problem.world, guide=guide)
             details.update(outcome=outcome, attempts=attempt + 1, steps=len(path) - 1)
             if outcome == "timeout":
                 break

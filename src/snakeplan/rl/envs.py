@@ -36,6 +36,8 @@ from snakeplan.planners.sac import (
 from snakeplan.rl.rewards import collide_reward, compute_reward, global_reward, in_view, local_reward
 from snakeplan.robots import Chain, get_robot
 from snakeplan.scenes import Scene, make_scene
+from snakeplan.scenes.reach import RouteGuide
+from snakeplan.world import KnowledgeView, view_for
 
 #: Truncation horizon H (steps), paper 000 §4.1.
 MAX_STEPS = 1000
@@ -52,8 +54,11 @@ OBS_BOUND = 10.0
 class SnakeEnv(gym.Env):
     """A snake arm crawling from a scene's entrance through its targets (mm, rad).
 
-    ``scene``: a scene family name (episodes draw seeded scenes from ``seeds``, a half-open range) or one fixed
-    :class:`Scene`. ``reset(options={"scene_seed": s})`` or ``{"scene": Scene}`` picks an episode's scene.
+    ``scene``: a scene family name, several joined by ``+`` (seed s draws from the (s mod n)-th), episodes drawing
+    seeded scenes from ``seeds`` (a half-open range), or one fixed :class:`Scene`. ``reset(options={"scene_seed":
+    s})`` or ``{"scene": Scene}`` picks an episode's scene. ``knowledge``: what the crawler's rays and route guide
+    know (``"sensed"``: the prior obstacles and what the tip has sensed, a fresh view each episode); the reward's
+    line of sight to the target is the environment's, from the whole scene.
     """
 
     metadata: ClassVar[dict] = {"render_modes": []}
@@ -62,9 +67,12 @@ class SnakeEnv(gym.Env):
                  robot: str | Chain = "sjtu-snake-iii", step_mm: float = STEP_MM,
                  turn_radius_mm: float = TURN_RADIUS_MM, max_steps: int = MAX_STEPS,
                  seeds: tuple[int, int] = (TRAIN_SEED, TRAIN_SEED + TRAIN_SCENES), capture_steps: int = CAPTURE_STEPS,
-                 lookahead: bool = False):
+                 lookahead: bool = False, knowledge: str = "full"):
         self.family = scene if isinstance(scene, str) else scene.name
+        self.families = tuple(self.family.split("+"))
         self.fixed_scene = None if isinstance(scene, str) else scene
+        self.knowledge = knowledge
+        self._guides: dict[int, RouteGuide] = {}
         self.robot = get_robot(robot) if isinstance(robot, str) else robot
         self.crawler = Crawler(self.robot, observation, step_mm, turn_radius_mm, capture_steps=capture_steps,
                                lookahead=lookahead)
@@ -80,20 +88,35 @@ class SnakeEnv(gym.Env):
             "desired_goal": goal_box,
         })
         self.scene = self.fixed_scene or self.scene_for(self.seed_range[0])
-        self.crawler.reset(self.scene)
+        self._start()
         self.outcome = "running"
 
     def __getstate__(self) -> dict:
         """Pickled (a training checkpoint) without the scene cache: scenes are regenerated from their seeds."""
-        return {**self.__dict__, "_cache": {}}
+        return {**self.__dict__, "_cache": {}, "_guides": {}}
 
     def scene_for(self, seed: int) -> Scene:
-        """The family's scene for ``seed`` (generated once, then cached)."""
+        """The scene for ``seed`` of its family (generated once, then cached)."""
         if seed not in self._cache:
             if len(self._cache) >= SCENE_CACHE:
+                self._guides.pop(next(iter(self._cache)), None)
                 self._cache.pop(next(iter(self._cache)))
-            self._cache[seed] = make_scene(self.family, int(seed))
+            self._cache[seed] = make_scene(self.families[seed % len(self.families)], int(seed))
         return self._cache[seed]
+
+    def _start(self) -> None:
+        """Put the crawler at the scene's entrance with a fresh view (and, for the guide design, the scene's
+        route guide, made once per cached scene)."""
+        world: KnowledgeView = view_for(self.scene, self.knowledge)
+        guide = None
+        if self.crawler.mode == "guide":
+            key = self.scene.seed if self.scene is self._cache.get(self.scene.seed) else None
+            guide = self._guides.get(key) if key is not None else None
+            if guide is None:
+                guide = self.crawler.route_guide(self.scene, world)
+                if key is not None:
+                    self._guides[key] = guide
+        self.crawler.reset(self.scene, world, guide)
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
@@ -106,7 +129,7 @@ class SnakeEnv(gym.Env):
             self.scene = self.fixed_scene
         else:
             self.scene = self.scene_for(int(self.np_random.integers(*self.seed_range)))
-        self.crawler.reset(self.scene)
+        self._start()
         self.outcome = "running"
         return self.crawler.observation(), {"scene_seed": self.scene.seed}
 

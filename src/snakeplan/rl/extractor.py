@@ -57,6 +57,8 @@ class GoalRouteExtractor(BaseFeaturesExtractor):
             return th.cat([o, ag, dg], dim=-1)
         frame = o[:, 3:12].reshape(-1, 3, 3)
         tip, goal = ag * GOAL_SCALE_MM, dg * GOAL_SCALE_MM
+        if self.mode == "guide":  # the route guide's features are in the observation
+            return th.cat([o, _rel(frame, goal - tip)], dim=-1)
         if self.has_graph:
             first, second, normal = self._waypoints(tip, goal)
         else:

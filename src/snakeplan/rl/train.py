@@ -123,6 +123,8 @@ class TrainConfig:
     lookahead: bool = False
     #: Goal capture range of the crawl, in steps (see :data:`snakeplan.planners.sac.CAPTURE_STEPS`; 0 = off).
     capture_steps: int = CAPTURE_STEPS
+    #: What the crawler's rays and route guide know while training and validating: "full" or "sensed".
+    knowledge: str = "full"
     eval_every: int = 5000
     eval_episodes: int = 20
     #: 0: :func:`snakeplan.checkpoints.checkpoint_interval` of the run's steps.
@@ -145,22 +147,35 @@ class TrainResult:
     history: list[dict] = field(default_factory=list)
 
 
+def families(scene: str) -> tuple[str, ...]:
+    """The scene families a training run draws from: ``scene``, or several joined by ``+`` (seed s from the
+    (s mod n)-th)."""
+    return tuple(scene.split("+"))
+
+
+def scene_of(scene: str, seed: int):
+    """The scene of ``seed`` in a training run's families (see :func:`families`)."""
+    names = families(scene)
+    return make_scene(names[seed % len(names)], int(seed))
+
+
 def robot_for(scene: str, config: TrainConfig) -> str:
-    """The robot ``config`` trains in scene family ``scene``: its own, else the family's (its spec)."""
-    return config.robot or scene_spec(scene).robot
+    """The robot ``config`` trains in ``scene``: its own, else the (first) family's (its spec)."""
+    return config.robot or scene_spec(families(scene)[0]).robot
 
 
-def judge_policy(policy: NumpyPolicy, scene_name: str, seeds, robot_name: str = "") -> dict:
-    """Plan with ``policy``'s deterministic roll-out alone (one attempt, no smoothing) on the scenes ``seeds`` and
-    judge each path: success rate, median plan time (s), mean smoothness index of the successes, and the per-seed
-    verdicts. ``robot_name``: default the family's (its spec)."""
-    robot = get_robot(robot_name or scene_spec(scene_name).robot)
+def judge_policy(policy: NumpyPolicy, scene_name: str, seeds, robot_name: str = "", knowledge: str = "full") -> dict:
+    """Plan with ``policy``'s deterministic roll-out alone (one attempt, no smoothing) on the scenes ``seeds`` (of
+    ``scene_name``'s families, see :func:`families`) with ``knowledge`` and judge each path: success rate, median
+    plan time (s), mean smoothness index of the successes, and the per-seed verdicts. ``robot_name``: default the
+    family's (its spec)."""
+    robot = get_robot(robot_name or robot_for(scene_name, DEFAULT_CONFIG))
     planner = SacPlanner(policy=policy, attempts=1, smoothing=())
     runs = []
     for seed in seeds:
-        episode = run_episode(Problem(make_scene(scene_name, int(seed)), robot), planner)
+        episode = run_episode(Problem(scene_of(scene_name, int(seed)), robot, knowledge=knowledge), planner)
         report = episode.report
-        runs.append({"seed": int(seed), "success": episode.success, "reason": episode.reason,
+        runs.append({"seed": int(seed), "scene": episode.problem.scene.name, "success": episode.success, "reason": episode.reason,
                      "outcome": episode.plan.details.get("outcome"), "time_s": episode.plan.compute_time_s,
                      "smoothness_index": report.smoothness_index if report else math.nan,
                      "path_length_mm": report.path_length_mm if report else math.nan})
@@ -175,12 +190,13 @@ def make_env(scene: str, config: TrainConfig):
     """A factory of training environments for ``scene`` with ``config``'s crawl and observation settings."""
     seeds = (TRAIN_SEED, TRAIN_SEED + config.train_scenes)
     return lambda: SnakeEnv(scene, observation=config.observation, robot=robot_for(scene, config), seeds=seeds,
-                            turn_radius_mm=config.turn_radius_mm,
-                            capture_steps=config.capture_steps, lookahead=config.lookahead)
+                            turn_radius_mm=config.turn_radius_mm, capture_steps=config.capture_steps,
+                            lookahead=config.lookahead, knowledge=config.knowledge)
 
 
 def route_graph(scene: str, config: TrainConfig) -> RoomGraph | None:
-    """The scene family's route graph, which the local observation's features read (None for "paper")."""
+    """The scene family's route graph, which the local observation's features read (None for "paper" and
+    "guide")."""
     return RoomGraph.from_scene(make_scene(scene, TRAIN_SEED)) if config.observation == "local" else None
 
 
@@ -278,7 +294,7 @@ class _Run:
 
     def validate(self, n: int) -> None:
         policy = self.export(n)
-        result = judge_policy(policy, self.scene, self.seeds, self.config.robot)
+        result = judge_policy(policy, self.scene, self.seeds, self.config.robot, self.config.knowledge)
         rolling = float(np.mean(self.episodes)) if self.episodes else 0.0
         self.history.append({"env_steps": n, "updates": int(self.model._n_updates), "wall_s": self.wall,
                              "success": result["success_rate"], "train_success": rolling,
@@ -381,10 +397,17 @@ def train(scene: str, algorithm: str, steps: int, seed: int, out_dir: str | Path
     if config.checkpoint_every < 0:
         raise ValueError(f"--checkpoint-every: must be 0 (the default interval) or positive, "
                          f"got {config.checkpoint_every}")
-    if scene not in scene_names():
-        raise ValueError(f"scene: unknown scene family {scene!r} (known: {', '.join(scene_names())})")
-    if scene_spec(scene).task != "reach":
-        raise ValueError(f"scene: {scene} has no targets to learn to reach (its task: {scene_spec(scene).task})")
+    for family in families(scene):
+        if family not in scene_names():
+            raise ValueError(f"scene: unknown scene family {family!r} (known: {', '.join(scene_names())})")
+        if scene_spec(family).task != "reach":
+            raise ValueError(f"scene: {family} has no targets to learn to reach (its task: "
+                             f"{scene_spec(family).task})")
+    if config.observation == "local" and len(families(scene)) > 1:
+        raise ValueError(f"scene: the local observation reads one family's rooms; train {scene} with "
+                         f"--observation guide")
+    if config.knowledge not in ("full", "sensed"):
+        raise ValueError(f"--knowledge: must be full or sensed, got {config.knowledge!r}")
     config = replace(config, robot=robot_for(scene, config))
     get_robot(config.robot)
     th.set_num_threads(config.torch_threads)

@@ -21,6 +21,7 @@ import numpy as np
 from numba import njit
 
 from snakeplan.geometry.distance import ObstacleSet
+from snakeplan.geometry.polyline import densify
 from snakeplan.scenes.scene import Entrance, Scene
 
 #: Grid cell edge (mm): small enough for the 120 mm half-height of a fuel-tank hole shrunk by the inflation.
@@ -204,6 +205,60 @@ def geodesic_field(scene: Scene, inflate_mm: float = DEFAULT_INFLATE_MM, cell_mm
     grid = Grid.covering(scene.bounds_min, scene.bounds_max, cell_mm)
     sdf = free_space(scene.obstacle_set, grid, inflate_mm + SDF_HORIZON_MM)
     return geodesic_from_sdf(grid, sdf, scene.entrance, inflate_mm, feed_mm)
+
+
+#: Grid cell (mm) of a route guide: coarse, so that a guide costs milliseconds; the openings a guide must pass
+#: (a fuel-tank hole, an oil-tank hole: 110 mm free radius once inflated) span several cells.
+GUIDE_CELL_MM = 40.0
+#: Spacing (mm) of a route guide's points.
+GUIDE_STEP_MM = 10.0
+
+
+@dataclass(frozen=True, eq=False)
+class RouteGuide:
+    """A coarse route from the entrance through every target in order (mm): ``points (n, 3)`` every
+    ``GUIDE_STEP_MM`` or less along it, their arc lengths ``arc (n,)``, and each target's arc length
+    ``target_arc (T,)``. Each leg is the taut geodesic through the free cells of the known obstacles, inflated by
+    the arm's radius; a leg the coarse grid cannot find is a straight segment."""
+
+    points: np.ndarray
+    arc: np.ndarray
+    target_arc: np.ndarray
+
+    def at(self, s) -> np.ndarray:
+        """Points (mm) at arc lengths ``s`` (clipped to the guide)."""
+        s = np.clip(np.asarray(s, dtype=float), 0.0, self.arc[-1])
+        return np.stack([np.interp(s, self.arc, self.points[:, k]) for k in range(3)], axis=-1)
+
+    def progress(self, tip, s_from: float, s_to: float) -> float:
+        """Arc length (mm) of the guide point nearest ``tip`` among those between ``s_from`` and ``s_to``."""
+        i, j = np.searchsorted(self.arc, [s_from, s_to])
+        i = min(int(i), len(self.arc) - 1)
+        j = max(int(j), i + 1)
+        d = np.sum((self.points[i:j] - np.asarray(tip, dtype=float)) ** 2, axis=1)
+        return float(self.arc[i + int(np.argmin(d))])
+
+
+def route_guide(obstacles: ObstacleSet, bounds_min, bounds_max, entrance: Entrance, targets,
+                inflate_mm: float = DEFAULT_INFLATE_MM, cell_mm: float = GUIDE_CELL_MM) -> RouteGuide:
+    """The :class:`RouteGuide` through ``obstacles`` (a planner passes what it knows before the job: its knowledge
+    view's obstacles) from ``entrance`` through ``targets`` in order."""
+    grid = Grid.covering(bounds_min, bounds_max, cell_mm)
+    sdf = free_space(obstacles, grid, inflate_mm + SDF_HORIZON_MM)
+    source, pieces, target_arc, total = entrance, [entrance.position[None]], [], 0.0
+    for k, target in enumerate(np.asarray(targets, dtype=float).reshape(-1, 3)):
+        feed = DEFAULT_FEED_MM if k == 0 else 0.0
+        leg = geodesic_from_sdf(grid, sdf, source, inflate_mm, feed).path_to(target)
+        if len(leg) < 2:
+            leg = np.vstack([source.position, target])
+        leg = densify(leg, GUIDE_STEP_MM)
+        total += float(np.sum(np.linalg.norm(np.diff(leg, axis=0), axis=1)))
+        pieces.append(leg[1:])
+        target_arc.append(total)
+        source = Entrance(target, entrance.direction)
+    points = np.vstack(pieces)
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
+    return RouteGuide(points, arc, np.array(target_arc))
 
 
 # --- numba kernels --------------------------------------------------------------------------------------------

@@ -33,6 +33,7 @@ DEFAULT_PLANNER = {"reach": "as-rrt", "inspect": "informative"}
 BUILTIN_SCENES = {
     "fuel-tank": "snakeplan.scenes.fuel_tank:fuel_tank",
     "oil-tank": "snakeplan.scenes.oil_tank:oil_tank",
+    "confined": "snakeplan.scenes.confined:confined",
     "pipe": "snakeplan.scenes.pipe:pipe",
     "concentric-pipe": "snakeplan.scenes.pipe:concentric_pipe",
     "station": "snakeplan.scenes.station:station",

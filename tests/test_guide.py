@@ -1,0 +1,163 @@
+"""Route guides for any scene and the `guide` observation design; the `confined` procedural family."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import torch as th
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import snakeplan.rl  # noqa: F401  (registers the environments)
+from snakeplan.geometry.distance import ObstacleSet
+from snakeplan.geometry.primitives import Box, Plate
+from snakeplan.planners.sac import GUIDE_AHEAD_MM, Crawler, input_dim, policy_input
+from snakeplan.rl.envs import SnakeEnv
+from snakeplan.robots import get_robot
+from snakeplan.scenes import Entrance, make_scene
+from snakeplan.scenes.fuel_tank import outside_turning_region
+from snakeplan.scenes.reach import geodesic_field, route_guide
+from snakeplan.world import SensedView
+
+ROBOT = get_robot("sjtu-snake-iii")
+LO, HI = np.zeros(3), np.array([1000.0, 600.0, 600.0])
+
+
+def test_guide_in_free_space_is_the_straight_tour():
+    entrance = Entrance([0.0, 300.0, 300.0], [1.0, 0.0, 0.0])
+    targets = np.array([[500.0, 300.0, 300.0], [800.0, 500.0, 300.0]])
+    g = route_guide(ObstacleSet([]), LO, HI, entrance, targets)
+    assert np.allclose(g.points[0], entrance.position) and np.allclose(g.points[-1], targets[-1])
+    np.testing.assert_allclose(g.target_arc, [500.0, 500.0 + np.hypot(300.0, 200.0)], atol=1e-6)
+    np.testing.assert_allclose(g.at(g.target_arc), targets, atol=1e-6)
+    assert np.all(np.diff(g.arc) <= 10.0 + 1e-9)
+
+
+def test_guide_passes_a_wall_through_its_hole():
+    """A wall across x = 500 with a round hole of radius 120 mm centred at (y, z) = (450, 300): the only way from
+    the entrance to the far side goes through the hole, so the guide crosses the wall's plane inside it, and it
+    never comes nearer than the inflation minus half a cell diagonal to the wall."""
+    wall = Plate([500.0, 300.0, 300.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0], (600.0, 600.0), 10.0,
+                 {"offset": [150.0, 0.0], "semi_axes": [120.0, 120.0]})  # side = up x normal = +y
+    obstacles = ObstacleSet([wall])
+    entrance = Entrance([0.0, 150.0, 300.0], [1.0, 0.0, 0.0])
+    target = np.array([[900.0, 150.0, 300.0]])
+    g = route_guide(obstacles, LO, HI, entrance, target, inflate_mm=30.0)
+    k = np.searchsorted(g.points[:, 0], 500.0)
+    crossing = g.points[k - 1] + (500.0 - g.points[k - 1, 0]) / (g.points[k, 0] - g.points[k - 1, 0]) * (
+        g.points[k] - g.points[k - 1])
+    assert np.hypot(crossing[1] - 450.0, crossing[2] - 300.0) < 120.0 - 30.0 + 20.0 * np.sqrt(3)
+    assert obstacles.signed_distance(g.points).min() > 30.0 - 20.0 * np.sqrt(3)
+    assert g.target_arc[0] > np.linalg.norm(target[0] - entrance.position)
+
+
+def test_a_sensed_guide_ignores_undiscovered_clutter():
+    scene = make_scene("fuel-tank", 0)
+    sensed = SensedView.of(scene)
+    crawler = Crawler(ROBOT, "guide")
+    prior_guide = crawler.route_guide(scene, sensed)
+    expect = route_guide(ObstacleSet([o for o, p in zip(scene.obstacles, scene.prior) if p]), scene.bounds_min,
+                         scene.bounds_max, scene.entrance, scene.targets, float(np.max(ROBOT.radii)) + 2.5)
+    np.testing.assert_array_equal(prior_guide.points, expect.points)
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.lists(st.floats(-1.0, 1.0), min_size=40, max_size=40))
+def test_the_tips_place_on_the_guide_only_moves_forward_and_stops_at_the_target(actions):
+    scene = make_scene("oil-tank", 1)
+    crawler = Crawler(ROBOT, "guide", check_body=False)
+    crawler.reset(scene)
+    places = [crawler.guide_s]
+    for a, b in zip(actions[::2], actions[1::2]):
+        crawler.advance([a, b])
+        places.append(crawler.guide_s)
+        end = crawler.guide.target_arc[min(crawler.target_index, len(scene.targets) - 1)]
+        assert crawler.guide_s <= end + 1e-9
+    assert np.all(np.diff(places) >= 0.0)
+
+
+def test_guide_features_point_at_the_guide_ahead():
+    scene = make_scene("fuel-tank", 2)
+    crawler = Crawler(ROBOT, "guide")
+    crawler.reset(scene)
+    f = crawler.observation()["observation"][-11:].astype(float)
+    for k, ahead in enumerate(GUIDE_AHEAD_MM):
+        point = crawler.guide.at(ahead)
+        rel = crawler.frame @ (point - crawler.tip)
+        np.testing.assert_allclose(f[4 * k: 4 * k + 3], rel / np.linalg.norm(rel), atol=1e-5)
+        assert f[4 * k + 3] == pytest.approx(min(np.linalg.norm(rel) / 500.0, 4.0), abs=1e-5)
+
+
+def test_guide_observation_passes_the_env_checkers_and_torch_matches_numpy():
+    from gymnasium.utils.env_checker import check_env
+    from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+    from snakeplan.rl.extractor import GoalRouteExtractor
+
+    env = SnakeEnv("confined+fuel-tank", observation="guide", seeds=(1_000_000, 1_000_002), knowledge="sensed")
+    check_env(env, skip_render_check=True)
+    sb3_check_env(env, warn=False)
+    assert {env.scene_for(1_000_000).name, env.scene_for(1_000_001).name} == {"confined", "fuel-tank"}
+    ext = GoalRouteExtractor(env.observation_space, "guide")
+    obs, _ = env.reset(seed=3)
+    rng = np.random.default_rng(3)
+    batch = []
+    for _ in range(8):
+        obs, *_ = env.step(rng.uniform(-1, 1, 2))
+        obs["desired_goal"] = rng.uniform(0.0, 1.4, 3).astype(np.float32)
+        batch.append(obs)
+    stacked = {k: np.stack([b[k] for b in batch]) for k in obs}
+    ours = policy_input(stacked["observation"], stacked["achieved_goal"], stacked["desired_goal"], "guide")
+    theirs = ext({k: th.as_tensor(v) for k, v in stacked.items()}).numpy()
+    assert ours.shape == (8, input_dim("guide", stacked["observation"].shape[1]))
+    np.testing.assert_allclose(ours, theirs, atol=1e-4)
+
+
+# --- the confined family ----------------------------------------------------------------------------------------
+CONFINED_SEEDS = range(12)
+
+
+@pytest.fixture(scope="module")
+def confined_scenes():
+    return [make_scene("confined", s) for s in CONFINED_SEEDS]
+
+
+def test_confined_is_seeded():
+    a, b = make_scene("confined", 5), make_scene("confined", 5)
+    assert a.to_json() == b.to_json() and a.to_json() != make_scene("confined", 6).to_json()
+
+
+def test_confined_scenes_keep_their_promises(confined_scenes):
+    """Targets clear of everything, outside the entrance's turning circles, in tour order within the reach
+    limit (each target's geodesic distance from the entrance, recomputed here on a finer grid, grows); the
+    clutter is the discovered tail of the obstacles; the entrance sits on an outer face, fed inwards."""
+    for scene in confined_scenes:
+        meta = scene.metadata
+        n = len(scene.obstacles)
+        assert scene.discovered == tuple(range(n - meta["clutter"], n))
+        assert np.all(scene.signed_distance(scene.targets) >= 60.0 - 1e-6)
+        assert outside_turning_region(scene.entrance, scene.targets).all()
+        assert meta["tour_mm"] <= meta["reach_limit_mm"]
+        p, d = scene.entrance.position, scene.entrance.direction
+        axis = int(np.argmax(np.abs(d)))
+        assert p[axis] in (scene.bounds_min[axis], scene.bounds_max[axis])
+        assert (d[axis] > 0) == (p[axis] == scene.bounds_min[axis])
+        geo = geodesic_field(scene, cell_mm=20.0).distance_at(scene.targets)
+        assert np.all(np.isfinite(geo)) and np.all(np.diff(geo) > 0)
+
+
+def test_confined_varies_its_topology(confined_scenes):
+    """Across seeds: several room counts, oval and rectangular openings, open walls, vertical entrances,
+    clutter and multi-target tours all occur."""
+    kinds = {o["kind"] for s in confined_scenes for o in s.metadata["openings"]}
+    assert kinds == {"oval", "rectangle", "open"}
+    assert len({np.prod(s.metadata["grid"]) for s in confined_scenes}) >= 4
+    assert any(s.metadata["entrance_wall"][0] == "z" for s in confined_scenes)
+    assert any(s.metadata["clutter"] for s in confined_scenes)
+    assert any(len(s.targets) > 1 for s in confined_scenes)
+
+
+def test_confined_rejects_bad_parameters():
+    with pytest.raises(ValueError, match="max_targets"):
+        make_scene("confined", 0, min_targets=3, max_targets=2)
