@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import gymnasium as gym
 import numpy as np
 import pytest
 import torch as th
@@ -11,7 +10,7 @@ from hypothesis import strategies as st
 
 import snakeplan.rl  # noqa: F401  (registers the environments)
 from snakeplan.geometry.distance import ObstacleSet
-from snakeplan.geometry.primitives import Box, Plate
+from snakeplan.geometry.primitives import Plate
 from snakeplan.planners.sac import GUIDE_AHEAD_MM, Crawler, input_dim, policy_input
 from snakeplan.rl.envs import SnakeEnv
 from snakeplan.robots import get_robot

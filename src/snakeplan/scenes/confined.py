@@ -22,7 +22,6 @@ boxes of rectangular cuts), the baffles, then the clutter. The clutter is ``disc
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 
