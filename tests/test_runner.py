@@ -41,7 +41,7 @@ def _same_rows_on_every_backend(tmp_path: Path, seeds: tuple[int, ...]) -> None:
         assert {"python", "platform", "host", "started", "commit"} <= set(provenance)
     assert results["serial"] == results["processes"] == results["ray"]
     assert {(r["scene"], r["planner"]) for r in results["serial"].values()} == {
-        (s, p) for s in config.scenes for p in config.planners_in(s)}
+        (s, planner) for s in config.scenes for _, planner, _ in config.entries_in(s)}
 
 
 def test_table2_rows_are_identical_on_serial_processes_and_ray(tmp_path):

@@ -107,7 +107,9 @@ def paper_outputs(rows: list[dict], folder: Path) -> tuple[list[str], list[Path]
         config = Table2Config(planners=tuple(dict.fromkeys(r["planner"] for r in table2)),
                               scenes=tuple(dict.fromkeys(r["scene"] for r in table2)),
                               seeds=tuple(sorted({r["seed"] for r in table2})),
-                              time_limit_s=table2[0]["time_limit_s"])
+                              time_limit_s=table2[0]["time_limit_s"],
+                              knowledge=("sensed", "full") if any(r.get("knowledge") == "sensed" for r in table2)
+                              else ("full",))
         sections += ["## Paper 000, Table 2", "", summary_markdown(table2_summary(table2, config), config), "",
                      statistics_markdown(table2, config)]
         figures += figure_7(config, table2, folder)

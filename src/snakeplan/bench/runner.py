@@ -106,9 +106,11 @@ class Run:
 class Sweep:
     """Episodes x planners: every ``scenes`` entry (a family name, or a ``.json`` scene file) with every seed,
     planned by every ``planners`` entry ``(name, options)``; ``robot`` empty: each scene's own (its spec).
-    ``include(scene, planner)`` may leave pairs out (Table 2 compares a learned planner only where its policy
-    ships). ``stateful(planner, options)`` says which planners keep one instance over their runs in a scene, in
-    seed order (a planner that learns from run to run)."""
+    ``include(scene, planner, options)`` may leave entries out (Table 2 compares a learned planner with a family's
+    policy only where that policy ships). ``stateful(planner, options)`` says which planners keep one instance over their runs in a scene, in
+    seed order (a planner that learns from run to run). ``knowledge``: one mode ("full", "sensed") or several,
+    each run once per mode; where a mode is "sensed", a planner that needs the whole scene runs with full
+    knowledge instead (paper 000's setting: the sampling planners know the tank), once."""
 
     name: str
     scenes: tuple[str, ...]
@@ -116,9 +118,9 @@ class Sweep:
     planners: tuple[tuple[str, dict], ...]
     time_limit_s: float = 10.0
     robot: str = ""
-    knowledge: str = "full"
+    knowledge: str | tuple[str, ...] = "full"
     stateful: Callable[[str, dict], bool] | None = field(default=None, compare=False)
-    include: Callable[[str, str], bool] | None = field(default=None, compare=False)
+    include: Callable[[str, str, dict], bool] | None = field(default=None, compare=False)
 
     def runs(self) -> list[Run]:
         """Every run, scene by scene, planner by planner, seed by seed; a planner runs only in the scenes whose
@@ -134,19 +136,34 @@ class Sweep:
                 if not _does_task(planner, spec.task):
                     continue
                 fitted.add(planner)
-                if self.include is not None and not self.include(family, planner):
+                if self.include is not None and not self.include(family, planner, options):
                     continue
-                for seed in self.seeds:
-                    out.append(Run(family, seed, planner, robot, self.time_limit_s,
-                                   tuple(sorted(options.items())), self.knowledge, text,
-                                   self.stateful is not None and self.stateful(planner, options),
-                                   self.name, spec.task))
+                for knowledge in dict.fromkeys(self.knowledge_of(planner)):
+                    for seed in self.seeds:
+                        out.append(Run(family, seed, planner, robot, self.time_limit_s,
+                                       tuple(sorted(options.items())), knowledge, text,
+                                       self.stateful is not None and self.stateful(planner, options),
+                                       self.name, spec.task))
         idle = [p for p, _ in self.planners if p not in fitted]
         if idle:
             raise ValueError(f"planners: {', '.join(idle)} can do none of these scenes' tasks "
                              f"({', '.join(self.scenes)}): a tip planner reaches targets, an inspection planner "
                              f"inspects a surface (station)")
         return out
+
+
+    def knowledge_of(self, planner: str) -> tuple[str, ...]:
+        """The knowledge of each of ``planner``'s runs per seed, one per mode (see the class doc)."""
+        modes = (self.knowledge,) if isinstance(self.knowledge, str) else tuple(self.knowledge)
+        return tuple("full" if mode == "sensed" and _needs_full_scene(planner) else mode for mode in modes)
+
+
+def _needs_full_scene(planner: str) -> bool:
+    """Whether ``planner`` (a registered name) plans only with the whole scene."""
+    from snakeplan.planners import get_planner
+    from snakeplan.planners.inspection import inspection_planner_names
+
+    return planner not in inspection_planner_names() and get_planner(planner).needs_full_scene
 
 
 def _scene_source(scene: str) -> tuple[str, str]:

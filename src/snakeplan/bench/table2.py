@@ -56,6 +56,14 @@ PAPER_TABLE2: dict[tuple[str, str], dict[str, tuple[float, float]]] = {
                               "smoothness_index": (0.1231, 0.0045)},
 }
 
+#: The knowledge blocks of the table: paper 000's setting (learned planners and As-RRT plan in the unknown tank,
+#: knowing its structure and what they sense; RRT* and Sp-RRT know the whole tank, §4.1), then every planner with
+#: the whole scene.
+KNOWLEDGE = ("sensed", "full")
+#: The generalist policy's rows: ``sac-her`` planning with it (``policy="generalist"``) in every scene.
+GENERALIST_ENTRY = ("sac-her", {"policy": "generalist"})
+
+
 @dataclass(frozen=True)
 class Table2Config:
     planners: tuple[str, ...] = DEFAULT_PLANNERS
@@ -64,11 +72,22 @@ class Table2Config:
     time_limit_s: float = DEFAULT_TIME_LIMIT_S
     #: One robot for every scene; empty: each scene's own (its spec; sjtu-snake-iii in both tanks, as the paper).
     robot: str = ""
+    #: The knowledge blocks (see :data:`KNOWLEDGE`; a planner that needs the whole scene has full knowledge in all).
+    knowledge: tuple[str, ...] = KNOWLEDGE
+    #: Whether the generalist policy's rows go beside the family policies' (when the generalist is installed).
+    generalist: bool = True
 
     def planners_in(self, scene: str) -> tuple[str, ...]:
         """The planners compared in ``scene``: all but those whose trained policy ships only for other scene
         families (paper 000 pairs each learned planner with the scene it was trained in; elsewhere no row)."""
         return tuple(p for p in self.planners if scene in policy_scenes(p) or not policy_scenes(p))
+
+    def entries_in(self, scene: str) -> tuple[tuple[str, str, dict], ...]:
+        """(label, planner, options) of each row group in ``scene``: :meth:`planners_in`, then the generalist."""
+        rows = [(p, p, {}) for p in self.planners_in(scene)]
+        if self.generalist and generalist_installed():
+            rows.append(("sac-her generalist", *GENERALIST_ENTRY))
+        return tuple(rows)
 
     def robot_in(self, scene: str) -> str:
         """The robot planned in ``scene``."""
@@ -76,8 +95,33 @@ class Table2Config:
 
     def sweep(self) -> Sweep:
         """This table as a sweep of the benchmark runner."""
-        return Sweep(CONFIG, self.scenes, self.seeds, tuple((p, {}) for p in self.planners), self.time_limit_s,
-                     self.robot, include=lambda scene, planner: planner in self.planners_in(scene))
+        entries = tuple((p, {}) for p in self.planners)
+        if self.generalist and generalist_installed():
+            entries += (GENERALIST_ENTRY,)
+
+        def include(scene: str, planner: str, options: dict) -> bool:
+            return (planner, options) == GENERALIST_ENTRY or planner in self.planners_in(scene)
+
+        return Sweep(CONFIG, self.scenes, self.seeds, entries, self.time_limit_s, self.robot, self.knowledge,
+                     include=include)
+
+    def blocks(self) -> tuple[int, ...]:
+        """Indices of the knowledge blocks."""
+        return tuple(range(len(self.knowledge)))
+
+    def rows_of(self, rows: list[dict], scene: str, label: str, block: int) -> list[dict]:
+        """The logged rows of one group: ``label``'s planner and options in ``scene`` with ``block``'s knowledge."""
+        _, planner, options = next(e for e in self.entries_in(scene) if e[0] == label)
+        knowledge = self.sweep().knowledge_of(planner)[block]
+        return [r for r in rows if r["scene"] == scene and r["planner"] == planner
+                and r.get("options", {}) == options and r.get("knowledge", "full") == knowledge]
+
+
+def generalist_installed() -> bool:
+    """Whether the generalist policy ships in this installation."""
+    from snakeplan.planners.sac import generalist_path
+
+    return generalist_path() is not None
 
 
 def policy_scenes(planner: str) -> tuple[str, ...]:
@@ -87,8 +131,8 @@ def policy_scenes(planner: str) -> tuple[str, ...]:
 
 def run_table2(config: Table2Config, out_dir: str | Path, fresh: bool = False, progress: bool = True,
                backend: Backend = Backend()) -> dict:
-    """Run every missing (scene, seed, planner) episode on ``backend`` (rows in ``out_dir/runs.jsonl``), then
-    write the summary, statistics and Fig. 7 drawn from the logged rows; returns the summary."""
+    """Run every missing (scene, seed, planner, knowledge) episode on ``backend`` (rows in ``out_dir/runs.jsonl``),
+    then write the summary, statistics and Fig. 7 drawn from the logged rows; returns the summary."""
     outcome = run_sweep(config.sweep(), out_dir, backend, fresh=fresh, progress=progress)
     return table2_outputs(config, outcome.rows, Path(out_dir))
 
@@ -111,21 +155,25 @@ def _values(rows: list[dict], metric: str, successful_only: bool) -> np.ndarray:
 
 
 def summarise(rows: list[dict], config: Table2Config) -> dict:
-    """Per (scene, planner): mean, std and count of each metric, success rate, and the paper's figures."""
+    """Per knowledge block, scene and row group: mean, std and count of each metric, success rate, the knowledge
+    the planner had, and the paper's figures (beside the block of paper 000's setting, the first)."""
     out = {}
-    for s in config.scenes:
-        for p in config.planners_in(s):
-            group = [r for r in rows if r["scene"] == s and r["planner"] == p]
-            entry = {"runs": len(group),
-                     "success_rate": float(np.mean([r["success"] is True for r in group])) if group else math.nan}
-            for metric in METRICS:
-                v = _values(group, metric, successful_only=metric != "compute_time_s")
-                entry[metric] = (float(v.mean()) if v.size else math.nan,
-                                 float(v.std(ddof=1)) if v.size > 1 else math.nan)
-            entry["median_compute_time_s"] = float(np.median(_values(group, "compute_time_s", False))) if group \
-                else math.nan
-            entry["paper"] = PAPER_TABLE2.get((s, p))
-            out[f"{s}/{p}"] = entry
+    for block in config.blocks():
+        for s in config.scenes:
+            for label, planner, _ in config.entries_in(s):
+                group = config.rows_of(rows, s, label, block)
+                knowledge = config.sweep().knowledge_of(planner)[block]
+                entry = {"block": config.knowledge[block], "knowledge": knowledge, "runs": len(group),
+                         "success_rate": float(np.mean([r["success"] is True for r in group])) if group
+                         else math.nan}
+                for metric in METRICS:
+                    v = _values(group, metric, successful_only=metric != "compute_time_s")
+                    entry[metric] = (float(v.mean()) if v.size else math.nan,
+                                     float(v.std(ddof=1)) if v.size > 1 else math.nan)
+                entry["median_compute_time_s"] = float(np.median(_values(group, "compute_time_s", False))) \
+                    if group else math.nan
+                entry["paper"] = PAPER_TABLE2.get((s, label)) if block == 0 else None
+                out[f"{s}/{label}/{config.knowledge[block]}"] = entry
     return out
 
 
@@ -137,42 +185,53 @@ def _pm(pair: tuple[float, float] | None, digits: int) -> str:
 
 
 def summary_markdown(summary: dict, config: Table2Config) -> str:
-    head = ("| scene | planner | runs | success | path length (mm) | paper | time (s) | paper | "
-            "smoothness index | paper |\n|---|---|---|---|---|---|---|---|---|---|")
+    head = ("| scene | planner | knowledge | runs | success | path length (mm) | paper | time (s) | paper | "
+            "smoothness index | paper |\n|---|---|---|---|---|---|---|---|---|---|---|")
     seeds = list(config.seeds)
     contiguous = len(seeds) > 2 and seeds == list(range(seeds[0], seeds[-1] + 1))
     shown = f"{seeds[0]}-{seeds[-1]}" if contiguous else ", ".join(map(str, seeds))
     lines = [f"Table 2 on seeds {shown} with a {config.time_limit_s:g} s budget per plan "
              f"({', '.join(dict.fromkeys(map(config.robot_in, config.scenes)))}); length and smoothness over "
-             f"successful runs, time over all runs.", "", head]
-    for key, e in summary.items():
-        s, p = key.split("/")
-        paper = e["paper"] or {}
-        lines.append(
-            f"| {s} | {p} | {e['runs']} | {100 * e['success_rate']:.0f} % | {_pm(e['path_length_mm'], 1)} | "
-            f"{_pm(paper.get('path_length_mm'), 1)} | {_pm(e['compute_time_s'], 3)} | "
-            f"{_pm(paper.get('compute_time_s'), 3)} | {_pm(e['smoothness_index'], 4)} | "
-            f"{_pm(paper.get('smoothness_index'), 4)} |")
-    return "\n".join(lines)
+             f"successful runs, time over all runs. Knowledge: what the planner knew (sensed: the tank's structure "
+             f"and what its tip sensor revealed; the judge always uses the whole scene).", ""]
+    for block, mode in enumerate(config.knowledge):
+        title = ("Paper 000's setting: planners that can plan sensed do" if mode == "sensed"
+                 else f"Every planner with {mode} knowledge")
+        lines += [f"**{title}**", "", head]
+        for key, e in summary.items():
+            if e["block"] != mode:
+                continue
+            s, label, _ = key.split("/")
+            paper = e["paper"] or {}
+            lines.append(
+                f"| {s} | {label} | {e['knowledge']} | {e['runs']} | {100 * e['success_rate']:.0f} % | "
+                f"{_pm(e['path_length_mm'], 1)} | {_pm(paper.get('path_length_mm'), 1)} | "
+                f"{_pm(e['compute_time_s'], 3)} | {_pm(paper.get('compute_time_s'), 3)} | "
+                f"{_pm(e['smoothness_index'], 4)} | {_pm(paper.get('smoothness_index'), 4)} |")
+        lines.append("")
+    return "\n".join(lines).rstrip()
 
 
 def statistics_markdown(rows: list[dict], config: Table2Config) -> str:
-    """Appendix A: Shapiro-Wilk per group, Levene and Welch's ANOVA per metric, Games-Howell against the scene's
-    learned planner (as the paper) when it is compared, else against the first planner."""
+    """Appendix A on the block of paper 000's setting: Shapiro-Wilk per group, Levene and Welch's ANOVA per
+    metric, Games-Howell against the scene's learned planner (as the paper) when it is compared, else against the
+    first planner."""
     lines = ["## Statistics (Appendix A)", ""]
     for s in config.scenes:
-        compared = config.planners_in(s)
-        if not compared:
+        labels = [e[0] for e in config.entries_in(s)]
+        if not labels:
             continue
-        ref = next((p for p in compared if p in scene_spec(s).policies), compared[0])
+        ref = next((p for p in labels if p in scene_spec(s).policies), labels[0])
         for metric in METRICS:
-            groups = {p: _values([r for r in rows if r["scene"] == s and r["planner"] == p], metric,
-                                 metric != "compute_time_s") for p in config.planners_in(s)}
+            groups = {p: _values(config.rows_of(rows, s, p, 0), metric, metric != "compute_time_s") for p in labels}
+            groups = {p: v for p, v in groups.items() if v.size}
+            if len(groups) < 2:
+                continue
             anova = welch_anova(list(groups.values()))
             normal = ", ".join(f"{p} {shapiro_p(v):.3g}" for p, v in groups.items())
             lines.append(f"**{s}, {metric}**: Shapiro-Wilk p: {normal}; Levene p = {levene_p(list(groups.values())):.3g}; "
                          f"Welch ANOVA F({anova.df1:.3g}, {anova.df2:.3g}) = {anova.f:.4g}, p = {anova.p:.3g}")
-            for c in games_howell(groups, reference=ref):
+            for c in games_howell(groups, reference=ref if ref in groups else next(iter(groups))):
                 lines.append(f"- Games-Howell {c.a} vs {c.b}: difference {c.mean_difference:.4g}, "
                              f"adjusted p = {c.p_adjusted:.3g}")
             lines.append("")
@@ -182,14 +241,14 @@ def statistics_markdown(rows: list[dict], config: Table2Config) -> str:
 def _write_summary_csv(path: Path, summary: dict) -> None:
     text = io.StringIO()
     w = csv.writer(text)
-    w.writerow(["scene", "planner", "runs", "success_rate", "path_length_mean", "path_length_std",
-                "time_mean", "time_std", "time_median", "smoothness_mean", "smoothness_std",
+    w.writerow(["scene", "planner", "block", "knowledge", "runs", "success_rate", "path_length_mean",
+                "path_length_std", "time_mean", "time_std", "time_median", "smoothness_mean", "smoothness_std",
                 "paper_path_length", "paper_time", "paper_smoothness"])
     for key, e in summary.items():
-        s, p = key.split("/")
+        s, label, _ = key.split("/")
         paper = e["paper"] or {}
-        w.writerow([s, p, e["runs"], e["success_rate"], *e["path_length_mm"], *e["compute_time_s"],
-                    e["median_compute_time_s"], *e["smoothness_index"],
+        w.writerow([s, label, e["block"], e["knowledge"], e["runs"], e["success_rate"], *e["path_length_mm"],
+                    *e["compute_time_s"], e["median_compute_time_s"], *e["smoothness_index"],
                     paper.get("path_length_mm", ("",))[0], paper.get("compute_time_s", ("",))[0],
                     paper.get("smoothness_index", ("",))[0]])
     atomic_write(path, text.getvalue())
@@ -208,12 +267,13 @@ def figure_7(config: Table2Config, rows: list[dict], out: Path) -> list[Path]:
     for s in config.scenes:
         scene = make_scene(s, seed)
         robot = get_robot(config.robot_in(s))
-        logged = {r["planner"]: r for r in rows if r["scene"] == s and r["seed"] == seed}
+        logged = {label: r for label, _, _ in config.entries_in(s) for r in config.rows_of(rows, s, label, 0)
+                  if r["seed"] == seed}
         fig = plt.figure(figsize=(14, 6))
         ax = fig.add_subplot(1, 2, 1, projection="3d")
         ax2 = fig.add_subplot(1, 2, 2)
         draw_scene(ax, scene)
-        for i, p in enumerate(config.planners_in(s)):
+        for i, (p, _, _) in enumerate(config.entries_in(s)):
             path = row_path(out, logged[p]) if p in logged else None
             if path is None:
                 continue

@@ -35,6 +35,7 @@ import time
 import warnings
 from collections import deque
 from dataclasses import dataclass
+from importlib.resources import files
 from pathlib import Path
 
 import numpy as np
@@ -48,7 +49,7 @@ from snakeplan.planners.base import Planner, Problem, Status
 from snakeplan.planners.registry import register_planner
 from snakeplan.planners.weights import read_npz, read_weights_file
 from snakeplan.robots import Chain, get_robot
-from snakeplan.scenes import Scene, scene_spec, spec_for
+from snakeplan.scenes import Scene, SceneSpec, scene_spec, spec_for
 from snakeplan.scenes.reach import RouteGuide, route_guide
 from snakeplan.world import PLANNING, REACH_TOLERANCE_MM, ROLLOUT, FullView, KnowledgeView, ValidityChecker
 
@@ -838,9 +839,28 @@ def rollout(policy: NumpyPolicy, scene: Scene, robot: Chain, deadline: float = m
     return crawler.tip_path(), "steps"
 
 
+#: The generalist policy (the ``guide`` design, trained with sensed knowledge on the ``confined`` family and both
+#: tanks): the planners in ``GENERALIST_PLANNERS`` plan with it wherever a scene's family ships no policy of its own.
+GENERALIST = ("snakeplan", "rl/data/generalist-sac-her.npz")
+GENERALIST_PLANNERS = ("sac-her",)
+
+
+def generalist_path() -> Path | None:
+    """The generalist policy's file, or None when this installation has none."""
+    path = Path(str(files(GENERALIST[0]).joinpath(*GENERALIST[1].split("/"))))
+    return path if path.is_file() else None
+
+
+def shipped_policy(spec: SceneSpec, planner: str) -> Path | None:
+    """The policy ``planner`` plans with by default in ``spec``'s family: the family's own, else the generalist
+    (for :data:`GENERALIST_PLANNERS`, when it is installed), else None."""
+    own = spec.policy_path(planner)
+    return own if own is not None or planner not in GENERALIST_PLANNERS else generalist_path()
+
+
 def policy_path(scene_name: str, planner: str) -> Path | None:
-    """The policy that ships for ``planner`` in a registered scene family (its spec says which), or None."""
-    return scene_spec(scene_name).policy_path(planner)
+    """The policy ``planner`` plans with by default in a registered scene family (:func:`shipped_policy`)."""
+    return shipped_policy(scene_spec(scene_name), planner)
 
 
 _POLICIES: dict[str, NumpyPolicy] = {}
@@ -873,14 +893,15 @@ SMOOTHING_SIGMAS_MM = (480.0, 320.0, 240.0, 160.0, 120.0, 80.0)
 
 @register_planner
 class SacPlanner(Planner):
-    """`sac`: a plain-SAC policy rolled out deterministically; ``policy=`` a file, else the shipped one for the
-    scene. A roll-out that reaches every target is planned as the smoothest of itself and its ``smoothing``
+    """`sac`: a plain-SAC policy rolled out deterministically; ``policy=`` a file (``"generalist"``: the shipped
+    generalist), else the one that ships for the scene (:func:`shipped_policy`). A roll-out that reaches every target is planned as the smoothest of itself and its ``smoothing``
     scales (:data:`SMOOTHING_SIGMAS_MM`) that passes the planning-time crawl check (the ``PLANNING`` profile of
     :class:`~snakeplan.world.ValidityChecker`); when none passes, it is rolled out again with seeded action noise,
     up to ``attempts`` roll-outs within the budget; when none passes, the plan is ``approximate``: the reaching
     roll-out whose crawl failed deepest, else the first roll-out. It plans with ``knowledge="sensed"`` too: its
     rays and every crawl check then see only what the tip sensor has revealed along its roll-outs
-    (``problem.world``), so a retry re-plans within what has been sensed."""
+    (``problem.world``), so a retry re-plans within what has been sensed; a ``guide`` policy's route guide is
+    made again from what has been sensed when a retry knows more than the last guide did."""
 
     name = "sac"
     needs_full_scene = False
@@ -897,7 +918,12 @@ class SacPlanner(Planner):
     def _policy(self, scene: Scene) -> NumpyPolicy:
         if isinstance(self.policy, NumpyPolicy):
             return self.policy
-        path = Path(self.policy) if self.policy else spec_for(scene).policy_path(self.name)
+        if self.policy == "generalist":
+            path = generalist_path()
+            if path is None:
+                raise ValueError("policy: the generalist policy is not installed (rl/data/generalist-sac-her.npz)")
+            return load_policy(path)
+        path = Path(self.policy) if self.policy else shipped_policy(spec_for(scene), self.name)
         if path is None:
             raise ValueError(f"policy: no {self.name} policy ships for scene family {scene.name}; train one "
                              f"('snakeplan train rl') and pass its policy.npz")
