@@ -6,7 +6,13 @@ Each figure is the median of several timed blocks, with a baseline timed in the 
   ``paper`` observation (the tip position alone), which costs only the crawl;
 - SAC-HER training steps (one environment step and one gradient update of batch 128 each, the default
   update-to-data ratio) with the default 128 x 128 networks, against paper 000's 512 x 512;
-- one deterministic action of the NumPy actor that planning uses, against SB3's ``model.predict``.
+- one deterministic action of the NumPy actor that planning uses, against SB3's ``model.predict``;
+- the levers of training speed: one SAC gradient update (128 x 128, torch, one thread) per batch size
+  (``BATCH_SIZES``; updates and samples per second), against batch 128; training steps per second of the guide
+  design with the default settings (one environment, batch 128, one update per step) against
+  :data:`snakeplan.rl.train.FAST_CONFIG` (four environments, batch 512, one update per four steps: a quarter of
+  the update-to-data ratio at twice the samples per update); and, when SBX (JAX) is installed, the same update in
+  SBX one call at a time and ``FUSED_UPDATES`` fused into one call, against torch.
 
 Torch runs on one thread, as training does. Episodes draw from ``BENCH_SCENES`` scenes generated before timing,
 so the figures are the per-step costs, not scene generation (a fuel-tank scene takes tens of milliseconds to
@@ -25,7 +31,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 from snakeplan.bench.kernels import median_seconds
 from snakeplan.rl.envs import TRAIN_SEED, SnakeEnv
 from snakeplan.rl.policy import from_sb3
-from snakeplan.rl.train import DEFAULT_CONFIG, PAPER_CONFIG, build_model, make_env
+from snakeplan.rl.train import DEFAULT_CONFIG, FAST_CONFIG, PAPER_CONFIG, build_model, make_env
 
 #: Environment steps per timed block.
 ENV_BLOCK = 500
@@ -37,6 +43,11 @@ BENCH_SCENES = 4
 BUFFER_STEPS = 100_000
 #: Policy calls per timed block.
 CALL_BLOCK = 200
+#: Batch sizes of the update benchmark.
+BATCH_SIZES = (128, 256, 512, 1024)
+#: Updates per timed block of the update benchmark, and updates fused into one SBX call.
+UPDATE_BLOCK = 20
+FUSED_UPDATES = 50
 
 
 def _generate_scenes(env: SnakeEnv) -> None:
@@ -63,8 +74,9 @@ def _env_rate(scene: str, observation: str, repeats: int, seed: int) -> float:
 def _train_rate(config, repeats: int, seed: int):
     """SAC-HER training steps per second with ``config``, and the trained model with its route graph."""
     config = replace(config, learning_starts=TRAIN_BLOCK, train_scenes=BENCH_SCENES)
-    env = DummyVecEnv([make_env("fuel-tank", config)])
-    _generate_scenes(env.envs[0].unwrapped)
+    env = DummyVecEnv([make_env("fuel-tank", config)] * config.n_envs)
+    for e in env.envs:
+        _generate_scenes(e.unwrapped)
     env.seed(seed)
     model, graph = build_model("fuel-tank", "sac-her", config, seed, env, BUFFER_STEPS)
     model.learn(TRAIN_BLOCK)
@@ -88,6 +100,59 @@ def _call_rates(model, graph, repeats: int, seed: int) -> tuple[float, float]:
     return numpy_rate, sb3_rate
 
 
+def _update_rates(model, repeats: int) -> dict[int, float]:
+    """Gradient updates per second of a trained SB3 model at each of ``BATCH_SIZES``."""
+    rates = {}
+    for batch in BATCH_SIZES:
+        model.batch_size = batch
+        rates[batch] = UPDATE_BLOCK / median_seconds(lambda b=batch: model.train(UPDATE_BLOCK, b), repeats)
+    return rates
+
+
+def _sbx_rates(repeats: int, seed: int) -> dict | None:
+    """SBX's SAC update (same widths and batch 128, flat inputs of the guide design's width) one call at a time and
+    fused, against SB3's on the same inputs: updates per second; None when SBX is not installed."""
+    try:
+        import sbx
+    except ImportError:
+        return None
+    import gymnasium as gym
+    import stable_baselines3 as sb3
+    from gymnasium import spaces
+
+    width = SnakeEnv("fuel-tank", observation="guide", seeds=(TRAIN_SEED, TRAIN_SEED + 1)).observation_space[
+        "observation"].shape[0] + 4
+
+    class Flat(gym.Env):
+        observation_space = spaces.Box(-1.0, 1.0, (width,), np.float32)
+        action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
+
+        def reset(self, *, seed=None, options=None):
+            super().reset(seed=seed)
+            return self.observation_space.sample(), {}
+
+        def step(self, action):
+            return self.observation_space.sample(), 0.0, False, False, {}
+
+    kwargs = {"learning_starts": TRAIN_BLOCK, "policy_kwargs": {"net_arch": list(DEFAULT_CONFIG.net_arch)},
+              "seed": seed, "verbose": 0, "batch_size": DEFAULT_CONFIG.batch_size}
+    torch_model = sb3.SAC("MlpPolicy", Flat(), device="cpu", **kwargs)
+    jax_model = sbx.SAC("MlpPolicy", Flat(), **kwargs)
+    out = {}
+    for name, model in (("torch", torch_model), ("sbx", jax_model)):
+        model.learn(TRAIN_BLOCK + 1)
+        for fused in (1, FUSED_UPDATES):
+            calls = max(1, UPDATE_BLOCK // fused) if fused == 1 else 1
+
+            def block(m=model, f=fused, c=calls) -> None:
+                for _ in range(c):
+                    m.train(f, DEFAULT_CONFIG.batch_size)
+
+            out[f"{name}_fused_{fused}"] = calls * fused / median_seconds(block, repeats)
+    out["sbx_fused_vs_torch"] = out[f"sbx_fused_{FUSED_UPDATES}"] / out["torch_fused_1"]
+    return out
+
+
 def run_rl_bench(repeats: int = 5, seed: int = 0) -> dict:
     """The figures of the module doc as a dict (rates per second, ratios against the baselines)."""
     threads = th.get_num_threads()
@@ -95,17 +160,28 @@ def run_rl_bench(repeats: int = 5, seed: int = 0) -> dict:
     try:
         env = {scene: {obs: _env_rate(scene, obs, repeats, seed) for obs in ("local", "paper")}
                for scene in ("fuel-tank", "oil-tank")}
+        env["fuel-tank"]["guide"] = _env_rate("fuel-tank", "guide", repeats, seed)
         ours, model, graph = _train_rate(DEFAULT_CONFIG, repeats, seed)
         paper, _, _ = _train_rate(PAPER_CONFIG, repeats, seed)
         numpy_rate, sb3_rate = _call_rates(model, graph, repeats, seed)
+        updates = _update_rates(model, repeats)
+        guide = replace(DEFAULT_CONFIG, observation="guide", knowledge="sensed")
+        guide_default, _, _ = _train_rate(guide, repeats, seed)
+        guide_fast, _, _ = _train_rate(replace(FAST_CONFIG, observation="guide", knowledge="sensed"), repeats, seed)
+        sbx_rates = _sbx_rates(repeats, seed)
     finally:
         th.set_num_threads(threads)
     return {
         "env_steps_per_s": env,
         "train_steps_per_s": {"default_128x128": ours, "paper_512x512": paper, "ratio": ours / paper},
         "policy_calls_per_s": {"numpy_actor": numpy_rate, "sb3_predict": sb3_rate, "ratio": numpy_rate / sb3_rate},
+        "updates_per_s": {str(b): r for b, r in updates.items()},
+        "guide_train_steps_per_s": {"default": guide_default, "fast": guide_fast, "ratio": guide_fast / guide_default},
+        "sbx_updates_per_s": sbx_rates,
         "settings": {"repeats": repeats, "seed": seed, "env_block": ENV_BLOCK, "train_block": TRAIN_BLOCK,
-                     "batch_size": DEFAULT_CONFIG.batch_size, "torch_threads": DEFAULT_CONFIG.torch_threads},
+                     "batch_size": DEFAULT_CONFIG.batch_size, "torch_threads": DEFAULT_CONFIG.torch_threads,
+                     "fast": {"n_envs": FAST_CONFIG.n_envs, "batch_size": FAST_CONFIG.batch_size,
+                              "gradient_steps": FAST_CONFIG.gradient_steps, "train_freq": FAST_CONFIG.train_freq}},
     }
 
 
@@ -121,4 +197,21 @@ def rl_markdown(r: dict) -> str:
     c = r["policy_calls_per_s"]
     rows.append(f"| actor calls, NumPy | {c['numpy_actor']:,.0f} | SB3 predict | {c['sb3_predict']:,.0f} | "
                 f"{c['ratio']:.1f}x |")
+    u = r["updates_per_s"]
+    for batch, rate in u.items():
+        rows.append(f"| SAC updates, batch {batch} (samples/s {rate * int(batch):,.0f}) | {rate:,.1f} | batch 128 | "
+                    f"{u['128']:,.1f} | {rate * int(batch) / (u['128'] * 128):.2f}x samples/s |")
+    g = r["guide_train_steps_per_s"]
+    fast = r["settings"]["fast"]
+    rows.append(f"| guide design training steps, {fast['n_envs']} envs, batch {fast['batch_size']}, "
+                f"{fast['gradient_steps']} update per {fast['n_envs'] * fast['train_freq']} steps | {g['fast']:,.1f} | "
+                f"1 env, batch 128, 1 update per step | {g['default']:,.1f} | {g['ratio']:.2f}x |")
+    x = r["sbx_updates_per_s"]
+    if x is None:
+        rows.append("| SBX (JAX) updates | not installed | | | |")
+    else:
+        rows.append(f"| SBX updates, batch 128, one per call | {x['sbx_fused_1']:,.1f} | torch | "
+                    f"{x['torch_fused_1']:,.1f} | {x['sbx_fused_1'] / x['torch_fused_1']:.2f}x |")
+        rows.append(f"| SBX updates, batch 128, {FUSED_UPDATES} per call | {x[f'sbx_fused_{FUSED_UPDATES}']:,.1f} | "
+                    f"torch | {x['torch_fused_1']:,.1f} | {x['sbx_fused_vs_torch']:.2f}x |")
     return "\n".join(rows)

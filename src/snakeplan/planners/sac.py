@@ -394,7 +394,7 @@ class Crawler:
         self.prev_action = np.zeros(action_dim(self.mode))
 
     def route_guide(self, scene: Scene, world: KnowledgeView) -> RouteGuide:
-        """The route guide through what ``world`` knows, kept ``GUIDE_MARGIN_MM`` beyond the arm's radius."""
+        """The route guide through what ``world`` knows now, kept ``GUIDE_MARGIN_MM`` beyond the arm's radius."""
         inflate = float(np.max(self.robot.radii)) + GUIDE_MARGIN_MM
         return route_guide(world.obstacle_set, scene.bounds_min, scene.bounds_max, scene.entrance, scene.targets,
                            inflate)

@@ -18,6 +18,7 @@ from ``VALIDATION_SEED``; seeds below that (the test episodes are seeds 0-99) ar
 
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -27,16 +28,24 @@ from gymnasium import spaces
 from snakeplan.planners.sac import (
     CAPTURE_STEPS,
     GOAL_SCALE_MM,
+    GUIDE_MARGIN_MM,
     STEP_MM,
     TURN_RADIUS_MM,
     Crawler,
     action_dim,
     observation_dim,
 )
-from snakeplan.rl.rewards import collide_reward, compute_reward, global_reward, in_view, local_reward
+from snakeplan.rl.rewards import (
+    collide_reward,
+    compute_reward,
+    global_reward,
+    guide_reward,
+    in_view,
+    local_reward,
+)
 from snakeplan.robots import Chain, get_robot
 from snakeplan.scenes import Scene, make_scene
-from snakeplan.scenes.reach import RouteGuide
+from snakeplan.scenes.reach import RouteGuide, route_guide
 from snakeplan.world import KnowledgeView, view_for
 
 #: Truncation horizon H (steps), paper 000 §4.1.
@@ -45,7 +54,7 @@ TRAIN_SEED = 1_000_000
 VALIDATION_SEED = 500_000
 #: Distinct training scenes an environment draws from (each generated once, then kept).
 TRAIN_SCENES = 1000
-#: Largest number of scenes kept in an environment's cache.
+#: Largest number of scenes (and of route guides) kept per process.
 SCENE_CACHE = 4096
 #: Bound of the observation boxes (every component is scaled well inside it).
 OBS_BOUND = 10.0
@@ -72,14 +81,12 @@ class SnakeEnv(gym.Env):
         self.families = tuple(self.family.split("+"))
         self.fixed_scene = None if isinstance(scene, str) else scene
         self.knowledge = knowledge
-        self._guides: dict[int, RouteGuide] = {}
         self.robot = get_robot(robot) if isinstance(robot, str) else robot
         self.crawler = Crawler(self.robot, observation, step_mm, turn_radius_mm, capture_steps=capture_steps,
                                lookahead=lookahead)
         self.mode = observation
         self.max_steps = int(max_steps)
         self.seed_range = (int(seeds[0]), int(seeds[1]))
-        self._cache: dict[int, Scene] = {}
         self.action_space = spaces.Box(-1.0, 1.0, (action_dim(observation),), np.float32)
         goal_box = spaces.Box(-OBS_BOUND, OBS_BOUND, (3,), np.float32)
         self.observation_space = spaces.Dict({
@@ -91,31 +98,21 @@ class SnakeEnv(gym.Env):
         self._start()
         self.outcome = "running"
 
-    def __getstate__(self) -> dict:
-        """Pickled (a training checkpoint) without the scene cache: scenes are regenerated from their seeds."""
-        return {**self.__dict__, "_cache": {}, "_guides": {}}
-
     def scene_for(self, seed: int) -> Scene:
-        """The scene for ``seed`` of its family (generated once, then cached)."""
-        if seed not in self._cache:
-            if len(self._cache) >= SCENE_CACHE:
-                self._guides.pop(next(iter(self._cache)), None)
-                self._cache.pop(next(iter(self._cache)))
-            self._cache[seed] = make_scene(self.families[seed % len(self.families)], int(seed))
-        return self._cache[seed]
+        """The scene for ``seed`` of its family (generated once per process: see :func:`family_scene`)."""
+        return family_scene(self.families[seed % len(self.families)], int(seed))
 
     def _start(self) -> None:
         """Put the crawler at the scene's entrance with a fresh view (and, for the guide design, the scene's
-        route guide, made once per cached scene)."""
+        route guide: made once per process for a generated scene, see :func:`scene_guide`)."""
         world: KnowledgeView = view_for(self.scene, self.knowledge)
         guide = None
         if self.crawler.mode == "guide":
-            key = self.scene.seed if self.scene is self._cache.get(self.scene.seed) else None
-            guide = self._guides.get(key) if key is not None else None
-            if guide is None:
-                guide = self.crawler.route_guide(self.scene, world)
-                if key is not None:
-                    self._guides[key] = guide
+            inflate = float(np.max(self.robot.radii)) + GUIDE_MARGIN_MM
+            generated = (self.scene.name in self.families and self.scene.seed is not None
+                         and self.scene is family_scene(self.scene.name, self.scene.seed))
+            guide = (scene_guide(self.scene.name, self.scene.seed, self.knowledge, inflate) if generated
+                     else self.crawler.route_guide(self.scene, world))
         self.crawler.reset(self.scene, world, guide)
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
@@ -136,12 +133,14 @@ class SnakeEnv(gym.Env):
     def step(self, action):
         c = self.crawler
         a = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
-        old_heading, prev_action, goal = c.heading, c.prev_action, c.goal.copy()
+        old_heading, prev_action, goal, guide_s = c.heading, c.prev_action, c.goal.copy(), c.guide_s
         failure, _ = c.advance(a)
         tip, heading = c.tip, c.heading
         visible = bool(in_view(tip, heading, goal)) and bool(self.scene.line_of_sight(tip, goal))
         shaping = (local_reward(a, prev_action) + global_reward(old_heading, heading)
                    + collide_reward(failure is not None and failure != "insertion"))
+        if c.guide is not None:
+            shaping += guide_reward(c.guide_s - guide_s, c.step_mm)
         info = {"heading": heading.copy(), "goal": goal / GOAL_SCALE_MM, "visible": visible, "shaping": shaping}
         reward = float(compute_reward(tip / GOAL_SCALE_MM, goal / GOAL_SCALE_MM, info))
         terminated = failure is not None or c.done
@@ -158,6 +157,23 @@ class SnakeEnv(gym.Env):
     def tip_path(self) -> np.ndarray:
         """The tip path so far ``(m, 3)`` mm, starting at the entrance."""
         return self.crawler.tip_path()
+
+
+@lru_cache(maxsize=SCENE_CACHE)
+def family_scene(family: str, seed: int) -> Scene:
+    """A family's scene for ``seed``, generated once per process and shared by every environment in it (a vector
+    of environments meets the same training scenes)."""
+    return make_scene(family, seed)
+
+
+@lru_cache(maxsize=SCENE_CACHE)
+def scene_guide(family: str, seed: int, knowledge: str, inflate_mm: float) -> RouteGuide:
+    """The route guide of :func:`family_scene` through what a fresh ``knowledge`` view of it knows, kept
+    ``inflate_mm`` from it; made once per process."""
+    scene = family_scene(family, seed)
+    world = view_for(scene, knowledge)
+    return route_guide(world.obstacle_set, scene.bounds_min, scene.bounds_max, scene.entrance, scene.targets,
+                       inflate_mm)
 
 
 class FuelTankEnv(SnakeEnv):

@@ -1,6 +1,8 @@
 """Paper 000's reward, eqs. 4-8: target approach, local consistency, global smoothness, collision.
 
-R_total = R_target + R_local + R_global + R_collide (eq. 4). Only R_target depends on the goal, so hindsight
+R_total = R_target + R_local + R_global + R_collide (eq. 4), plus, for the ``guide`` observation design, R_guide:
+``GUIDE_WEIGHT`` per step's length of progress along the route guide (ours; the guide is what an operator's
+coarse plan of the route would be). Only R_target depends on the goal, so hindsight
 relabelling (HER) recomputes it with :func:`compute_reward` and keeps the goal-free terms the environment stored
 in ``info["shaping"]``. Goals are in scaled units (mm / ``GOAL_SCALE_MM``), the "scaled error" of eq. 5; Theta is
 ``REACH_TOLERANCE_MM``, the judge's tolerance.
@@ -33,6 +35,9 @@ COLLISION_PENALTY = 10.0
 LOCAL_WEIGHT = 0.1
 #: Weight of the global smoothness term (eq. 7).
 GLOBAL_WEIGHT = 1.0
+#: Reward per step length (``STEP_MM``) of progress along the route guide (``guide`` design): an episode's
+#: progress (at most the arm's length) is worth less than reaching a target.
+GUIDE_WEIGHT = 0.1
 #: The 0.001 of eq. 7's denominator.
 GLOBAL_EPS = 1e-3
 #: Tip camera (eq. 5's detection): half-angle (rad) of the field of view and range (mm).
@@ -56,6 +61,11 @@ def global_reward(v1, v2) -> float:
 def collide_reward(collided: bool) -> float:
     """Eq. 8: ``-R_c`` on a collision, else 0."""
     return -COLLISION_PENALTY if collided else 0.0
+
+
+def guide_reward(progress_mm: float, step_mm: float) -> float:
+    """R_guide: ``GUIDE_WEIGHT`` per ``step_mm`` of progress along the route guide."""
+    return GUIDE_WEIGHT * progress_mm / step_mm
 
 
 def in_view(tip_mm, heading, goal_mm) -> np.ndarray:
