@@ -134,8 +134,10 @@ def test_capped_signed_distance_is_the_least_of_each_obstacles_and_the_cap(point
     assert capped <= int(obstacles.evaluations[0]) - before - capped
     grid = Grid.covering(np.array([-400.0, -300, -300]), np.array([400.0, 400, 300]), 50.0)
     centres = grid.centres().reshape(-1, 3)
-    np.testing.assert_allclose(free_space(obstacles, grid, cap).reshape(-1),
-                               np.minimum(obstacles.signed_distance(centres), cap), rtol=0, atol=1e-9)
+    expect = np.minimum(obstacles.signed_distance(centres), cap).reshape(grid.shape)
+    np.testing.assert_allclose(free_space(obstacles, grid, cap), expect, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(obstacles.grid_distance(grid.origin, grid.spacing, grid.shape, cap, (3, 7)),
+                               expect[:, :, 3:7], rtol=0, atol=1e-9)
 
 
 def test_an_obstacle_set_pickles_as_its_obstacles_and_loads_an_older_versions_state():

@@ -158,13 +158,22 @@ def free_space(obstacles: ObstacleSet, grid: Grid, horizon_mm: float = math.inf,
                deadline: float | None = None) -> np.ndarray:
     """Signed distance (mm) at every cell centre, shape ``grid.shape``; values above ``horizon_mm`` are capped.
 
-    A finite horizon lets the obstacle tree skip every obstacle farther than it from a cell, so a cell far from
-    everything costs a few box tests. With a ``deadline`` (a perf_counter value) it raises
-    :class:`FieldDeadline` once past it, so a planner's setup never outlasts its budget by more than one chunk of
-    cells.
+    A finite horizon evaluates each obstacle only at the cells within the horizon of its box
+    (:meth:`ObstacleSet.grid_distance`), so a cell far from everything costs nothing. With a ``deadline`` (a
+    perf_counter value) it raises :class:`FieldDeadline` once past it, so a planner's setup never outlasts its
+    budget by more than one chunk of cells.
     """
+    out = np.empty(grid.shape)
+    if math.isfinite(horizon_mm):
+        layers = max(1, DEADLINE_CHUNK_CELLS // max(1, grid.shape[0] * grid.shape[1]))
+        for k0 in range(0, grid.shape[2], layers):
+            if deadline is not None and time.perf_counter() >= deadline:
+                raise FieldDeadline
+            k1 = min(k0 + layers, grid.shape[2])
+            out[:, :, k0:k1] = obstacles.grid_distance(grid.origin, grid.spacing, grid.shape, horizon_mm, (k0, k1))
+        return out
     flat = grid.centres().reshape(-1, 3)
-    out = np.empty(len(flat))
+    out = out.reshape(-1)
     for start in range(0, len(flat), DEADLINE_CHUNK_CELLS):
         if deadline is not None and time.perf_counter() >= deadline:
             raise FieldDeadline
