@@ -183,11 +183,12 @@ def free_space(obstacles: ObstacleSet, grid: Grid, horizon_mm: float = math.inf,
 
 
 def geodesic_from_sdf(grid: Grid, sdf: np.ndarray, entrance: Entrance, inflate_mm: float = DEFAULT_INFLATE_MM,
-                      feed_mm: float = DEFAULT_FEED_MM) -> GeodesicField:
+                      feed_mm: float = DEFAULT_FEED_MM, goal=None) -> GeodesicField:
     """Geodesic field from precomputed cell-centre distances ``sdf`` (shape ``grid.shape``, mm).
 
     Free cells: ``sdf >= inflate_mm``; the entrance cell and the cells along the first ``feed_mm`` of the feed
-    axis count as free as long as their centre is not inside material.
+    axis count as free as long as their centre is not inside material. With a ``goal`` point the search is
+    directed at its cell and stops there: only :meth:`GeodesicField.path_to` the goal is meaningful then.
     """
     check_range("inflate_mm", inflate_mm, 0.0)
     check_range("feed_mm", feed_mm, 0.0)
@@ -202,8 +203,9 @@ def geodesic_from_sdf(grid: Grid, sdf: np.ndarray, entrance: Entrance, inflate_m
     start = grid.cell_of(src)
     free[start[0], start[1], start[2]] = True
     start_flat = int(np.ravel_multi_index(tuple(start), grid.shape))
+    target = -1 if goal is None else int(np.ravel_multi_index(tuple(grid.cell_of(goal)), grid.shape))
     dist, parent = _lazy_theta(free.reshape(-1), np.array(grid.shape, dtype=np.int64), grid.origin, grid.spacing,
-                               src, start_flat, _NEIGHBOURS)
+                               src, start_flat, _NEIGHBOURS, target)
     return GeodesicField(grid, sdf, free, dist.reshape(grid.shape), parent.reshape(grid.shape), src.copy(),
                          float(inflate_mm))
 
@@ -257,7 +259,7 @@ def route_guide(obstacles: ObstacleSet, bounds_min, bounds_max, entrance: Entran
     source, pieces, target_arc, total = entrance, [entrance.position[None]], [], 0.0
     for k, target in enumerate(np.asarray(targets, dtype=float).reshape(-1, 3)):
         feed = DEFAULT_FEED_MM if k == 0 else 0.0
-        leg = geodesic_from_sdf(grid, sdf, source, inflate_mm, feed).path_to(target)
+        leg = geodesic_from_sdf(grid, sdf, source, inflate_mm, feed, goal=target).path_to(target)
         if len(leg) < 2:
             leg = np.vstack([source.position, target])
         leg = densify(leg, GUIDE_STEP_MM)
@@ -360,11 +362,18 @@ def _sift_down(heap, hpos, key, i, size):
 
 
 @njit(cache=True)
-def _lazy_theta(free, shape, origin, spacing, src, start, offsets):
-    """Single-source lazy Theta* over all free cells; returns (distance mm, parent flat index)."""
+def _lazy_theta(free, shape, origin, spacing, src, start, offsets, goal):
+    """Single-source lazy Theta* over the free cells; returns (distance mm, parent flat index). With a ``goal``
+    cell (flat index; -1: none) it is A*-ordered by the straight distance to the goal's centre and stops once the
+    goal is settled, so only that cell's distance and parents are final; without one every cell's are."""
     nx, ny, nz = shape[0], shape[1], shape[2]
     n = nx * ny * nz
     g = np.full(n, np.inf)
+    key = np.full(n, np.inf)
+    if goal >= 0:
+        gx, gy, gz = goal // (ny * nz) + 0.5, (goal // nz) % ny + 0.5, goal % nz + 0.5
+    else:
+        gx, gy, gz = 0.0, 0.0, 0.0
     parent = np.full(n, _UNREACHED, dtype=np.int64)
     closed = np.zeros(n, dtype=np.bool_)
     heap = np.empty(n, dtype=np.int64)
@@ -378,6 +387,7 @@ def _lazy_theta(free, shape, origin, spacing, src, start, offsets):
     g[start] = math.sqrt(((si + 0.5 - sg[0]) * hx) ** 2 + ((sj + 0.5 - sg[1]) * hy) ** 2
                          + ((sk + 0.5 - sg[2]) * hz) ** 2)
     parent[start] = _SOURCE
+    key[start] = g[start]
     heap[0] = start
     hpos[start] = 0
     size = 1
@@ -388,7 +398,7 @@ def _lazy_theta(free, shape, origin, spacing, src, start, offsets):
         if size > 0:
             heap[0] = heap[size]
             hpos[heap[0]] = 0
-            _sift_down(heap, hpos, g, 0, size)
+            _sift_down(heap, hpos, key, 0, size)
         ui = u // (ny * nz)
         uj = (u // nz) % ny
         uk = u % nz
@@ -422,6 +432,8 @@ def _lazy_theta(free, shape, origin, spacing, src, start, offsets):
             p = bp
             px, py, pz = p // (ny * nz) + 0.5, (p // nz) % ny + 0.5, p % nz + 0.5
         closed[u] = True
+        if u == goal:
+            break
         base = 0.0 if p == _SOURCE else g[p]
         for o in range(offsets.shape[0]):
             vi, vj, vk = ui + offsets[o, 0], uj + offsets[o, 1], uk + offsets[o, 2]
@@ -434,12 +446,16 @@ def _lazy_theta(free, shape, origin, spacing, src, start, offsets):
                                  + ((vk + 0.5 - pz) * hz) ** 2)
             if c < g[v]:
                 g[v] = c
+                key[v] = c
+                if goal >= 0:
+                    key[v] += math.sqrt(((vi + 0.5 - gx) * hx) ** 2 + ((vj + 0.5 - gy) * hy) ** 2
+                                        + ((vk + 0.5 - gz) * hz) ** 2)
                 parent[v] = p
                 if hpos[v] < 0:
                     heap[size] = v
                     hpos[v] = size
                     size += 1
-                _sift_up(heap, hpos, g, hpos[v])
+                _sift_up(heap, hpos, key, hpos[v])
     return g, parent
 
 
