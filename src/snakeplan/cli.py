@@ -876,8 +876,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--planner", help="planner name (default: the best shipped planner for the scene)")
     p.add_argument("--planner-seed", type=_seed, default=0, help="the planner's random seed (default 0)")
     p.add_argument("--policy", help="a trained policy file: .npz from 'snakeplan train rl' for sac-her, sac-per or "
-                                    "sac, or from 'snakeplan train sscc' for sscc (default: the shipped one for the "
-                                    "scene and robot)")
+                                    "sac ('generalist': the shipped generalist), or from 'snakeplan train sscc' for "
+                                    "sscc (default: the shipped one for the scene and robot; sac-her: the "
+                                    "generalist where the scene's family ships none)")
     p.add_argument("--time-limit", type=_finite, default=30.0, help="planning budget in seconds (default 30)")
     p.add_argument("--knowledge", choices=("full", "sensed"), default="full",
                    help="what the planner may know: the whole scene, or what its sensor revealed")

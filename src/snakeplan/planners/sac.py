@@ -315,6 +315,41 @@ def _local_features(obs, ag, dg, lo, hi, centre, normal, next_portal, after, has
             out[i, n_obs + 12 + a] = frame[a, 0] * nrm[0] + frame[a, 1] * nrm[1] + frame[a, 2] * nrm[2]
 
 
+@njit(cache=True)
+def _point_at(points, arc, s, out):
+    """The guide point at arc length ``s`` (clipped to the guide) into ``out (3,)``."""
+    n = arc.shape[0]
+    if s <= arc[0]:
+        out[:] = points[0]
+        return
+    if s >= arc[n - 1]:
+        out[:] = points[n - 1]
+        return
+    k = np.searchsorted(arc, s) - 1
+    t = (s - arc[k]) / max(arc[k + 1] - arc[k], 1e-12)
+    for a in range(3):
+        out[a] = points[k, a] + t * (points[k + 1, a] - points[k, a])
+
+
+@njit(cache=True)
+def _guide_into(frame, tip, points, arc, s, end, out):
+    """:meth:`Crawler._guide_features` into ``out (GUIDE_DIM,)``."""
+    p, q, v = np.empty(3), np.empty(3), np.empty(3)
+    for m in range(2):
+        _point_at(points, arc, min(s + GUIDE_AHEAD_MM[m], end), p)
+        for a in range(3):
+            v[a] = p[a] - tip[a]
+        _put_rel(frame, v, out, 4 * m)
+    s1 = min(s + GUIDE_AHEAD_MM[0], end)
+    _point_at(points, arc, max(s1 - GUIDE_TANGENT_MM, 0.0), p)
+    _point_at(points, arc, min(s1 + GUIDE_TANGENT_MM, end), q)
+    n = math.sqrt((q[0] - p[0]) ** 2 + (q[1] - p[1]) ** 2 + (q[2] - p[2]) ** 2)
+    for a in range(3):
+        v[a] = (q[a] - p[a]) / n if n > 1e-9 else 0.0
+    for a in range(3):
+        out[8 + a] = frame[a, 0] * v[0] + frame[a, 1] * v[1] + frame[a, 2] * v[2]
+
+
 _NO_GRAPH = (np.zeros((1, 3)), np.zeros((1, 3)), np.zeros((1, 3)), np.zeros((1, 3)), np.full((1, 1), -1, np.int64),
              np.zeros((1, 1), np.int64))
 
@@ -442,13 +477,9 @@ class Crawler:
     def _guide_features(self) -> np.ndarray:
         """The guide points ``GUIDE_AHEAD_MM`` ahead of the tip's place on it (never past the current target) and
         the guide's direction at the first, in the tip frame."""
-        end = self._guide_end()
-        s1, s2 = (min(self.guide_s + d, end) for d in GUIDE_AHEAD_MM)
-        pts = self.guide.at([s1, s2, max(s1 - GUIDE_TANGENT_MM, 0.0), min(s1 + GUIDE_TANGENT_MM, end)])
-        chord = pts[3] - pts[2]
-        n = float(np.linalg.norm(chord))
-        direction = chord / n if n > 1e-9 else np.zeros(3)
-        return np.concatenate([_relative(self.frame, pts[:2] - self.tip).ravel(), self.frame @ direction])
+        out = np.empty(GUIDE_DIM)
+        _guide_into(self.frame, self.tip, self.guide.points, self.guide.arc, self.guide_s, self._guide_end(), out)
+        return out
 
     def _follow_guide(self) -> None:
         """Move the tip's place on the guide to the guide point nearest the tip among those from the last place to

@@ -243,11 +243,7 @@ class RouteGuide:
 
     def progress(self, tip, s_from: float, s_to: float) -> float:
         """Arc length (mm) of the guide point nearest ``tip`` among those between ``s_from`` and ``s_to``."""
-        i, j = np.searchsorted(self.arc, [s_from, s_to])
-        i = min(int(i), len(self.arc) - 1)
-        j = max(int(j), i + 1)
-        d = np.sum((self.points[i:j] - np.asarray(tip, dtype=float)) ** 2, axis=1)
-        return float(self.arc[i + int(np.argmin(d))])
+        return _nearest_on_guide(self.points, self.arc, np.asarray(tip, dtype=float), float(s_from), float(s_to))
 
 
 def route_guide(obstacles: ObstacleSet, bounds_min, bounds_max, entrance: Entrance, targets,
@@ -273,6 +269,20 @@ def route_guide(obstacles: ObstacleSet, bounds_min, bounds_max, entrance: Entran
 
 
 # --- numba kernels --------------------------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def _nearest_on_guide(points, arc, tip, s_from, s_to):
+    """:meth:`RouteGuide.progress`: the arc length of the point nearest ``tip`` with arc in [s_from, s_to] (the
+    first point at or after ``s_from`` at least)."""
+    i = min(np.searchsorted(arc, s_from), arc.shape[0] - 1)
+    j = max(np.searchsorted(arc, s_to), i + 1)
+    best, arg = np.inf, i
+    for k in range(i, j):
+        d = (points[k, 0] - tip[0]) ** 2 + (points[k, 1] - tip[1]) ** 2 + (points[k, 2] - tip[2]) ** 2
+        if d < best:
+            best, arg = d, k
+    return arc[arg]
 
 
 @njit(cache=True)
