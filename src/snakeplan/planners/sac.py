@@ -90,6 +90,10 @@ GUIDE_AHEAD_STEPS = 3
 GUIDE_DIM = 11
 #: Clearance (mm) beyond the arm's largest radius that a route guide keeps from the known obstacles.
 GUIDE_MARGIN_MM = 2.5
+#: Residual ``guide`` policies: the crawl applies the pursuit of the guide, this gain times the side and up
+#: components of the unit direction to the first guide point (clipped to the action box), plus the policy's
+#: action (clipped again); the policy learns the correction.
+PURSUIT_GAIN = 3.0
 
 
 
@@ -398,7 +402,7 @@ class Crawler:
 
     def __init__(self, robot: Chain, mode: str = "local", step_mm: float = STEP_MM,
                  turn_radius_mm: float = TURN_RADIUS_MM, check_body: bool = True, capture_steps: int = CAPTURE_STEPS,
-                 lookahead: bool = False):
+                 lookahead: bool = False, residual: bool = False):
         if mode not in OBSERVATIONS:
             raise ValueError(f"observation: must be one of {OBSERVATIONS}, got {mode!r}")
         self.robot = robot
@@ -408,6 +412,7 @@ class Crawler:
         self.check_body = check_body
         self.capture_mm = capture_steps * self.step_mm if mode != "paper" else 0.0
         self.lookahead = lookahead and mode != "paper"
+        self.residual = residual and mode == "guide"
         self.rays = ray_directions()
 
     def reset(self, scene: Scene, world: KnowledgeView | None = None, guide: RouteGuide | None = None) -> None:
@@ -551,9 +556,18 @@ class Crawler:
             return "out_of_bounds"
         return "insertion" if self.depth > self.robot.total_length else None
 
+    def pursuit(self) -> np.ndarray:
+        """The pursuit of the guide as an action: ``PURSUIT_GAIN`` times the side and up components of the unit
+        direction from the tip to the first guide point ahead, clipped to the action box."""
+        f = self._guide_features()
+        return np.clip(PURSUIT_GAIN * f[1:3], -1.0, 1.0)
+
     def advance(self, action) -> tuple[str | None, bool]:
-        """Apply one action; return (failure or None, whether a target was reached by this step)."""
+        """Apply one action (a residual crawler adds it to :meth:`pursuit`); return (failure or None, whether a
+        target was reached by this step). ``prev_action`` becomes the applied action."""
         a = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
+        if self.residual:
+            a = np.clip(self.pursuit() + a, -1.0, 1.0)
         old = self.tip
         snapped = self._snap()
         if snapped is not None:
@@ -621,8 +635,9 @@ def _check_meta(meta) -> dict:
             raise ValueError(f"meta.turn_radius_mm: {radius:g} mm would turn a {step:g} mm step by more than half "
                              f"a turn")
         inputs.integer(meta.get("capture_steps", 0), "meta.capture_steps", 0, MAX_CAPTURE_STEPS)
-        if type(meta.get("lookahead", False)) is not bool:
-            raise ValueError(f"meta.lookahead: expected true or false, got {inputs.show(meta['lookahead'])}")
+        for key in ("lookahead", "residual"):
+            if type(meta.get(key, False)) is not bool:
+                raise ValueError(f"meta.{key}: expected true or false, got {inputs.show(meta[key])}")
         for key in ("name", "scene", "algorithm", "robot"):
             if key in meta:
                 inputs.text(meta[key], f"meta.{key}")
@@ -799,7 +814,7 @@ class NumpyPolicy:
         predates them)."""
         return Crawler(robot, self.mode, self.meta.get("step_mm", STEP_MM),
                        self.meta.get("turn_radius_mm", TURN_RADIUS_MM), check_body, self.meta.get("capture_steps", 0),
-                       self.meta.get("lookahead", False))
+                       self.meta.get("lookahead", False), self.meta.get("residual", False))
 
 
 def trained_robot(policy: NumpyPolicy) -> str | None:

@@ -76,14 +76,14 @@ class SnakeEnv(gym.Env):
                  robot: str | Chain = "sjtu-snake-iii", step_mm: float = STEP_MM,
                  turn_radius_mm: float = TURN_RADIUS_MM, max_steps: int = MAX_STEPS,
                  seeds: tuple[int, int] = (TRAIN_SEED, TRAIN_SEED + TRAIN_SCENES), capture_steps: int = CAPTURE_STEPS,
-                 lookahead: bool = False, knowledge: str = "full"):
+                 lookahead: bool = False, knowledge: str = "full", residual: bool = False):
         self.family = scene if isinstance(scene, str) else scene.name
         self.families = tuple(self.family.split("+"))
         self.fixed_scene = None if isinstance(scene, str) else scene
         self.knowledge = knowledge
         self.robot = get_robot(robot) if isinstance(robot, str) else robot
         self.crawler = Crawler(self.robot, observation, step_mm, turn_radius_mm, capture_steps=capture_steps,
-                               lookahead=lookahead)
+                               lookahead=lookahead, residual=residual)
         self.mode = observation
         self.max_steps = int(max_steps)
         self.seed_range = (int(seeds[0]), int(seeds[1]))
@@ -135,6 +135,7 @@ class SnakeEnv(gym.Env):
         a = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
         old_heading, prev_action, goal, guide_s = c.heading, c.prev_action, c.goal.copy(), c.guide_s
         failure, _ = c.advance(a)
+        a = c.prev_action  # the applied action (a residual crawler's pursuit plus the policy's)
         tip, heading = c.tip, c.heading
         visible = bool(in_view(tip, heading, goal)) and bool(self.scene.line_of_sight(tip, goal))
         shaping = (local_reward(a, prev_action) + global_reward(old_heading, heading)

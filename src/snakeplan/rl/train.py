@@ -125,6 +125,8 @@ class TrainConfig:
     capture_steps: int = CAPTURE_STEPS
     #: What the crawler's rays and route guide know while training and validating: "full" or "sensed".
     knowledge: str = "full"
+    #: The guide design's residual policy: the crawl adds the action to the pursuit of the guide.
+    residual: bool = False
     eval_every: int = 5000
     eval_episodes: int = 20
     #: 0: :func:`snakeplan.checkpoints.checkpoint_interval` of the run's steps.
@@ -194,7 +196,7 @@ def make_env(scene: str, config: TrainConfig):
     seeds = (TRAIN_SEED, TRAIN_SEED + config.train_scenes)
     return lambda: SnakeEnv(scene, observation=config.observation, robot=robot_for(scene, config), seeds=seeds,
                             turn_radius_mm=config.turn_radius_mm, capture_steps=config.capture_steps,
-                            lookahead=config.lookahead, knowledge=config.knowledge)
+                            lookahead=config.lookahead, knowledge=config.knowledge, residual=config.residual)
 
 
 def route_graph(scene: str, config: TrainConfig) -> RoomGraph | None:
@@ -288,6 +290,7 @@ class _Run:
                 "observation": self.config.observation, "step_mm": crawler.step_mm,
                 "turn_radius_mm": crawler.step_mm / crawler.max_turn,
                 "capture_steps": round(crawler.capture_mm / crawler.step_mm), "lookahead": crawler.lookahead,
+                "residual": crawler.residual,
                 "env_steps": n, "seed": self.seed,
                 "command": self.command,
                 "config": {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self.config).items()}}
