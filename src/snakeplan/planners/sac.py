@@ -397,6 +397,11 @@ def input_dim(mode: str, obs_dim: int) -> int:
 
 
 # --- the crawl ----------------------------------------------------------------------------------------------
+def _length(v: np.ndarray) -> float:
+    """Length of a 3-vector (mm): the crawl's per-step arithmetic, without ``np.linalg.norm``'s overhead."""
+    return math.sqrt(float(v @ v))
+
+
 class Crawler:
     """The arm crawling follow-the-leader from a scene's entrance, one tip step per action (mm, rad)."""
 
@@ -501,25 +506,25 @@ class Crawler:
         if k >= len(self.scene.targets):
             return np.zeros(LOOKAHEAD_DIM)
         local = self.frame @ (self.scene.targets[k] - self.tip)
-        dist = float(np.linalg.norm(local))
+        dist = _length(local)
         return np.concatenate([local / max(dist, 1e-9), [min(dist / FEATURE_SCALE_MM, FEATURE_CLIP)]])
 
     def _new_heading(self, action: np.ndarray) -> np.ndarray:
         if self.mode == "paper":
-            n = float(np.linalg.norm(action))
+            n = _length(action)
             return action / n if n > 1e-6 else self.heading
         v = action[0] * self.frame[1] + action[1] * self.frame[2]
-        n = float(np.linalg.norm(v))
+        n = _length(v)
         if n < 1e-9:
             return self.heading
         angle = min(n, 1.0) * self.max_turn
         d = math.cos(angle) * self.heading + math.sin(angle) * v / n
-        return d / np.linalg.norm(d)
+        return d / _length(d)
 
     def _snap(self) -> np.ndarray | None:
         """The goal, when this step can end on it within the turning bound; else None."""
         to = self.goal - self.tip
-        dist = float(np.linalg.norm(to))
+        dist = _length(to)
         if dist > SNAP_FACTOR * self.step_mm or dist < 1e-9:
             return None
         bound = math.pi / 2 if self.mode == "paper" else self.max_turn
@@ -530,26 +535,26 @@ class Crawler:
         of chords of the circle through the tip and the goal, 2 asin(step sin(phi) / D), when that is within the
         turning bound (the circle is no tighter than the turning radius); else None."""
         to = self.goal - self.tip
-        dist = float(np.linalg.norm(to))
+        dist = _length(to)
         cos = float(to @ self.heading) / max(dist, 1e-9)
         if dist > self.capture_mm or dist < 1e-9 or cos <= 0.0:
             return None
         side = to - (to @ self.heading) * self.heading
-        sin = float(np.linalg.norm(side)) / dist
+        sin = _length(side) / dist
         if sin < 1e-9:
             return self.heading
         turn = 2.0 * math.asin(min(1.0, self.step_mm * sin / dist))
         if turn > self.max_turn:
             return None
-        d = math.cos(turn) * self.heading + math.sin(turn) * side / np.linalg.norm(side)
-        return d / np.linalg.norm(d)
+        d = math.cos(turn) * self.heading + math.sin(turn) * side / _length(side)
+        return d / _length(d)
 
     def _failure(self) -> str | None:
         """Why the crawl over the last step is infeasible, or None: with ``check_body`` the validity checker's
         verdict on the step's depths; without (a planning roll-out, whose whole path is checked afterwards) only
         a tip out of the bounds or past the arm's length ends it."""
         if self.check_body:
-            last = self.depth - float(np.linalg.norm(self.path[-1] - self.path[-2]))
+            last = self.depth - _length(self.path[-1] - self.path[-2])
             failure = self.checker.first_failure(np.array(self.path), last)
             return None if failure is None else failure.kind
         if not bool(self.world.in_bounds(self.tip)):
@@ -571,20 +576,20 @@ class Crawler:
         old = self.tip
         snapped = self._snap()
         if snapped is not None:
-            new, heading = snapped, (snapped - old) / np.linalg.norm(snapped - old)
+            new, heading = snapped, (snapped - old) / _length(snapped - old)
         else:
             heading = self._capture() if self.capture_mm > 0.0 else None
             if heading is None:
                 heading = self._new_heading(a)
             new = old + self.step_mm * heading
         self.path.append(new)
-        self.depth += float(np.linalg.norm(new - old))
+        self.depth += _length(new - old)
         self.heading = heading
         self.frame = heading_frame(heading)
         self.prev_action = a
         self.steps += 1
         failure = self._failure()
-        reached = failure is None and float(np.linalg.norm(new - self.goal)) <= REACH_TOLERANCE_MM
+        reached = failure is None and _length(new - self.goal) <= REACH_TOLERANCE_MM
         if reached:
             self.target_index += 1
         if self.guide is not None:
