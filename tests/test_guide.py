@@ -213,7 +213,7 @@ def test_the_generalist_ships_with_its_training_command():
     meta = policy.meta
     assert meta["observation"] == "guide" and meta["residual"] and meta["config"]["knowledge"] == "sensed"
     assert set(meta["scene"].split("+")) == {"confined", "fuel-tank", "oil-tank"}
-    assert meta["command"].startswith("python -m snakeplan.rl.train confined+fuel-tank+oil-tank sac-her")
+    assert meta["command"].startswith("python -m snakeplan.rl.train confined+fuel-tank+oil-tank ")
 
 
 @pytest.mark.parametrize("family", list(GENERALIST_EPISODES))

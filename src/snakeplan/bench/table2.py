@@ -60,8 +60,8 @@ PAPER_TABLE2: dict[tuple[str, str], dict[str, tuple[float, float]]] = {
 #: knowing its structure and what they sense; RRT* and Sp-RRT know the whole tank, §4.1), then every planner with
 #: the whole scene.
 KNOWLEDGE = ("sensed", "full")
-#: The generalist policy's rows: ``sac-her`` planning with it (``policy="generalist"``) in every scene.
-GENERALIST_ENTRY = ("sac-her", {"policy": "generalist"})
+#: The generalist policy's rows: ``sac`` planning with it (``policy="generalist"``) in every scene.
+GENERALIST_ENTRY = ("sac", {"policy": "generalist"})
 
 
 @dataclass(frozen=True)
@@ -86,7 +86,7 @@ class Table2Config:
         """(label, planner, options) of each row group in ``scene``: :meth:`planners_in`, then the generalist."""
         rows = [(p, p, {}) for p in self.planners_in(scene)]
         if self.generalist and generalist_installed():
-            rows.append(("sac-her generalist", *GENERALIST_ENTRY))
+            rows.append(("generalist", *GENERALIST_ENTRY))
         return tuple(rows)
 
     def robot_in(self, scene: str) -> str:

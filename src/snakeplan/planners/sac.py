@@ -890,10 +890,11 @@ def rollout(policy: NumpyPolicy, scene: Scene, robot: Chain, deadline: float = m
     return crawler.tip_path(), "steps"
 
 
-#: The generalist policy (the ``guide`` design, trained with sensed knowledge on the ``confined`` family and both
-#: tanks): the planners in ``GENERALIST_PLANNERS`` plan with it wherever a scene's family ships no policy of its own.
-GENERALIST = ("snakeplan", "rl/data/generalist-sac-her.npz")
-GENERALIST_PLANNERS = ("sac-her",)
+#: The generalist policy (the residual ``guide`` design, trained with sensed knowledge on the ``confined`` family
+#: and both tanks): the planners in ``GENERALIST_PLANNERS`` plan with it wherever a scene's family ships no policy
+#: of its own for them.
+GENERALIST = ("snakeplan", "rl/data/generalist.npz")
+GENERALIST_PLANNERS = ("sac", "sac-her", "sac-per")
 
 
 def generalist_path() -> Path | None:
@@ -972,7 +973,7 @@ class SacPlanner(Planner):
         if self.policy == "generalist":
             path = generalist_path()
             if path is None:
-                raise ValueError("policy: the generalist policy is not installed (rl/data/generalist-sac-her.npz)")
+                raise ValueError("policy: the generalist policy is not installed (rl/data/generalist.npz)")
             return load_policy(path)
         path = Path(self.policy) if self.policy else shipped_policy(spec_for(scene), self.name)
         if path is None:

@@ -39,6 +39,7 @@ from snakeplan.rl.rewards import (
     collide_reward,
     compute_reward,
     global_reward,
+    GUIDE_WEIGHT,
     guide_reward,
     in_view,
     local_reward,
@@ -76,11 +77,13 @@ class SnakeEnv(gym.Env):
                  robot: str | Chain = "sjtu-snake-iii", step_mm: float = STEP_MM,
                  turn_radius_mm: float = TURN_RADIUS_MM, max_steps: int = MAX_STEPS,
                  seeds: tuple[int, int] = (TRAIN_SEED, TRAIN_SEED + TRAIN_SCENES), capture_steps: int = CAPTURE_STEPS,
-                 lookahead: bool = False, knowledge: str = "full", residual: bool = False):
+                 lookahead: bool = False, knowledge: str = "full", residual: bool = False,
+                 guide_weight: float = GUIDE_WEIGHT):
         self.family = scene if isinstance(scene, str) else scene.name
         self.families = tuple(self.family.split("+"))
         self.fixed_scene = None if isinstance(scene, str) else scene
         self.knowledge = knowledge
+        self.guide_weight = float(guide_weight)
         self.robot = get_robot(robot) if isinstance(robot, str) else robot
         self.crawler = Crawler(self.robot, observation, step_mm, turn_radius_mm, capture_steps=capture_steps,
                                lookahead=lookahead, residual=residual)
@@ -141,7 +144,7 @@ class SnakeEnv(gym.Env):
         shaping = (local_reward(a, prev_action) + global_reward(old_heading, heading)
                    + collide_reward(failure is not None and failure != "insertion"))
         if c.guide is not None:
-            shaping += guide_reward(c.guide_s - guide_s, c.step_mm)
+            shaping += guide_reward(c.guide_s - guide_s, c.step_mm, self.guide_weight)
         info = {"heading": heading.copy(), "goal": goal / GOAL_SCALE_MM, "visible": visible, "shaping": shaping}
         reward = float(compute_reward(tip / GOAL_SCALE_MM, goal / GOAL_SCALE_MM, info))
         terminated = failure is not None or c.done

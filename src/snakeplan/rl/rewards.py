@@ -63,9 +63,9 @@ def collide_reward(collided: bool) -> float:
     return -COLLISION_PENALTY if collided else 0.0
 
 
-def guide_reward(progress_mm: float, step_mm: float) -> float:
-    """R_guide: ``GUIDE_WEIGHT`` per ``step_mm`` of progress along the route guide."""
-    return GUIDE_WEIGHT * progress_mm / step_mm
+def guide_reward(progress_mm: float, step_mm: float, weight: float = GUIDE_WEIGHT) -> float:
+    """R_guide: ``weight`` per ``step_mm`` of progress along the route guide."""
+    return weight * progress_mm / step_mm
 
 
 def in_view(tip_mm, heading, goal_mm) -> np.ndarray:

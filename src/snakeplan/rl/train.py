@@ -81,6 +81,7 @@ from snakeplan.rl.agents import (
 from snakeplan.rl.envs import TRAIN_SCENES, TRAIN_SEED, VALIDATION_SEED, SnakeEnv
 from snakeplan.rl.extractor import GoalRouteExtractor
 from snakeplan.rl.her import FastHerReplayBuffer
+from snakeplan.rl.rewards import GUIDE_WEIGHT
 from snakeplan.rl.per import ALPHA, BETA_START, PerSAC, PrioritizedDictReplayBuffer
 from snakeplan.rl.policy import from_sb3
 from snakeplan.robots import get_robot
@@ -127,6 +128,8 @@ class TrainConfig:
     knowledge: str = "full"
     #: The guide design's residual policy: the crawl adds the action to the pursuit of the guide.
     residual: bool = False
+    #: The guide design's reward per step length of progress along the guide (0: none).
+    guide_weight: float = GUIDE_WEIGHT
     eval_every: int = 5000
     eval_episodes: int = 20
     #: 0: :func:`snakeplan.checkpoints.checkpoint_interval` of the run's steps.
@@ -196,7 +199,8 @@ def make_env(scene: str, config: TrainConfig):
     seeds = (TRAIN_SEED, TRAIN_SEED + config.train_scenes)
     return lambda: SnakeEnv(scene, observation=config.observation, robot=robot_for(scene, config), seeds=seeds,
                             turn_radius_mm=config.turn_radius_mm, capture_steps=config.capture_steps,
-                            lookahead=config.lookahead, knowledge=config.knowledge, residual=config.residual)
+                            lookahead=config.lookahead, knowledge=config.knowledge, residual=config.residual,
+                            guide_weight=config.guide_weight)
 
 
 def route_graph(scene: str, config: TrainConfig) -> RoomGraph | None:
