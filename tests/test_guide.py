@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 import snakeplan.rl  # noqa: F401  (registers the environments)
 from snakeplan.geometry.distance import ObstacleSet
 from snakeplan.geometry.primitives import Plate
-from snakeplan.planners.sac import GUIDE_AHEAD_MM, Crawler, input_dim, policy_input
+from snakeplan.planners.sac import GUIDE_AHEAD_MM, GUIDE_MARGIN_MM, Crawler, input_dim, policy_input
 from snakeplan.rl.envs import SnakeEnv
 from snakeplan.robots import get_robot
 from snakeplan.scenes import Entrance, make_scene
@@ -57,7 +57,7 @@ def test_a_sensed_guide_ignores_undiscovered_clutter():
     crawler = Crawler(ROBOT, "guide")
     prior_guide = crawler.route_guide(scene, sensed)
     expect = route_guide(ObstacleSet([o for o, p in zip(scene.obstacles, scene.prior) if p]), scene.bounds_min,
-                         scene.bounds_max, scene.entrance, scene.targets, float(np.max(ROBOT.radii)) + 2.5)
+                         scene.bounds_max, scene.entrance, scene.targets, float(np.max(ROBOT.radii)) + GUIDE_MARGIN_MM)
     np.testing.assert_array_equal(prior_guide.points, expect.points)
 
 

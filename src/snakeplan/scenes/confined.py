@@ -9,7 +9,8 @@ baffle, a plate standing part-way up from the floor across the room, which makes
 cylinders) rests on the floors away from the openings and the entrance.
 
 The entrance is a 60 mm port in any of the six outer walls, side walls, floor or ceiling (the arm may be fed
-vertically), fed along the inward normal. One to three targets are drawn in order: each clear of everything by
+vertically), fed along the inward normal, with no baffle near the first stretch of the feed axis (the feed and a
+turn). One to three targets are drawn in order: each clear of everything by
 ``TARGET_CLEARANCE_MM``, outside the circles a tip leaving the entrance along the feed axis cannot reach when it
 turns no tighter than the arm allows, and onward from the one before (its geodesic distance from the entrance
 grows by at least ``MIN_TARGET_STEP_MM``, and the geodesic leg from the one before is at most ``MAX_DETOUR`` times
@@ -38,6 +39,7 @@ from snakeplan.scenes.fuel_tank import (
     outside_turning_region,
 )
 from snakeplan.scenes.reach import (
+    DEFAULT_FEED_MM,
     DEFAULT_INFLATE_MM,
     DEFAULT_REACH_FRACTION,
     SDF_HORIZON_MM,
@@ -245,6 +247,14 @@ def _entrance(rng: np.random.Generator, edges, shape) -> tuple[str, Entrance]:
     raise RuntimeError("confined: no room face is wide enough for the entrance port")
 
 
+def _feed_clear(entrance: Entrance, baffles: list[Obstacle], inflate_mm: float) -> bool:
+    """Whether the first ``DEFAULT_FEED_MM + TURN_RADIUS_MM`` of the feed axis keep ``inflate_mm`` from the baffles
+    (an arm fed in along it can turn no sooner)."""
+    s = np.linspace(0.0, DEFAULT_FEED_MM + TURN_RADIUS_MM, 32)
+    axis = entrance.position + s[:, None] * entrance.direction
+    return bool(np.min(ObstacleSet(baffles).signed_distance(axis)) >= inflate_mm)
+
+
 def _clutter(rng: np.random.Generator, edges, shape, baffles: list[Obstacle], keep: np.ndarray,
              keep_radius: np.ndarray, count: int) -> list[Obstacle]:
     """Floor-resting clutter in random rooms: clear of the room's walls and baffles by ``CLUTTER_GAP_MM``, and of
@@ -269,7 +279,8 @@ def _clutter(rng: np.random.Generator, edges, shape, baffles: list[Obstacle], ke
             if np.any(hi[:2] - lo[:2] <= 2 * margin):
                 continue
             xy = np.round(rng.uniform(lo[:2] + margin, hi[:2] - margin), DECIMALS)
-            centre = np.array([xy[0], xy[1], item.center[2] + WALL_THICKNESS_MM / 2])
+            floor_top = lo[2] + (WALL_THICKNESS_MM / 2 if lo[2] > 0.0 else 0.0)  # an inner floor's plate, or z = 0
+            centre = np.array([xy[0], xy[1], item.center[2] - lo[2] + floor_top])
             item = (Sphere(centre, r) if kind == 0 else Box(centre, dims) if kind == 1
                     else Cylinder(centre, [0.0, 0.0, 1.0], r, round(size, DECIMALS)))
             if walls is not None and float(walls.signed_distance(centre)) < reach + CLUTTER_GAP_MM:
@@ -310,6 +321,8 @@ def confined(seed: int, *, arm_length_mm: float = ARM_LENGTH_MM, reach_fraction:
         keep = np.array([entrance.position] + [o["center"] for o in holes]).reshape(-1, 3)
         keep_radius = np.array([ENTRANCE_KEEPOUT_MM] + [max(o["half_size_mm"]) + OPENING_KEEPOUT_MM for o in holes])
         baffle_plates = inner[len(inner) - len(baffles):]
+        if baffle_plates and not _feed_clear(entrance, baffle_plates, inflate_mm):
+            continue
         clutter = _clutter(rng, edges, shape, baffle_plates, keep, keep_radius,
                            int(rng.integers(CLUTTER_COUNT[0], CLUTTER_COUNT[1] + 1)))
         obstacles = fixed + clutter

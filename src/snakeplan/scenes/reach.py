@@ -252,20 +252,18 @@ def route_guide(obstacles: ObstacleSet, bounds_min, bounds_max, entrance: Entran
     view's obstacles) from ``entrance`` through ``targets`` in order."""
     grid = Grid.covering(bounds_min, bounds_max, cell_mm)
     sdf = free_space(obstacles, grid, inflate_mm + SDF_HORIZON_MM)
-    source, pieces, target_arc, total = entrance, [entrance.position[None]], [], 0.0
+    source, pieces, ends = entrance, [entrance.position[None]], []
     for k, target in enumerate(np.asarray(targets, dtype=float).reshape(-1, 3)):
         feed = DEFAULT_FEED_MM if k == 0 else 0.0
         leg = geodesic_from_sdf(grid, sdf, source, inflate_mm, feed, goal=target).path_to(target)
         if len(leg) < 2:
             leg = np.vstack([source.position, target])
-        leg = densify(leg, GUIDE_STEP_MM)
-        total += float(np.sum(np.linalg.norm(np.diff(leg, axis=0), axis=1)))
-        pieces.append(leg[1:])
-        target_arc.append(total)
+        pieces.append(densify(leg, GUIDE_STEP_MM)[1:])
+        ends.append(sum(len(p) for p in pieces) - 1)
         source = Entrance(target, entrance.direction)
     points = np.vstack(pieces)
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
-    return RouteGuide(points, arc, np.array(target_arc))
+    return RouteGuide(points, arc, arc[ends])
 
 
 # --- numba kernels --------------------------------------------------------------------------------------------
@@ -276,7 +274,7 @@ def _nearest_on_guide(points, arc, tip, s_from, s_to):
     """:meth:`RouteGuide.progress`: the arc length of the point nearest ``tip`` with arc in [s_from, s_to] (the
     first point at or after ``s_from`` at least)."""
     i = min(np.searchsorted(arc, s_from), arc.shape[0] - 1)
-    j = max(np.searchsorted(arc, s_to), i + 1)
+    j = max(np.searchsorted(arc, s_to, side="right"), i + 1)
     best, arg = np.inf, i
     for k in range(i, j):
         d = (points[k, 0] - tip[0]) ** 2 + (points[k, 1] - tip[1]) ** 2 + (points[k, 2] - tip[2]) ** 2
