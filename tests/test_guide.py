@@ -236,3 +236,21 @@ def test_the_generalist_plans_sensed_where_it_was_and_was_not_trained(family):
         assert plan.details["policy"].startswith("confined+fuel-tank+oil-tank")
         ok += plan.path is not None and evaluate(scene, ROBOT, plan.path).success
     assert ok >= GENERALIST_MIN_SUCCESS * len(seeds)
+
+
+def test_a_guide_policy_stops_at_its_deadline_while_routing():
+    """The route guide's free space is computed under the plan's deadline: a budget spent before it is done ends
+    the plan as a timeout without a path, instead of overrunning."""
+    import dataclasses
+
+    from snakeplan.planners import Problem, Status
+    from snakeplan.planners.sac import NumpyPolicy, SacPlanner
+
+    rng = np.random.default_rng(0)
+    width = input_dim("guide", 43)
+    policy = NumpyPolicy([(rng.normal(size=(8, width)) * 0.01, np.zeros(8))], (np.zeros((2, 8)), np.zeros(2)),
+                         {"observation": "guide", "hidden_layers": 1, "lookahead": True, "residual": True})
+    problem = dataclasses.replace(Problem(make_scene("fuel-tank", 0), ROBOT, time_limit_s=1e-9), knowledge="sensed",
+                                  world=None)
+    plan = SacPlanner(policy=policy)._solve(problem, np.random.default_rng(0), 0.0)
+    assert plan[0] == Status.TIMEOUT and plan[1] is None and plan[2]["outcome"] == "timeout"

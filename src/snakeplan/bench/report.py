@@ -101,15 +101,17 @@ def paper_outputs(rows: list[dict], folder: Path) -> tuple[list[str], list[Path]
     sections, figures = [], []
     table2 = [r for r in rows if r.get("config") == "table2"]
     if table2:
-        from snakeplan.bench.table2 import Table2Config, statistics_markdown, summarise as table2_summary
+        from snakeplan.bench.table2 import GENERALIST_ENTRY, Table2Config, statistics_markdown
         from snakeplan.bench.table2 import figure_7, summary_markdown
+        from snakeplan.bench.table2 import summarise as table2_summary
 
-        config = Table2Config(planners=tuple(dict.fromkeys(r["planner"] for r in table2)),
+        generalist = [r for r in table2 if (r["planner"], r.get("options", {})) == GENERALIST_ENTRY]
+        config = Table2Config(planners=tuple(dict.fromkeys(r["planner"] for r in table2 if not r.get("options"))),
                               scenes=tuple(dict.fromkeys(r["scene"] for r in table2)),
                               seeds=tuple(sorted({r["seed"] for r in table2})),
                               time_limit_s=table2[0]["time_limit_s"],
                               knowledge=("sensed", "full") if any(r.get("knowledge") == "sensed" for r in table2)
-                              else ("full",))
+                              else ("full",), generalist=bool(generalist))
         sections += ["## Paper 000, Table 2", "", summary_markdown(table2_summary(table2, config), config), "",
                      statistics_markdown(table2, config)]
         figures += figure_7(config, table2, folder)

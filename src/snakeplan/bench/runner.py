@@ -204,7 +204,7 @@ def chunks(runs: Sequence[Run], slots: int) -> list[list[Run]]:
     :data:`CHUNK_MAX`, about four tasks per worker."""
     groups: dict[tuple, list[Run]] = {}
     for r in runs:
-        groups.setdefault((r.scene, r.planner, r.options) if r.stateful else (r.key,), []).append(r)
+        groups.setdefault((r.scene, r.planner, r.options, r.knowledge) if r.stateful else (r.key,), []).append(r)
     units = list(groups.values())
     size = 1 if slots == 1 else max(1, min(CHUNK_MAX, math.ceil(len(runs) / (4 * slots))))
     out: list[list[Run]] = []
@@ -250,13 +250,13 @@ def run_chunk(task: list[Run], stamp: dict) -> list[dict]:
             continue
         robot = get_robot(run.robot)
         options = dict(run.options)
-        warm = (run.scene, run.scene_json, run.robot, run.planner, run.options)
+        warm = (run.scene, run.scene_json, run.robot, run.planner, run.options, run.knowledge)
         if warm not in _WARM:
             run_episode(Problem(_scene_of(run, WARMUP_SEED), robot, min(run.time_limit_s, WARMUP_TIME_LIMIT_S),
                                 knowledge=run.knowledge), get_planner(run.planner, **options), seed=WARMUP_SEED)
             _WARM.add(warm)
         if run.stateful:
-            planner = shared.setdefault((run.planner, run.options), get_planner(run.planner, **options))
+            planner = shared.setdefault((run.planner, run.options, run.knowledge), get_planner(run.planner, **options))
         else:
             planner = get_planner(run.planner, **options)
         problem = Problem(_scene_of(run), robot, run.time_limit_s, knowledge=run.knowledge)

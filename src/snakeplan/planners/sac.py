@@ -50,7 +50,7 @@ from snakeplan.planners.registry import register_planner
 from snakeplan.planners.weights import read_npz, read_weights_file
 from snakeplan.robots import Chain, get_robot
 from snakeplan.scenes import Scene, SceneSpec, scene_spec, spec_for
-from snakeplan.scenes.reach import RouteGuide, route_guide
+from snakeplan.scenes.reach import FieldDeadline, RouteGuide, route_guide
 from snakeplan.world import PLANNING, REACH_TOLERANCE_MM, ROLLOUT, FullView, KnowledgeView, ValidityChecker
 
 #: Tip advance per step (mm).
@@ -440,11 +440,19 @@ class Crawler:
         self.target_index = 0
         self.prev_action = np.zeros(action_dim(self.mode))
 
-    def route_guide(self, scene: Scene, world: KnowledgeView) -> RouteGuide:
-        """The route guide through what ``world`` knows now, kept ``GUIDE_MARGIN_MM`` beyond the arm's radius."""
+    def __setstate__(self, state: dict) -> None:
+        """Unpickled (a training checkpoint's environment), with the defaults of attributes added since."""
+        state.setdefault("residual", False)
+        state.setdefault("guide", None)
+        state.setdefault("guide_s", 0.0)
+        self.__dict__.update(state)
+
+    def route_guide(self, scene: Scene, world: KnowledgeView, deadline: float | None = None) -> RouteGuide:
+        """The route guide through what ``world`` knows now, kept ``GUIDE_MARGIN_MM`` beyond the arm's radius
+        (:class:`~snakeplan.scenes.reach.FieldDeadline` past ``deadline``)."""
         inflate = float(np.max(self.robot.radii)) + GUIDE_MARGIN_MM
         return route_guide(world.obstacle_set, scene.bounds_min, scene.bounds_max, scene.entrance, scene.targets,
-                           inflate)
+                           inflate, deadline=deadline)
 
     @property
     def tip(self) -> np.ndarray:
@@ -1018,13 +1026,17 @@ class SacPlanner(Planner):
         check_policy_fits(policy, problem.scene, problem.robot)
         model = ValidityChecker(problem.world, problem.robot, PLANNING)
         details = {"policy": policy.meta.get("name", str(self.policy or self.name))}
-        best, best_reach = None, -1.0
+        best, best_reach, path = None, -1.0, None
         guide, known = None, -1
         for attempt in range(self.attempts):
             noise = self.noise_levels[(attempt - 1) % RETRY_LEVELS] if attempt else 0.0
             if policy.mode == "guide" and len(problem.world.obstacle_set) != known:  # re-route on what was sensed
                 known = len(problem.world.obstacle_set)
-                guide = policy.crawler(problem.robot).route_guide(problem.scene, problem.world)
+                try:
+                    guide = policy.crawler(problem.robot).route_guide(problem.scene, problem.world, deadline)
+                except FieldDeadline:
+                    details.update(outcome="timeout", attempts=attempt)
+                    break
             path, outcome = rollout(policy, problem.scene, problem.robot, deadline, noise=noise, rng=rng,
                                     world=problem.world, guide=guide)
             details.update(outcome=outcome, attempts=attempt + 1, steps=len(path) - 1)
@@ -1041,7 +1053,7 @@ class SacPlanner(Planner):
                 best = path
         stopped = Status.TIMEOUT if details["outcome"] == "timeout" else Status.FAILED
         best = best if best is not None else path
-        if len(best) < 2:
+        if best is None or len(best) < 2:
             return stopped, None, details
         details["stopped"] = stopped
         return Status.APPROXIMATE, best, details

@@ -80,7 +80,7 @@ class SnakeEnv(gym.Env):
                  lookahead: bool = False, knowledge: str = "full", residual: bool = False,
                  guide_weight: float = GUIDE_WEIGHT):
         self.family = scene if isinstance(scene, str) else scene.name
-        self.families = tuple(self.family.split("+"))
+        self.families = families(self.family)
         self.fixed_scene = None if isinstance(scene, str) else scene
         self.knowledge = knowledge
         self.guide_weight = float(guide_weight)
@@ -98,29 +98,36 @@ class SnakeEnv(gym.Env):
             "desired_goal": goal_box,
         })
         self.scene = self.fixed_scene or self.scene_for(self.seed_range[0])
-        self._start()
+        self._start(self.fixed_scene is None)
         self.outcome = "running"
 
-    def scene_for(self, seed: int) -> Scene:
-        """The scene for ``seed`` of its family (generated once per process: see :func:`family_scene`)."""
-        return family_scene(self.families[seed % len(self.families)], int(seed))
+    def __setstate__(self, state: dict) -> None:
+        """Unpickled (a training checkpoint), with the defaults of attributes added since it was written."""
+        state.setdefault("families", families(state["family"]))
+        state.setdefault("knowledge", "full")
+        state.setdefault("guide_weight", GUIDE_WEIGHT)
+        state.pop("_cache", None)
+        self.__dict__.update(state)
 
-    def _start(self) -> None:
+    def scene_for(self, seed: int) -> Scene:
+        """The scene for ``seed`` of its family (generated once per process: see :func:`scene_of`)."""
+        return scene_of(self.family, seed)
+
+    def _start(self, generated: bool) -> None:
         """Put the crawler at the scene's entrance with a fresh view (and, for the guide design, the scene's
-        route guide: made once per process for a generated scene, see :func:`scene_guide`)."""
+        route guide: for a ``generated`` scene, one of the family's by seed, made once per process, see
+        :func:`scene_guide`)."""
         world: KnowledgeView = view_for(self.scene, self.knowledge)
         guide = None
-        if self.crawler.mode == "guide":
-            inflate = float(np.max(self.robot.radii)) + GUIDE_MARGIN_MM
-            generated = (self.scene.name in self.families and self.scene.seed is not None
-                         and self.scene is family_scene(self.scene.name, self.scene.seed))
-            guide = (scene_guide(self.scene.name, self.scene.seed, self.knowledge, inflate) if generated
-                     else self.crawler.route_guide(self.scene, world))
+        if self.crawler.mode == "guide" and generated:
+            guide = scene_guide(self.scene.name, self.scene.seed, self.knowledge,
+                                float(np.max(self.robot.radii)) + GUIDE_MARGIN_MM)
         self.crawler.reset(self.scene, world, guide)
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
         options = options or {}
+        generated = "scene" not in options and ("scene_seed" in options or self.fixed_scene is None)
         if "scene" in options:
             self.scene = options["scene"]
         elif "scene_seed" in options:
@@ -129,7 +136,7 @@ class SnakeEnv(gym.Env):
             self.scene = self.fixed_scene
         else:
             self.scene = self.scene_for(int(self.np_random.integers(*self.seed_range)))
-        self._start()
+        self._start(generated)
         self.outcome = "running"
         return self.crawler.observation(), {"scene_seed": self.scene.seed}
 
@@ -161,6 +168,17 @@ class SnakeEnv(gym.Env):
     def tip_path(self) -> np.ndarray:
         """The tip path so far ``(m, 3)`` mm, starting at the entrance."""
         return self.crawler.tip_path()
+
+
+def families(scene: str) -> tuple[str, ...]:
+    """The scene families a training run draws from: ``scene``, or several joined by ``+``."""
+    return tuple(scene.split("+"))
+
+
+def scene_of(scene: str, seed: int) -> Scene:
+    """The scene of ``seed`` in ``scene``'s families: the (seed mod n)-th family's (:func:`family_scene`)."""
+    names = families(scene)
+    return family_scene(names[seed % len(names)], int(seed))
 
 
 @lru_cache(maxsize=SCENE_CACHE)

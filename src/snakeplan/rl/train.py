@@ -78,7 +78,7 @@ from snakeplan.rl.agents import (
     EPSILON_START,
     EpsilonGreedySAC,
 )
-from snakeplan.rl.envs import TRAIN_SCENES, TRAIN_SEED, VALIDATION_SEED, SnakeEnv
+from snakeplan.rl.envs import TRAIN_SCENES, TRAIN_SEED, VALIDATION_SEED, SnakeEnv, families, scene_of
 from snakeplan.rl.extractor import GoalRouteExtractor
 from snakeplan.rl.her import FastHerReplayBuffer
 from snakeplan.rl.rewards import GUIDE_WEIGHT
@@ -153,18 +153,6 @@ class TrainResult:
     out_dir: Path
     policy: Path
     history: list[dict] = field(default_factory=list)
-
-
-def families(scene: str) -> tuple[str, ...]:
-    """The scene families a training run draws from: ``scene``, or several joined by ``+`` (seed s from the
-    (s mod n)-th)."""
-    return tuple(scene.split("+"))
-
-
-def scene_of(scene: str, seed: int):
-    """The scene of ``seed`` in a training run's families (see :func:`families`)."""
-    names = families(scene)
-    return make_scene(names[seed % len(names)], int(seed))
 
 
 def robot_for(scene: str, config: TrainConfig) -> str:
@@ -387,11 +375,18 @@ def _save_policy(policy: NumpyPolicy, path: Path) -> None:
 RESUMABLE_CHANGES = ("eval_every", "checkpoint_every", "torch_threads")
 
 
+#: Configuration fields added after checkpoints were first written: left out of a run's identity at their
+#: defaults, so that a state folder written before them still resumes.
+LATER_FIELDS = ("knowledge", "residual", "guide_weight")
+
+
 def run_identity(scene: str, algorithm: str, seed: int, config: TrainConfig) -> dict:
     """What a checkpoint must match to be resumed: scene, algorithm, seed and the configuration (except
-    :data:`RESUMABLE_CHANGES`); the number of steps may grow."""
+    :data:`RESUMABLE_CHANGES`, and :data:`LATER_FIELDS` at their defaults); the number of steps may grow."""
+    base = asdict(DEFAULT_CONFIG)
     return {"trainer": "snakeplan.rl.train", "scene": scene, "algorithm": algorithm, "seed": seed,
-            "config": {k: v for k, v in asdict(config).items() if k not in RESUMABLE_CHANGES}}
+            "config": {k: v for k, v in asdict(config).items() if k not in RESUMABLE_CHANGES
+                       and not (k in LATER_FIELDS and v == base[k])}}
 
 
 def train(scene: str, algorithm: str, steps: int, seed: int, out_dir: str | Path,
@@ -418,6 +413,14 @@ def train(scene: str, algorithm: str, steps: int, seed: int, out_dir: str | Path
                          f"--observation guide")
     if config.knowledge not in ("full", "sensed"):
         raise ValueError(f"--knowledge: must be full or sensed, got {config.knowledge!r}")
+    if config.knowledge == "sensed" and config.observation == "paper":
+        raise ValueError("--knowledge: the paper observation has no range sensor, so nothing would be sensed; "
+                         "use local or guide")
+    if config.observation != "guide" and (config.residual or config.guide_weight != DEFAULT_CONFIG.guide_weight):
+        raise ValueError(f"--residual, --guide-weight: only the guide observation follows a route guide, not "
+                         f"{config.observation}")
+    if not (math.isfinite(config.guide_weight) and config.guide_weight >= 0.0):
+        raise ValueError(f"--guide-weight: must be a finite number >= 0, got {config.guide_weight}")
     config = replace(config, robot=robot_for(scene, config))
     get_robot(config.robot)
     th.set_num_threads(config.torch_threads)

@@ -247,11 +247,13 @@ class RouteGuide:
 
 
 def route_guide(obstacles: ObstacleSet, bounds_min, bounds_max, entrance: Entrance, targets,
-                inflate_mm: float = DEFAULT_INFLATE_MM, cell_mm: float = GUIDE_CELL_MM) -> RouteGuide:
+                inflate_mm: float = DEFAULT_INFLATE_MM, cell_mm: float = GUIDE_CELL_MM,
+                deadline: float | None = None) -> RouteGuide:
     """The :class:`RouteGuide` through ``obstacles`` (a planner passes what it knows before the job: its knowledge
-    view's obstacles) from ``entrance`` through ``targets`` in order."""
+    view's obstacles) from ``entrance`` through ``targets`` in order; :class:`FieldDeadline` past ``deadline``
+    (a perf_counter value) while its free space is computed."""
     grid = Grid.covering(bounds_min, bounds_max, cell_mm)
-    sdf = free_space(obstacles, grid, inflate_mm + SDF_HORIZON_MM)
+    sdf = free_space(obstacles, grid, inflate_mm + SDF_HORIZON_MM, deadline)
     source, pieces, ends = entrance, [entrance.position[None]], []
     for k, target in enumerate(np.asarray(targets, dtype=float).reshape(-1, 3)):
         feed = DEFAULT_FEED_MM if k == 0 else 0.0
