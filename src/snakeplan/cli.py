@@ -877,8 +877,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--planner-seed", type=_seed, default=0, help="the planner's random seed (default 0)")
     p.add_argument("--policy", help="a trained policy file: .npz from 'snakeplan train rl' for sac-her, sac-per or "
                                     "sac ('generalist': the shipped generalist), or from 'snakeplan train sscc' for "
-                                    "sscc (default: the shipped one for the scene and robot; sac-her: the "
-                                    "generalist where the scene's family ships none)")
+                                    "sscc (default: the shipped one for the scene and robot; the learned planners: "
+                                    "the generalist where the scene's family ships none)")
     p.add_argument("--time-limit", type=_finite, default=30.0, help="planning budget in seconds (default 30)")
     p.add_argument("--knowledge", choices=("full", "sensed"), default="full",
                    help="what the planner may know: the whole scene, or what its sensor revealed")
@@ -979,7 +979,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="a planner option for every planner (value as JSON, else text); may be repeated")
     p.add_argument("--robot", help="robot preset for every scene (default: each scene's own)")
     p.add_argument("--time-limit", type=_finite, default=10.0, help="budget per plan in seconds (default 10)")
-    p.add_argument("--knowledge", choices=("full", "sensed"), default="full", help="what the planners may know")
+    p.add_argument("--knowledge", choices=("full", "sensed"), default="full",
+                   help="what the planners may know (sensed: a planner that needs the whole scene still has it)")
     p.add_argument("--name", default="run", help="configuration name recorded in every row (default run)")
     p.add_argument("--out", default="bench-run", help="results folder (default bench-run)")
     p.add_argument("--fresh", action="store_true", help="discard earlier runs instead of resuming")

@@ -11,7 +11,7 @@ Each figure is the median of several timed blocks, with a baseline timed in the 
   (``BATCH_SIZES``; updates and samples per second), against batch 128; training steps per second of the guide
   design with the default settings (one environment, batch 128, one update per step) against
   :data:`snakeplan.rl.train.FAST_CONFIG` (four environments, batch 512, one update per four steps: a quarter of
-  the update-to-data ratio at twice the samples per update); and, when SBX (JAX) is installed, the same update in
+  the update-to-data ratio at four times the samples per update, so as many samples per step); and, when SBX (JAX) is installed, the same update in
   SBX one call at a time and ``FUSED_UPDATES`` fused into one call, against torch.
 
 Torch runs on one thread, as training does. Episodes draw from ``BENCH_SCENES`` scenes generated before timing,
@@ -29,9 +29,16 @@ import torch as th
 from stable_baselines3.common.vec_env import DummyVecEnv
 
 from snakeplan.bench.kernels import median_seconds
+from snakeplan.planners.sac import input_dim, observation_dim
 from snakeplan.rl.envs import TRAIN_SEED, SnakeEnv
 from snakeplan.rl.policy import from_sb3
-from snakeplan.rl.train import DEFAULT_CONFIG, FAST_CONFIG, PAPER_CONFIG, build_model, make_env
+from snakeplan.rl.train import (
+    DEFAULT_CONFIG,
+    FAST_CONFIG,
+    PAPER_CONFIG,
+    build_model,
+    make_env,
+)
 
 #: Environment steps per timed block.
 ENV_BLOCK = 500
@@ -120,8 +127,7 @@ def _sbx_rates(repeats: int, seed: int) -> dict | None:
     import stable_baselines3 as sb3
     from gymnasium import spaces
 
-    width = SnakeEnv("fuel-tank", observation="guide", seeds=(TRAIN_SEED, TRAIN_SEED + 1)).observation_space[
-        "observation"].shape[0] + 4
+    width = input_dim("guide", observation_dim("guide"))
 
     class Flat(gym.Env):
         observation_space = spaces.Box(-1.0, 1.0, (width,), np.float32)

@@ -243,9 +243,7 @@ def _grid_sdf(W, origin, spacing, nx, ny, k0, k1, cap, out, stats):
                 for k in range(z0, z1 + 1):
                     p[2] = origin[2] + (k + 0.5) * spacing[2]
                     stats[0] += 1
-                    d = _sdf_row(rows[o], W, p, walk)
-                    if d < out[i, j, k - k0]:
-                        out[i, j, k - k0] = d
+                    out[i, j, k - k0] = min(out[i, j, k - k0], _sdf_row(rows[o], W, p, walk))
 
 
 @leaf

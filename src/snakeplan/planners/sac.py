@@ -13,6 +13,9 @@ This module holds everything a roll-out needs, so planning never imports the tra
   pursuit.
 - :class:`RoomGraph` and :func:`policy_input`: the goal, the next hole on the fewest-holes route and the waypoint
   after it, in the tip frame; the coarse structure (rooms, holes) is what an operator knows of a tank (§4.1).
+  The ``guide`` design replaces the rooms by a route guide through the obstacles known before the job
+  (:func:`snakeplan.scenes.reach.route_guide`), so it plans in any scene; a ``residual`` guide policy corrects the
+  pursuit of the guide (:meth:`Crawler.pursuit`).
 - :class:`NumpyPolicy`: the actor from a plain ``.npz`` weights file (no pickle, no torch), ~20 us a call; a file
   is checked before use (one ``policy: ...`` error names what is wrong) and :func:`check_policy_fits` says when
   it fits a problem (another robot: refused; another scene family: a warning).
@@ -356,6 +359,23 @@ def _guide_into(frame, tip, points, arc, s, end, out):
         out[8 + a] = frame[a, 0] * v[0] + frame[a, 1] * v[1] + frame[a, 2] * v[2]
 
 
+@njit(cache=True)
+def _goal_features(obs, ag, dg, out):
+    """:func:`policy_input` for ``guide`` observations, row by row: the observation, then the goal in the tip
+    frame."""
+    n_obs = obs.shape[1]
+    frame = np.empty((3, 3))
+    v = np.empty(3)
+    for i in range(obs.shape[0]):
+        for a in range(3):
+            for b in range(3):
+                frame[a, b] = obs[i, 3 + 3 * a + b]
+            v[a] = (dg[i, a] - ag[i, a]) * GOAL_SCALE_MM
+        for j in range(n_obs):
+            out[i, j] = obs[i, j]
+        _put_rel(frame, v, out[i], n_obs)
+
+
 _NO_GRAPH = (np.zeros((1, 3)), np.zeros((1, 3)), np.zeros((1, 3)), np.zeros((1, 3)), np.full((1, 1), -1, np.int64),
              np.zeros((1, 1), np.int64))
 
@@ -374,8 +394,11 @@ def policy_input(observation, achieved_goal, desired_goal, mode: str, graph: Roo
     if mode == "paper":
         return np.concatenate([obs, ag, dg], axis=-1)
     if mode == "guide":
-        frame = obs[..., 3:12].reshape(*obs.shape[:-1], 3, 3)
-        return np.concatenate([obs, _relative(frame, (dg - ag) * GOAL_SCALE_MM)], axis=-1)
+        lead = obs.shape[:-1]
+        o2, a2, d2 = (np.ascontiguousarray(x.reshape(-1, x.shape[-1])) for x in (obs, ag, dg))
+        out = np.empty((o2.shape[0], o2.shape[1] + 4))
+        _goal_features(o2, a2, d2, out)
+        return out.reshape(*lead, out.shape[1])
     lead = obs.shape[:-1]
     o2, a2, d2 = (np.ascontiguousarray(x.reshape(-1, x.shape[-1])) for x in (obs, ag, dg))
     out = np.empty((o2.shape[0], o2.shape[1] + 15))
@@ -383,14 +406,6 @@ def policy_input(observation, achieved_goal, desired_goal, mode: str, graph: Roo
                                                graph.after)
     _local_features(o2, a2, d2, *tables, graph is not None, out)
     return out.reshape(*lead, out.shape[1])
-
-
-def _relative(frame: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Vectors ``v (..., 3)`` (mm) in tip frames ``(..., 3, 3)``: unit direction and scaled, clipped length."""
-    local = np.einsum("...ij,...j->...i", frame, v)
-    dist = np.linalg.norm(local, axis=-1, keepdims=True)
-    return np.concatenate([local / np.maximum(dist, 1e-9), np.minimum(dist / FEATURE_SCALE_MM, FEATURE_CLIP)],
-                          axis=-1)
 
 
 def input_dim(mode: str, obs_dim: int) -> int:

@@ -1,7 +1,9 @@
 """The policy's input layer in torch for SB3: :func:`snakeplan.planners.sac.policy_input`, batched, no weights.
 
 Computing the goal and route features inside the network (from ``achieved_goal`` and ``desired_goal``) keeps
-them consistent when HER relabels the goal.
+them consistent when HER relabels the goal. The ``guide`` design's route features are the route guide's, which
+lead to the episode's own target and travel in the observation: a relabelled goal keeps them, so guide policies
+are trained without relabelling (``sac``; the generalist).
 """
 
 from __future__ import annotations

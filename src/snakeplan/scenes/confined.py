@@ -23,7 +23,6 @@ boxes of rectangular cuts), the baffles, then the clutter. The clutter is ``disc
 
 from __future__ import annotations
 
-
 import numpy as np
 
 from snakeplan.geometry.distance import ObstacleSet
