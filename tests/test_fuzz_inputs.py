@@ -154,7 +154,7 @@ def _leaves(d: dict) -> list[tuple[str, list, object, str]]:
         for k, v in o.items():
             if k == "hole" and v is not None:
                 walk(v, f"obstacles[{i}].hole", o, k, "hole")
-            elif k not in ("type", "hole"):
+            elif k not in ("type", "hole", "prior"):  # prior: a boolean (test_knowledge.py)
                 walk(v, f"obstacles[{i}].{k}", o, k, FIELD_ROLES[k])
     return out
 

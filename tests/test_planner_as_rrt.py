@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from functools import cache
 
@@ -102,7 +103,7 @@ def test_sensed_plans_without_seeing_far_obstacles():
 def test_sensed_obstacles_are_those_near_the_tree():
     # A box 2 m down the corridor is never within 400 mm of a tree that reaches a target 600 mm in.
     far = Box([2500, 0, 0], [100, 100, 100])
-    scene = corridor([[600, 100, 0]], [far])
+    scene = dataclasses.replace(corridor([[600, 100, 0]], [far]), discovered=(0,))  # debris, unknown before the job
     plan = AsRRT().plan(Problem(scene, ROBOT, BUDGET_S, knowledge="sensed"), 0)
     assert plan.status == "found" and evaluate(scene, ROBOT, plan.path).success
     assert plan.details["known_obstacles"] == 0

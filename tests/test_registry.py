@@ -79,7 +79,7 @@ def test_listing_names_imports_no_planner_or_generator_module():
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           env={**os.environ, "PYTHONPATH": str(SRC)})
     out = json.loads(proc.stdout)
-    assert len(out["names"]) == 7 + 8 + 3
+    assert len(out["names"]) == 7 + 9 + 3
     plugins = ["planners.rrt_star", "planners.sp_rrt", "planners.as_rrt", "planners.sac", "planners.sscc",
                "planners.coverage", "planners.informative", "planners.random_views", "scenes.fuel_tank",
                "scenes.oil_tank", "scenes.pipe", "scenes.station", "scenes.mesh_families"]

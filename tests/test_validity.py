@@ -209,7 +209,10 @@ def random_path(scene, robot, rng):
 #: Every scene family whose task is to reach targets through the entrance (the crawl's whole domain), but the mesh
 #: families: their pipes and ports are too confined for random paths to pass (their judged plans are tested in
 #: test_mesh.py) and each costs tens of seconds here.
-FAMILIES = [(name, scene) for name, scene in ((n, make_scene(n, 1)) for n in scene_names() if n not in MESH_FAMILIES)
+#: The seed of each family's scene: 1, but confined's seed 1 is one small room that random paths cannot stay in.
+FAMILY_SEED = {"confined": 0}
+FAMILIES = [(name, scene) for name, scene in ((n, make_scene(n, FAMILY_SEED.get(n, 1))) for n in scene_names()
+                                              if n not in MESH_FAMILIES)
             if len(scene.targets)]
 
 
