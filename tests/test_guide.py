@@ -200,10 +200,10 @@ def test_pursuit_alone_follows_the_guide_through_a_tank():
 
 # --- the shipped generalist ---------------------------------------------------------------------------------------
 #: Fixed test episodes (seeds training never uses) and the successes the generalist must reach on them, planning
-#: with sensed knowledge: one fewer than the shipped policy reached (9, 10, 7, 6, 6; `snakeplan bench run --scenes
+#: with sensed knowledge: one fewer than the shipped policy reached (10, 10, 8, 6, 6; `snakeplan bench run --scenes
 #: fuel-tank,oil-tank,confined,vessel,engine --planners sac --option policy=generalist --knowledge sensed`); the
 #: held-out families vessel and engine were never trained on.
-GENERALIST_EPISODES = {"fuel-tank": (range(10), 8), "oil-tank": (range(10), 9), "confined": (range(10), 6),
+GENERALIST_EPISODES = {"fuel-tank": (range(10), 9), "oil-tank": (range(10), 9), "confined": (range(10), 7),
                        "vessel": (range(6), 5), "engine": (range(6), 5)}
 
 
@@ -255,3 +255,27 @@ def test_a_guide_policy_stops_at_its_deadline_while_routing():
                                   world=None)
     plan = SacPlanner(policy=policy)._solve(problem, np.random.default_rng(0), 0.0)
     assert plan[0] == Status.TIMEOUT and plan[1] is None and plan[2]["outcome"] == "timeout"
+
+
+def test_a_guide_too_wide_for_an_opening_says_it_is_incomplete():
+    """The wall with a 120 mm hole: a guide inflated 100 mm passes it, one inflated 130 mm cannot and falls back
+    to a straight segment, flagged incomplete (a retry does not take such a guide)."""
+    wall = Plate([500.0, 300.0, 300.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0], (600.0, 600.0), 10.0,
+                 {"offset": [150.0, 0.0], "semi_axes": [120.0, 120.0]})
+    entrance = Entrance([0.0, 150.0, 300.0], [1.0, 0.0, 0.0])
+    target = np.array([[900.0, 150.0, 300.0]])
+    assert route_guide(ObstacleSet([wall]), LO, HI, entrance, target, inflate_mm=60.0).complete
+    assert not route_guide(ObstacleSet([wall]), LO, HI, entrance, target, inflate_mm=130.0).complete
+
+
+def test_a_guide_retry_after_a_failed_crawl_check_follows_a_wider_guide():
+    """Fuel-tank seed 9 (planner seed 9): the roll-outs along the 25 mm guide reach the target but fail the crawl
+    check; the retries widen the guide and the plan found keeps farther from the walls, and is judged feasible."""
+    from snakeplan.evaluation import evaluate
+    from snakeplan.planners import Problem
+    from snakeplan.planners.sac import SacPlanner
+
+    scene = make_scene("fuel-tank", 9)
+    plan = SacPlanner(policy="generalist").plan(Problem(scene, ROBOT, knowledge="sensed"), seed=9)
+    assert plan.details["guide_margin_mm"] > GUIDE_MARGIN_MM and plan.details["attempts"] > 1
+    assert evaluate(scene, ROBOT, plan.path).success

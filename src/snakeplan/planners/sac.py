@@ -95,6 +95,11 @@ GUIDE_DIM = 11
 #: centred in its openings leaves the body room to cut the corners a pursuit cuts (measured: the pursuit of 25 mm
 #: guides reached 16 of 20 confined seeds against 13 with 2.5 mm, the tanks alike or better).
 GUIDE_MARGIN_MM = 25.0
+#: A ``guide`` policy's retry after a roll-out that reached every target but failed the crawl check follows a
+#: guide kept this much farther from the known obstacles, up to ``GUIDE_MARGIN_MAX_MM`` (a guide that cannot pass
+#: an opening at the larger margin is not taken).
+GUIDE_MARGIN_STEP_MM = 15.0
+GUIDE_MARGIN_MAX_MM = 70.0
 #: Residual ``guide`` policies: the crawl applies the pursuit of the guide, this gain times the side and up
 #: components of the unit direction to the first guide point (clipped to the action box), plus the policy's
 #: action (clipped again); the policy learns the correction.
@@ -462,10 +467,11 @@ class Crawler:
         state.setdefault("guide_s", 0.0)
         self.__dict__.update(state)
 
-    def route_guide(self, scene: Scene, world: KnowledgeView, deadline: float | None = None) -> RouteGuide:
-        """The route guide through what ``world`` knows now, kept ``GUIDE_MARGIN_MM`` beyond the arm's radius
+    def route_guide(self, scene: Scene, world: KnowledgeView, deadline: float | None = None,
+                    margin_mm: float = GUIDE_MARGIN_MM) -> RouteGuide:
+        """The route guide through what ``world`` knows now, kept ``margin_mm`` beyond the arm's radius
         (:class:`~snakeplan.scenes.reach.FieldDeadline` past ``deadline``)."""
-        inflate = float(np.max(self.robot.radii)) + GUIDE_MARGIN_MM
+        inflate = float(np.max(self.robot.radii)) + margin_mm
         return route_guide(world.obstacle_set, scene.bounds_min, scene.bounds_max, scene.entrance, scene.targets,
                            inflate, deadline=deadline)
 
@@ -1042,16 +1048,20 @@ class SacPlanner(Planner):
         model = ValidityChecker(problem.world, problem.robot, PLANNING)
         details = {"policy": policy.meta.get("name", str(self.policy or self.name))}
         best, best_reach, path = None, -1.0, None
-        guide, known = None, -1
+        guide, known, margin, routed = None, -1, GUIDE_MARGIN_MM, GUIDE_MARGIN_MM
         for attempt in range(self.attempts):
             noise = self.noise_levels[(attempt - 1) % RETRY_LEVELS] if attempt else 0.0
-            if policy.mode == "guide" and len(problem.world.obstacle_set) != known:  # re-route on what was sensed
-                known = len(problem.world.obstacle_set)
+            if policy.mode == "guide" and (len(problem.world.obstacle_set) != known or margin != routed):
+                known = len(problem.world.obstacle_set)  # re-route on what was sensed, or farther from it
                 try:
-                    guide = policy.crawler(problem.robot).route_guide(problem.scene, problem.world, deadline)
+                    wider = policy.crawler(problem.robot).route_guide(problem.scene, problem.world, deadline, margin)
                 except FieldDeadline:
                     details.update(outcome="timeout", attempts=attempt)
                     break
+                if guide is None or wider.complete:
+                    guide, routed = wider, margin
+                else:
+                    margin = routed
             path, outcome = rollout(policy, problem.scene, problem.robot, deadline, noise=noise, rng=rng,
                                     world=problem.world, guide=guide)
             details.update(outcome=outcome, attempts=attempt + 1, steps=len(path) - 1)
@@ -1061,7 +1071,10 @@ class SacPlanner(Planner):
                 chosen, sigma, failure = self._smoothest(path, problem, model)
                 if chosen is not None:
                     details["smoothing_sigma_mm"] = sigma
+                    if policy.mode == "guide":
+                        details["guide_margin_mm"] = routed
                     return Status.FOUND, chosen, details
+                margin = min(margin + GUIDE_MARGIN_STEP_MM, GUIDE_MARGIN_MAX_MM)
                 if failure > best_reach:
                     best, best_reach = path, failure
             elif best is None:

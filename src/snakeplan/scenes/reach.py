@@ -230,11 +230,12 @@ class RouteGuide:
     """A coarse route from the entrance through every target in order (mm): ``points (n, 3)`` every
     ``GUIDE_STEP_MM`` or less along it, their arc lengths ``arc (n,)``, and each target's arc length
     ``target_arc (T,)``. Each leg is the taut geodesic through the free cells of the known obstacles, inflated by
-    the arm's radius; a leg the coarse grid cannot find is a straight segment."""
+    the arm's radius; a leg the coarse grid cannot find is a straight segment (``complete`` is then False)."""
 
     points: np.ndarray
     arc: np.ndarray
     target_arc: np.ndarray
+    complete: bool = True
 
     def at(self, s) -> np.ndarray:
         """Points (mm) at arc lengths ``s`` (clipped to the guide)."""
@@ -254,18 +255,18 @@ def route_guide(obstacles: ObstacleSet, bounds_min, bounds_max, entrance: Entran
     (a perf_counter value) while its free space is computed."""
     grid = Grid.covering(bounds_min, bounds_max, cell_mm)
     sdf = free_space(obstacles, grid, inflate_mm + SDF_HORIZON_MM, deadline)
-    source, pieces, ends = entrance, [entrance.position[None]], []
+    source, pieces, ends, complete = entrance, [entrance.position[None]], [], True
     for k, target in enumerate(np.asarray(targets, dtype=float).reshape(-1, 3)):
         feed = DEFAULT_FEED_MM if k == 0 else 0.0
         leg = geodesic_from_sdf(grid, sdf, source, inflate_mm, feed, goal=target).path_to(target)
         if len(leg) < 2:
-            leg = np.vstack([source.position, target])
+            leg, complete = np.vstack([source.position, target]), False
         pieces.append(densify(leg, GUIDE_STEP_MM)[1:])
         ends.append(sum(len(p) for p in pieces) - 1)
         source = Entrance(target, entrance.direction)
     points = np.vstack(pieces)
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
-    return RouteGuide(points, arc, arc[ends])
+    return RouteGuide(points, arc, arc[ends], complete)
 
 
 # --- numba kernels --------------------------------------------------------------------------------------------
