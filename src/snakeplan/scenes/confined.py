@@ -46,6 +46,7 @@ from snakeplan.scenes.reach import (
     check_range,
     free_space,
     geodesic_from_sdf,
+    tank_parameters,
 )
 from snakeplan.scenes.registry import register_scene
 from snakeplan.scenes.scene import Entrance, Scene
@@ -299,10 +300,8 @@ def confined(seed: int, *, arm_length_mm: float = ARM_LENGTH_MM, reach_fraction:
              min_targets: int = TARGET_COUNT[0], max_targets: int = TARGET_COUNT[1],
              target_clearance_mm: float = TARGET_CLEARANCE_MM) -> Scene:
     """A confined space for ``seed``: rooms, ducts, bays, openings, clutter, an entrance on any side, 1-3 targets."""
-    arm_length_mm = check_range("arm_length_mm", arm_length_mm, 1.0)
-    reach_fraction = check_range("reach_fraction", reach_fraction, 0.1, 1.0)
-    inflate_mm = check_range("inflate_mm", inflate_mm, 0.0, 100.0)
-    cell_mm = check_range("cell_mm", cell_mm, 5.0, 50.0)
+    arm_length_mm, reach_fraction, inflate_mm, cell_mm = tank_parameters(arm_length_mm, reach_fraction, inflate_mm,
+                                                                         cell_mm)
     min_targets = int(check_range("min_targets", min_targets, 1, 5, integer=True))
     max_targets = int(check_range("max_targets", max_targets, min_targets, 5, integer=True))
     target_clearance_mm = check_range("target_clearance_mm", target_clearance_mm, inflate_mm, 120.0)

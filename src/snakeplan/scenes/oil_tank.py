@@ -27,6 +27,7 @@ from snakeplan.scenes.reach import (
     SDF_HORIZON_MM,
     Grid,
     check_range,
+    tank_parameters,
     free_space,
     geodesic_from_sdf,
 )
@@ -108,10 +109,8 @@ def oil_tank(seed: int, *, arm_length_mm: float = ARM_LENGTH_MM, reach_fraction:
              inflate_mm: float = DEFAULT_INFLATE_MM, cell_mm: float = REACH_CELL_MM,
              n_targets: int = TARGET_COUNT, target_clearance_mm: float = TARGET_CLEARANCE_MM) -> Scene:
     """The oil tank for ``seed``: fixed cells and holes, random entrance face and targets."""
-    arm_length_mm = check_range("arm_length_mm", arm_length_mm, 1.0)
-    reach_fraction = check_range("reach_fraction", reach_fraction, 0.1, 1.0)
-    inflate_mm = check_range("inflate_mm", inflate_mm, 0.0, 100.0)
-    cell_mm = check_range("cell_mm", cell_mm, 5.0, 50.0)
+    arm_length_mm, reach_fraction, inflate_mm, cell_mm = tank_parameters(arm_length_mm, reach_fraction, inflate_mm,
+                                                                         cell_mm)
     n_targets = int(check_range("n_targets", n_targets, 1, CELLS[0] - 1, integer=True))
     target_clearance_mm = check_range("target_clearance_mm", target_clearance_mm, 0.0, 100.0)
     rng = np.random.default_rng(seed)

@@ -58,6 +58,13 @@ def check_range(name: str, value, low: float | None = None, high: float | None =
     return v
 
 
+def tank_parameters(arm_length_mm, reach_fraction, inflate_mm, cell_mm) -> tuple[float, float, float, float]:
+    """The reach parameters a room-scale generator takes (fuel-tank, oil-tank, confined), checked: arm length
+    (mm, >= 1), reach fraction (0.1-1), inflation (0-100 mm), reach grid cell (5-50 mm)."""
+    return (check_range("arm_length_mm", arm_length_mm, 1.0), check_range("reach_fraction", reach_fraction, 0.1, 1.0),
+            check_range("inflate_mm", inflate_mm, 0.0, 100.0), check_range("cell_mm", cell_mm, 5.0, 50.0))
+
+
 @dataclass(frozen=True, eq=False)
 class Grid:
     """A regular grid of ``shape`` cells tiling the box from ``origin`` with edge lengths ``spacing`` (mm)."""
