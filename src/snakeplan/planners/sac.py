@@ -1048,7 +1048,7 @@ class SacPlanner(Planner):
         model = ValidityChecker(problem.world, problem.robot, PLANNING)
         details = {"policy": policy.meta.get("name", str(self.policy or self.name))}
         best, best_reach, path = None, -1.0, None
-        guide, known, margin, routed = None, -1, GUIDE_MARGIN_MM, GUIDE_MARGIN_MM
+        guide, known, margin, routed, widest = None, -1, GUIDE_MARGIN_MM, GUIDE_MARGIN_MM, GUIDE_MARGIN_MAX_MM
         for attempt in range(self.attempts):
             noise = self.noise_levels[(attempt - 1) % RETRY_LEVELS] if attempt else 0.0
             if policy.mode == "guide" and (len(problem.world.obstacle_set) != known or margin != routed):
@@ -1060,8 +1060,8 @@ class SacPlanner(Planner):
                     break
                 if guide is None or wider.complete:
                     guide, routed = wider, margin
-                else:
-                    margin = routed
+                else:  # too wide for an opening: keep the last guide, and try no wider
+                    margin = widest = routed
             path, outcome = rollout(policy, problem.scene, problem.robot, deadline, noise=noise, rng=rng,
                                     world=problem.world, guide=guide)
             details.update(outcome=outcome, attempts=attempt + 1, steps=len(path) - 1)
@@ -1074,7 +1074,7 @@ class SacPlanner(Planner):
                     if policy.mode == "guide":
                         details["guide_margin_mm"] = routed
                     return Status.FOUND, chosen, details
-                margin = min(margin + GUIDE_MARGIN_STEP_MM, GUIDE_MARGIN_MAX_MM)
+                margin = min(margin + GUIDE_MARGIN_STEP_MM, widest)
                 if failure > best_reach:
                     best, best_reach = path, failure
             elif best is None:
