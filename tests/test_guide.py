@@ -279,3 +279,14 @@ def test_a_guide_retry_after_a_failed_crawl_check_follows_a_wider_guide():
     plan = SacPlanner(policy="generalist").plan(Problem(scene, ROBOT, knowledge="sensed"), seed=9)
     assert plan.details["guide_margin_mm"] > GUIDE_MARGIN_MM and plan.details["attempts"] > 1
     assert evaluate(scene, ROBOT, plan.path).success
+
+
+def test_an_environment_on_a_fixed_scene_makes_its_guide_once():
+    scene = make_scene("confined", 2)
+    env = SnakeEnv(scene, observation="guide", knowledge="sensed")
+    first = env.crawler.guide
+    env.reset(seed=1)
+    assert env.crawler.guide is first
+    other = make_scene("confined", 3)
+    env.reset(options={"scene": other})
+    assert env.crawler.guide is not first and env.crawler.guide.target_arc.shape == (len(other.targets),)

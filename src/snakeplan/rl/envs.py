@@ -84,6 +84,7 @@ class SnakeEnv(gym.Env):
         self.fixed_scene = None if isinstance(scene, str) else scene
         self.knowledge = knowledge
         self.guide_weight = float(guide_weight)
+        self._own_guide: tuple[Scene, RouteGuide] | None = None
         self.robot = get_robot(robot) if isinstance(robot, str) else robot
         self.crawler = Crawler(self.robot, observation, step_mm, turn_radius_mm, capture_steps=capture_steps,
                                lookahead=lookahead, residual=residual)
@@ -106,6 +107,7 @@ class SnakeEnv(gym.Env):
         state.setdefault("families", families(state["family"]))
         state.setdefault("knowledge", "full")
         state.setdefault("guide_weight", GUIDE_WEIGHT)
+        state.setdefault("_own_guide", None)
         state.pop("_cache", None)
         self.__dict__.update(state)
 
@@ -122,6 +124,10 @@ class SnakeEnv(gym.Env):
         if self.crawler.mode == "guide" and generated:
             guide = scene_guide(self.scene.name, self.scene.seed, self.knowledge,
                                 float(np.max(self.robot.radii)) + GUIDE_MARGIN_MM)
+        elif self.crawler.mode == "guide":  # a scene of the caller's: its guide made once while it is reused
+            if self._own_guide is None or self._own_guide[0] is not self.scene:
+                self._own_guide = (self.scene, self.crawler.route_guide(self.scene, world))
+            guide = self._own_guide[1]
         self.crawler.reset(self.scene, world, guide)
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
