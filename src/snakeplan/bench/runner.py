@@ -160,10 +160,10 @@ class Sweep:
 
 def _needs_full_scene(planner: str) -> bool:
     """Whether ``planner`` (a registered name) plans only with the whole scene."""
-    from snakeplan.planners import get_planner
     from snakeplan.planners.inspection import inspection_planner_names
+    from snakeplan.planners.registry import PLANNERS
 
-    return planner not in inspection_planner_names() and get_planner(planner).needs_full_scene
+    return planner not in inspection_planner_names() and PLANNERS.get(planner).needs_full_scene
 
 
 def _scene_source(scene: str) -> tuple[str, str]:

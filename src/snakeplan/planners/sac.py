@@ -419,6 +419,14 @@ def input_dim(mode: str, obs_dim: int) -> int:
 
 
 # --- the crawl ----------------------------------------------------------------------------------------------
+def guide_for(scene: Scene, world: KnowledgeView, radius_mm: float, deadline: float | None = None,
+              margin_mm: float = GUIDE_MARGIN_MM) -> RouteGuide:
+    """The route guide of ``scene`` through what ``world`` knows now, kept ``margin_mm`` beyond an arm of body
+    radius ``radius_mm`` (:class:`~snakeplan.scenes.reach.FieldDeadline` past ``deadline``)."""
+    return route_guide(world.obstacle_set, scene.bounds_min, scene.bounds_max, scene.entrance, scene.targets,
+                       radius_mm + margin_mm, deadline=deadline)
+
+
 def _length(v: np.ndarray) -> float:
     """Length of a 3-vector (mm): the crawl's per-step arithmetic, without ``np.linalg.norm``'s overhead."""
     return math.sqrt(float(v @ v))
@@ -471,9 +479,7 @@ class Crawler:
                     margin_mm: float = GUIDE_MARGIN_MM) -> RouteGuide:
         """The route guide through what ``world`` knows now, kept ``margin_mm`` beyond the arm's radius
         (:class:`~snakeplan.scenes.reach.FieldDeadline` past ``deadline``)."""
-        inflate = float(np.max(self.robot.radii)) + margin_mm
-        return route_guide(world.obstacle_set, scene.bounds_min, scene.bounds_max, scene.entrance, scene.targets,
-                           inflate, deadline=deadline)
+        return guide_for(scene, world, float(np.max(self.robot.radii)), deadline, margin_mm)
 
     @property
     def tip(self) -> np.ndarray:
@@ -1054,7 +1060,8 @@ class SacPlanner(Planner):
             if policy.mode == "guide" and (len(problem.world.obstacle_set) != known or margin != routed):
                 known = len(problem.world.obstacle_set)  # re-route on what was sensed, or farther from it
                 try:
-                    wider = policy.crawler(problem.robot).route_guide(problem.scene, problem.world, deadline, margin)
+                    wider = guide_for(problem.scene, problem.world, float(np.max(problem.robot.radii)), deadline,
+                                      margin)
                 except FieldDeadline:
                     details.update(outcome="timeout", attempts=attempt)
                     break

@@ -28,11 +28,11 @@ from gymnasium import spaces
 from snakeplan.planners.sac import (
     CAPTURE_STEPS,
     GOAL_SCALE_MM,
-    GUIDE_MARGIN_MM,
     STEP_MM,
     TURN_RADIUS_MM,
     Crawler,
     action_dim,
+    guide_for,
     observation_dim,
 )
 from snakeplan.rl.rewards import (
@@ -46,7 +46,7 @@ from snakeplan.rl.rewards import (
 )
 from snakeplan.robots import Chain, get_robot
 from snakeplan.scenes import Scene, make_scene
-from snakeplan.scenes.reach import RouteGuide, route_guide
+from snakeplan.scenes.reach import RouteGuide
 from snakeplan.world import KnowledgeView, view_for
 
 #: Truncation horizon H (steps), paper 000 §4.1.
@@ -122,8 +122,7 @@ class SnakeEnv(gym.Env):
         world: KnowledgeView = view_for(self.scene, self.knowledge)
         guide = None
         if self.crawler.mode == "guide" and generated:
-            guide = scene_guide(self.scene.name, self.scene.seed, self.knowledge,
-                                float(np.max(self.robot.radii)) + GUIDE_MARGIN_MM)
+            guide = scene_guide(self.scene.name, self.scene.seed, self.knowledge, float(np.max(self.robot.radii)))
         elif self.crawler.mode == "guide":  # a scene of the caller's: its guide made once while it is reused
             if self._own_guide is None or self._own_guide[0] is not self.scene:
                 self._own_guide = (self.scene, self.crawler.route_guide(self.scene, world))
@@ -195,13 +194,11 @@ def family_scene(family: str, seed: int) -> Scene:
 
 
 @lru_cache(maxsize=SCENE_CACHE)
-def scene_guide(family: str, seed: int, knowledge: str, inflate_mm: float) -> RouteGuide:
-    """The route guide of :func:`family_scene` through what a fresh ``knowledge`` view of it knows, kept
-    ``inflate_mm`` from it; made once per process."""
+def scene_guide(family: str, seed: int, knowledge: str, radius_mm: float) -> RouteGuide:
+    """The route guide of :func:`family_scene` through what a fresh ``knowledge`` view of it knows, for an arm of
+    body radius ``radius_mm`` (:func:`snakeplan.planners.sac.guide_for`); made once per process."""
     scene = family_scene(family, seed)
-    world = view_for(scene, knowledge)
-    return route_guide(world.obstacle_set, scene.bounds_min, scene.bounds_max, scene.entrance, scene.targets,
-                       inflate_mm)
+    return guide_for(scene, view_for(scene, knowledge), radius_mm)
 
 
 class FuelTankEnv(SnakeEnv):
