@@ -2,15 +2,21 @@
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from snakeplan.evaluation import evaluate
+from snakeplan.geometry.distance import ObstacleSet, workspace
 from snakeplan.geometry.primitives import Sphere
 from snakeplan.planners import Planner, Problem, get_planner, planner_names
 from snakeplan.robots import get_robot
 from snakeplan.scenes import Entrance, Scene, make_scene
 from snakeplan.world import FullView, SensedView, UnsensedObstacleError, guarded
+from snakeplan.world.knowledge import sensor_rays
 
 ROBOT = get_robot("sjtu-snake-iii")
+#: Boxes, plates with holes, cylinders and a sphere (fuel-tank seed 2).
+CLUTTERED = make_scene("fuel-tank", 2)
 
 
 def spheres_scene():
@@ -160,3 +166,37 @@ def test_reading_the_views_scene_is_caught_as_well():
     scene = make_scene("fuel-tank", 1)
     with pytest.raises(UnsensedObstacleError):
         _PeeksThroughTheView().plan(Problem(scene, ROBOT, knowledge="sensed"))
+
+
+# --- the compiled sensor ----------------------------------------------------------------------------------------
+@given(seed=st.integers(0, 2**31 - 1), reach=st.floats(50.0, 600.0))
+@settings(max_examples=30, deadline=None)
+def test_the_compiled_sensing_rule_is_each_obstacles_exact_distance(seed, reach):
+    scene = CLUTTERED
+    rng = np.random.default_rng(seed)
+    points = rng.uniform(scene.bounds_min, scene.bounds_max, (3, 3))
+    view = SensedView.of(scene, sensor_range_mm=reach, prior=False)
+    view.sense(points)
+    alone = [min(float(ObstacleSet([o]).signed_distance(p)) for p in points) for o in scene.obstacles]
+    assert list(view.known) == [d <= reach for d in alone]
+
+
+@given(seed=st.integers(0, 2**31 - 1))
+@settings(max_examples=20, deadline=None)
+def test_sensor_rays_see_what_the_known_obstacles_alone_show(seed):
+    """The sensor's rays cast on the whole packed scene, masked by what is known, read what the known obstacles
+    packed alone read after the same sensing."""
+    scene = CLUTTERED
+    rng = np.random.default_rng(seed)
+    origin = rng.uniform(scene.bounds_min, scene.bounds_max)
+    dirs = rng.standard_normal((13, 3))
+    unit = dirs / np.linalg.norm(dirs, axis=-1, keepdims=True)  # as ObstacleSet.raycast makes them
+    view = SensedView.of(scene, sensor_range_mm=300.0, prior=False)
+    sensor = view.sensor()
+    out = np.empty(13)
+    sensor_rays(sensor.packed, sensor.known, sensor.range_mm, origin, unit, 400.0, 0.5, out,
+                workspace(sensor.packed), sensor.stats)
+    assert sensor.known is view.known and len(view.obstacle_set) == int(view.known.sum())
+    expect = ObstacleSet([o for o, k in zip(scene.obstacles, view.known) if k]).raycast(np.tile(origin, (13, 1)),
+                                                                                       dirs, 300.0, 0.5)
+    np.testing.assert_array_equal(out, expect)

@@ -21,15 +21,19 @@ from snakeplan.planners.sac import (
     Crawler,
     NumpyPolicy,
     RoomGraph,
+    _actor_rows,
     input_dim,
+    load_policy,
     policy_input,
     policy_path,
+    rollout,
 )
 from snakeplan.rl import rewards
 from snakeplan.rl.envs import ENV_IDS, SnakeEnv
 from snakeplan.rl.per import PrioritizedDictReplayBuffer, SumTree
 from snakeplan.robots import get_robot
 from snakeplan.scenes import make_scene
+from snakeplan.world import view_for
 
 #: Few training scenes keep the tests fast (scene generation dominates).
 FEW_SEEDS = (1_000_000, 1_000_002)
@@ -353,3 +357,54 @@ def test_per_buffer_for_box_observations_trains():
     model.learn(80)
     batch = model.replay_buffer.sample(8)
     assert batch.weights.shape == (8, 1) and float(batch.weights.max()) == pytest.approx(1.0)
+
+
+# --- the compiled roll-out ------------------------------------------------------------------------------------
+def _stepwise(policy, scene, robot, world, noise=0.0, rng=None):
+    """The planning roll-out as a loop of :class:`Crawler` steps in Python (one noise draw per step taken)."""
+    crawler = policy.crawler(robot, check_body=False)
+    crawler.reset(scene, world)
+    for _ in range(math.ceil(robot.total_length / crawler.step_mm) + 1):
+        action = policy.act(crawler.observation())
+        if noise > 0.0:
+            action = action + noise * rng.standard_normal(action.shape)
+        failure, _ = crawler.advance(action)
+        if failure is not None:
+            return crawler.tip_path(), failure
+        if crawler.done:
+            return crawler.tip_path(), "reached"
+    return crawler.tip_path(), "steps"
+
+
+@pytest.mark.parametrize("family, planner, knowledge", [("fuel-tank", "sac-her", "full"),
+                                                        ("oil-tank", "sac-per", "sensed"),
+                                                        ("confined", "sac", "sensed")])
+def test_the_compiled_roll_out_is_the_crawlers_step_by_step(family, planner, knowledge):
+    """The compiled roll-out (local design with routes; the generalist's residual guide design) gives the path,
+    outcome, sensing and noise draws of the Crawler stepped in Python."""
+    robot = get_robot("sjtu-snake-iii")
+    policy = load_policy(policy_path(family, planner))
+    for seed in range(3):
+        scene = make_scene(family, seed)
+        for noise in (0.0, 0.5):
+            views = view_for(scene, knowledge), view_for(scene, knowledge)
+            rngs = np.random.default_rng(seed), np.random.default_rng(seed)
+            path, outcome = rollout(policy, scene, robot, noise=noise, rng=rngs[0], world=views[0])
+            expect, expected = _stepwise(policy, scene, robot, views[1], noise, rngs[1])
+            np.testing.assert_array_equal(path, expect)
+            assert outcome == expected
+            if knowledge == "sensed":
+                assert list(views[0].known) == list(views[1].known)
+            assert rngs[0].random() == rngs[1].random()
+
+
+def test_the_compiled_actor_is_the_layers_in_numpy():
+    policy = load_policy(policy_path("oil-tank", "sac-per"))
+    obs = np.random.default_rng(0).normal(size=(50, policy.shapes[0, 1]))
+    h = obs
+    for w, b in policy.layers:
+        h = np.maximum(h @ w.T + b, 0.0)
+    expect = np.tanh(h @ policy.mu[0].T + policy.mu[1])
+    ours = np.empty_like(expect)
+    _actor_rows(obs, policy.weights, policy.biases, policy.shapes, ours)
+    np.testing.assert_allclose(ours, expect, rtol=0, atol=1e-12)

@@ -15,6 +15,7 @@ from snakeplan.robots.chain import Section
 from snakeplan.scenes import Entrance, Scene, make_scene, scene_names
 from snakeplan.scenes.mesh_families import MESH_FAMILIES
 from snakeplan.world import JUDGE, PLANNING, ROLLOUT, FullView, Tolerances, ValidityChecker, targets_reached
+from snakeplan.world.validity import coarse_to_fine
 
 CRAWL_FAILURES = ("collision", "bend_limit", "insertion", "out_of_bounds")
 
@@ -237,3 +238,22 @@ def test_random_paths_are_accepted_often_enough_to_test_the_implication(name, sc
             accepted += 1
             judged_ok += evaluate(scene, robot, path).reason not in CRAWL_FAILURES
     assert accepted >= 3 and judged_ok == accepted
+
+
+# --- the coarse-to-fine feasibility test ---------------------------------------------------------------------
+@given(n=st.integers(0, 600))
+def test_coarse_to_fine_orders_every_index_once_coarsest_first(n):
+    order = coarse_to_fine(n)
+    assert sorted(order.tolist()) == list(range(n))
+    if n > 2:
+        assert order[0] == 0 and order[1] == 2 ** int(math.log2(n - 1))  # the largest power of two below n
+
+
+@pytest.mark.parametrize("name, scene", FAMILIES[:4], ids=[n for n, _ in FAMILIES[:4]])
+@given(seed=st.integers(0, 2**31 - 1))
+@settings(max_examples=25, deadline=None)
+def test_feasible_is_first_failure_none(name, scene, seed):
+    robot = get_robot(scene.metadata["robot"])
+    path = random_path(scene, robot, np.random.default_rng(seed))
+    model = checker(scene, robot, PLANNING)
+    assert model.feasible(path) == (model.first_failure(path) is None)

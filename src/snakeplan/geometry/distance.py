@@ -152,6 +152,12 @@ def _sdf_row(row, W, p, walk):
     return min(max(d2, dn), 0.0) + math.sqrt(ox * ox + on * on)
 
 
+@leaf
+def obstacle_distance(W, k, p, walk):
+    """Signed distance (mm) from p to obstacle ``k`` of the packed set W alone."""
+    return _sdf_row(W[0][k], W, p, walk)
+
+
 @njit(cache=True)
 def workspace(W):
     """Scratch arrays of the kernels for the packed set W: (candidates, interval stack, tree stacks, a point).
@@ -534,65 +540,71 @@ def _segments_clear(W, a, b, radius, stats):
 
 @njit(cache=True)
 def _raycast(W, origins, dirs, max_dist, eps, stats):
-    """First surface along each ray, against only the obstacles whose bounding box (grown by ``eps``) its segment
+    """First surface along each ray (:func:`ray_into` with every obstacle seen), as an array."""
+    out = np.empty(origins.shape[0])
+    seen = np.ones(W[0].shape[0], dtype=np.bool_)
+    work = workspace(W)
+    for i in range(origins.shape[0]):
+        out[i] = ray_into(W, seen, origins[i], dirs[i], max_dist, eps, work, stats)
+    return out
+
+
+@leaf
+def ray_into(W, seen, o, d, max_dist, eps, work, stats):
+    """Distance (mm) along unit ``d`` from ``o`` to the first surface of an obstacle flagged in ``seen`` (inf when
+    none within ``max_dist``), against only the obstacles whose bounding box (grown by ``eps``) its segment
     [0, max_dist] meets, found by walking the obstacle tree: an obstacle the segment misses can neither stop the
     ray nor be entered by it, so the search grows with the obstacles along the ray, not with the scene. A closed
     mesh is hit exactly (the first triangle along the ray, through the mesh's tree; 0 when the ray starts
     inside); primitives and shells are sphere traced (stopped within ``eps`` of the surface) up to that hit."""
     rows, boxes, nodes, links, order = W[0], W[1], W[7], W[8], W[9]
     ranges = W[3]
-    out = np.full(origins.shape[0], np.inf)
     if rows.shape[0] == 0:
-        return out
-    cand, _, walk, point = workspace(W)
+        return np.inf
+    cand, _, walk, point = work
     st = walk[0]
-    for i in range(origins.shape[0]):
-        o = origins[i]
-        d = dirs[i]
-        n = 0
-        meshes = np.inf  # the nearest closed mesh's hit
-        st[0] = 0
-        top = 1
-        while top > 0:
-            top -= 1
-            node = st[top]
-            if bvh.ray_box(nodes[node], o, d, max_dist, eps) > max_dist:
+    n = 0
+    meshes = np.inf  # the nearest closed mesh's hit
+    st[0] = 0
+    top = 1
+    while top > 0:
+        top -= 1
+        node = st[top]
+        if bvh.ray_box(nodes[node], o, d, max_dist, eps) > max_dist:
+            continue
+        first = links[node, 0]
+        second = links[node, 1]
+        if second >= 0:
+            st[top] = first
+            st[top + 1] = second
+            top += 2
+            continue
+        for j in range(first, first - second):
+            k = order[j]
+            if not seen[k] or bvh.ray_box(boxes[k], o, d, max_dist, eps) > max_dist:
                 continue
-            first = links[node, 0]
-            second = links[node, 1]
-            if second >= 0:
-                st[top] = first
-                st[top + 1] = second
-                top += 2
+            if int(rows[k, 0]) == KIND_MESH and rows[k, _P + 2] == 0.0:
+                stats[0] += 1
+                m = int(rows[k, _P + 1])
+                root = ranges[m, 2]
+                if mesh_inside(W[2], W[4], W[5], W[6], root, o, walk[1]):
+                    meshes = 0.0
+                else:
+                    meshes = min(meshes, mesh_ray(W[2], W[5], W[6], root, o, d, min(meshes, max_dist),
+                                                  walk[1])[0])
                 continue
-            for j in range(first, first - second):
-                k = order[j]
-                if bvh.ray_box(boxes[k], o, d, max_dist, eps) > max_dist:
-                    continue
-                if int(rows[k, 0]) == KIND_MESH and rows[k, _P + 2] == 0.0:
-                    stats[0] += 1
-                    m = int(rows[k, _P + 1])
-                    root = ranges[m, 2]
-                    if mesh_inside(W[2], W[4], W[5], W[6], root, o, walk[1]):
-                        meshes = 0.0
-                    else:
-                        meshes = min(meshes, mesh_ray(W[2], W[5], W[6], root, o, d, min(meshes, max_dist),
-                                                      walk[1])[0])
-                    continue
-                cand[n] = k
-                n += 1
-        out[i] = meshes
-        limit = min(meshes, max_dist)
-        t = 0.0
-        while n > 0 and t <= limit:
-            for c in range(3):
-                point[c] = o[c] + t * d[c]
-            step = _min_over(W, cand, n, point, walk, stats)
-            if step < eps:
-                out[i] = min(t, meshes)
-                break
-            t += step
-    return out
+            cand[n] = k
+            n += 1
+    limit = min(meshes, max_dist)
+    t = 0.0
+    while n > 0 and t <= limit:
+        for c in range(3):
+            point[c] = o[c] + t * d[c]
+        step = _min_over(W, cand, n, point, walk, stats)
+        if step < eps:
+            return min(t, meshes)
+        t += step
+    return meshes
 
 
 def _kernel_array(x) -> np.ndarray:

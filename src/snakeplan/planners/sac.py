@@ -48,13 +48,15 @@ from snakeplan import inputs
 from snakeplan.evaluation.metrics import path_smoothness
 from snakeplan.files import atomic_path
 from snakeplan.geometry import polyline
+from snakeplan.geometry.distance import workspace
 from snakeplan.planners.base import Planner, Problem, Status
 from snakeplan.planners.registry import register_planner
 from snakeplan.planners.weights import read_npz, read_weights_file
 from snakeplan.robots import Chain, get_robot
 from snakeplan.scenes import Scene, SceneSpec, scene_spec, spec_for
-from snakeplan.scenes.reach import FieldDeadline, RouteGuide, route_guide
+from snakeplan.scenes.reach import FieldDeadline, RouteGuide, nearest_on_guide, route_guide
 from snakeplan.world import PLANNING, REACH_TOLERANCE_MM, ROLLOUT, FullView, KnowledgeView, ValidityChecker
+from snakeplan.world.knowledge import sensor_rays
 
 #: Tip advance per step (mm).
 STEP_MM = 35.0
@@ -381,6 +383,8 @@ def _goal_features(obs, ag, dg, out):
         _put_rel(frame, v, out[i], n_obs)
 
 
+_NO_GUIDE = (np.zeros((1, 3)), np.zeros(1), np.zeros(1))
+_NO_RANGES = np.zeros(0)
 _NO_GRAPH = (np.zeros((1, 3)), np.zeros((1, 3)), np.zeros((1, 3)), np.zeros((1, 3)), np.full((1, 1), -1, np.int64),
              np.zeros((1, 1), np.int64))
 
@@ -418,6 +422,265 @@ def input_dim(mode: str, obs_dim: int) -> int:
     return obs_dim + {"paper": 6, "local": 15, "guide": 4}[mode]
 
 
+# --- the compiled crawl step ----------------------------------------------------------------------------------
+#: Observation design codes of the compiled crawl (indices into OBSERVATIONS).
+_PAPER, _GUIDE = OBSERVATIONS.index("paper"), OBSERVATIONS.index("guide")
+#: Roll-out outcomes of :func:`_roll`, by code.
+OUTCOMES = ("reached", "out_of_bounds", "insertion", "steps")
+
+
+@njit(cache=True)
+def _unit_into(v, out):
+    """``v / |v|`` into ``out`` (3,)."""
+    n = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+    for a in range(3):
+        out[a] = v[a] / n
+
+
+@njit(cache=True)
+def _observe(mode, lookahead, tip, frame, ranges, prev, fraction, tank_scale, targets, target, points, arc, s, end,
+             out):
+    """The ``observation`` vector of a crawl state into ``out`` (see :meth:`Crawler.observation`), rounded to float32
+    as the observation dict holds it."""
+    if mode == _PAPER:
+        for a in range(3):
+            out[a] = tip[a] / tank_scale
+    else:
+        at = 0
+        for a in range(3):
+            out[at + a] = tip[a] / tank_scale
+        at += 3
+        for a in range(3):
+            for b in range(3):
+                out[at + 3 * a + b] = frame[a, b]
+        at += 9
+        for k in range(ranges.shape[0]):
+            out[at + k] = min(ranges[k], RAY_RANGE_MM) / RAY_RANGE_MM
+        at += ranges.shape[0]
+        for k in range(prev.shape[0]):
+            out[at + k] = prev[k]
+        at += prev.shape[0]
+        out[at] = fraction
+        at += 1
+        if lookahead:
+            if target + 1 < targets.shape[0]:
+                v = np.empty(3)
+                for a in range(3):
+                    v[a] = targets[target + 1, a] - tip[a]
+                _put_rel(frame, v, out, at)
+            else:
+                for k in range(LOOKAHEAD_DIM):
+                    out[at + k] = 0.0
+            at += LOOKAHEAD_DIM
+        if mode == _GUIDE:
+            _guide_into(frame, tip, points, arc, s, end, out[at:at + GUIDE_DIM])
+    for k in range(out.shape[0]):
+        out[k] = np.float32(out[k])
+
+
+@njit(cache=True)
+def _actor_input(mode, obs, tip, goal, has_graph, lo, hi, centre, normal, next_portal, after, out):
+    """:func:`policy_input` of one crawl state (its float32 observation, achieved and desired goals) into ``out``."""
+    ag, dg = np.empty((1, 3)), np.empty((1, 3))
+    for a in range(3):
+        ag[0, a] = np.float32(tip[a] / GOAL_SCALE_MM)
+        dg[0, a] = np.float32(goal[a] / GOAL_SCALE_MM)
+    n = obs.shape[0]
+    if mode == _PAPER:
+        out[:n] = obs
+        out[n:n + 3] = ag[0]
+        out[n + 3:n + 6] = dg[0]
+    elif mode == _GUIDE:
+        _goal_features(obs.reshape((1, n)), ag, dg, out.reshape((1, out.shape[0])))
+    else:
+        _local_features(obs.reshape((1, n)), ag, dg, lo, hi, centre, normal, next_portal, after, has_graph,
+                        out.reshape((1, out.shape[0])))
+
+
+@njit(cache=True)
+def _actor(x, weights, biases, shapes, scratch, out):
+    """The deterministic actor on one input ``x``: ReLU layers then tanh of the mean head, into ``out``.
+    Layer i's matrix is ``weights[i]`` transposed (``shapes[i]`` = its rows and columns; zero padded), its bias
+    ``biases[i]``; ``scratch (3, widest)``. Each output sums its terms in column order, in loops over rows that
+    the compiler vectorises."""
+    scratch[2, :x.shape[0]] = x
+    src = 2
+    layers = shapes.shape[0]
+    for i in range(layers):
+        rows, cols = shapes[i, 0], shapes[i, 1]
+        dst = i % 2
+        acc = scratch[dst]
+        acc[:rows] = 0.0
+        for c in range(cols):
+            v = scratch[src, c]
+            column = weights[i, c]
+            for r in range(rows):
+                acc[r] += column[r] * v
+        bias = biases[i]
+        for r in range(rows):
+            if i < layers - 1:
+                acc[r] = max(acc[r] + bias[r], 0.0)
+            else:
+                out[r] = math.tanh(acc[r] + bias[r])
+        src = dst
+
+
+@njit(cache=True)
+def _pursuit_into(frame, tip, points, arc, s, end, out):
+    """The pursuit of the guide as an action (see :meth:`Crawler.pursuit`) into ``out[:2]`` (``out``: the
+    guide's features as scratch, ``GUIDE_DIM`` long)."""
+    _guide_into(frame, tip, points, arc, s, end, out)
+    side, up = out[1], out[2]
+    out[0] = min(max(PURSUIT_GAIN * side, -1.0), 1.0)
+    out[1] = min(max(PURSUIT_GAIN * up, -1.0), 1.0)
+
+
+@njit(cache=True)
+def _actor_rows(x, weights, biases, shapes, out):
+    """:func:`_actor` on each row of ``x`` into the rows of ``out``."""
+    scratch = np.empty((3, max(weights.shape[2], x.shape[1])))
+    for i in range(x.shape[0]):
+        _actor(x[i], weights, biases, shapes, scratch, out[i])
+
+
+@njit(cache=True)
+def _steer(mode, residual, step_mm, max_turn, capture_mm, tip, heading, frame, goal, action, points, arc, s, end,
+           feats, new, turned, applied):
+    """The geometry of one crawl step (see :meth:`Crawler.advance`): the applied action into ``applied``, the new
+    tip into ``new`` and its heading into ``turned``."""
+    for k in range(applied.shape[0]):
+        applied[k] = min(max(action[k], -1.0), 1.0)
+    if residual:
+        _pursuit_into(frame, tip, points, arc, s, end, feats)
+        for k in range(2):
+            applied[k] = min(max(feats[k] + applied[k], -1.0), 1.0)
+    to = np.empty(3)
+    for a in range(3):
+        to[a] = goal[a] - tip[a]
+    dist = math.sqrt(to[0] * to[0] + to[1] * to[1] + to[2] * to[2])
+    along = to[0] * heading[0] + to[1] * heading[1] + to[2] * heading[2]
+    bound = math.pi / 2 if mode == _PAPER else max_turn
+    if SNAP_FACTOR * step_mm >= dist >= 1e-9 and along / dist >= math.cos(bound):  # the step ends on the goal
+        for a in range(3):
+            new[a] = goal[a]
+            turned[a] = to[a] / dist
+        return
+    steered = False
+    if capture_mm > 0.0 and capture_mm >= dist >= 1e-9 and along / max(dist, 1e-9) > 0.0:  # pure pursuit
+        side = np.empty(3)
+        for a in range(3):
+            side[a] = to[a] - along * heading[a]
+        sl = math.sqrt(side[0] * side[0] + side[1] * side[1] + side[2] * side[2])
+        if sl / dist < 1e-9:
+            turned[:] = heading
+            steered = True
+        else:
+            turn = 2.0 * math.asin(min(1.0, step_mm * (sl / dist) / dist))
+            if turn <= max_turn:
+                for a in range(3):
+                    side[a] = math.cos(turn) * heading[a] + math.sin(turn) * side[a] / sl
+                _unit_into(side, turned)
+                steered = True
+    if not steered:
+        if mode == _PAPER:
+            n = math.sqrt(applied[0] ** 2 + applied[1] ** 2 + applied[2] ** 2)
+            for a in range(3):
+                turned[a] = applied[a] / n if n > 1e-6 else heading[a]
+        else:
+            v = np.empty(3)
+            for a in range(3):
+                v[a] = applied[0] * frame[1, a] + applied[1] * frame[2, a]
+            n = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+            if n < 1e-9:
+                turned[:] = heading
+            else:
+                angle = min(n, 1.0) * max_turn
+                for a in range(3):
+                    v[a] = math.cos(angle) * heading[a] + math.sin(angle) * v[a] / n
+                _unit_into(v, turned)
+    for a in range(3):
+        new[a] = tip[a] + step_mm * turned[a]
+
+
+@njit(cache=True)
+def _guide_end(target_arc, target):
+    """Arc length (mm) of the current target on the guide."""
+    return target_arc[min(target, target_arc.shape[0] - 1)]
+
+
+@njit(cache=True)
+def _follow(points, arc, target_arc, target, s, step_mm, tip):
+    """The tip's new place on the guide (see :meth:`Crawler.advance`): past every reached target, then the guide
+    point nearest the tip from the last place to ``GUIDE_AHEAD_STEPS`` steps ahead (never past the target)."""
+    if target > 0:
+        s = max(s, target_arc[min(target, target_arc.shape[0]) - 1])
+    ahead = min(s + GUIDE_AHEAD_STEPS * step_mm, _guide_end(target_arc, target))
+    return nearest_on_guide(points, arc, tip, s, ahead)
+
+
+@njit(cache=True)
+def _roll(mode, lookahead, residual, step_mm, max_turn, capture_mm, tank_scale, total_length, lo, hi, targets,
+          direction, rays, points, arc, target_arc, has_graph, glo, ghi, gcentre, gnormal, gnext, gafter, weights,
+          biases, shapes, W, known, sense_range, stats, noise, path):
+    """A whole planning roll-out, compiled: the crawl of :class:`Crawler` (``check_body`` off) driven by the actor
+    (:func:`_actor`, plus ``noise[step]``) from ``path[0]`` heading ``direction``, sensing through the view's
+    :class:`~snakeplan.world.knowledge.Sensor` (``W, known, sense_range, stats``; ``known`` is updated).
+    Returns (points written to ``path``, outcome code into :data:`OUTCOMES`); at most ``len(noise)`` steps."""
+    adim = noise.shape[1]
+    n_rays, n_targets = rays.shape[0], targets.shape[0]
+    heading, frame = direction.copy(), np.empty((3, 3))
+    _frame_into(heading, frame)
+    dirs, ranges = np.empty((n_rays, 3)), np.empty(n_rays)
+    if mode == _PAPER:
+        n_obs = 3
+    else:
+        n_obs = 15 + n_rays + (LOOKAHEAD_DIM if lookahead else 0) + (GUIDE_DIM if mode == _GUIDE else 0)
+    obs = np.empty(n_obs)
+    x = np.empty(n_obs + (6 if mode == _PAPER else (4 if mode == _GUIDE else 15)))
+    act, applied, prev = np.empty(adim), np.empty(adim), np.zeros(adim)
+    feats, new, turned = np.empty(GUIDE_DIM), np.empty(3), np.empty(3)
+    scratch = np.empty((3, max(weights.shape[2], x.shape[0])))
+    work = workspace(W)
+    depth, target, s, count = 0.0, 0, 0.0, 1
+    for step in range(noise.shape[0]):
+        tip = path[count - 1]
+        goal = targets[min(target, n_targets - 1)]
+        end = _guide_end(target_arc, target)
+        if mode != _PAPER:
+            for k in range(n_rays):
+                for b in range(3):
+                    dirs[k, b] = rays[k, 0] * frame[0, b] + rays[k, 1] * frame[1, b] + rays[k, 2] * frame[2, b]
+                _unit_into(dirs[k], dirs[k])
+            sensor_rays(W, known, sense_range, tip, dirs, RAY_RANGE_MM, RAY_EPS_MM, ranges, work, stats)
+        _observe(mode, lookahead, tip, frame, ranges, prev, depth / total_length, tank_scale, targets, target, points,
+                 arc, s, end, obs)
+        _actor_input(mode, obs, tip, goal, has_graph, glo, ghi, gcentre, gnormal, gnext, gafter, x)
+        _actor(x, weights, biases, shapes, scratch, act)
+        for k in range(adim):
+            act[k] += noise[step, k]
+        _steer(mode, residual, step_mm, max_turn, capture_mm, tip, heading, frame, goal, act, points, arc, s, end,
+               feats, new, turned, applied)
+        depth += math.sqrt((new[0] - tip[0]) ** 2 + (new[1] - tip[1]) ** 2 + (new[2] - tip[2]) ** 2)
+        path[count] = new
+        count += 1
+        heading[:] = turned
+        _frame_into(heading, frame)
+        prev[:] = applied
+        for a in range(3):
+            if not lo[a] <= new[a] <= hi[a]:
+                return count, 1
+        if depth > total_length:
+            return count, 2
+        if math.sqrt((new[0] - goal[0]) ** 2 + (new[1] - goal[1]) ** 2 + (new[2] - goal[2]) ** 2) \
+                <= REACH_TOLERANCE_MM:
+            target += 1
+        if mode == _GUIDE:
+            s = _follow(points, arc, target_arc, target, s, step_mm, new)
+        if target >= n_targets:
+            return count, 0
+    return count, 3
+
+
 # --- the crawl ----------------------------------------------------------------------------------------------
 def guide_for(scene: Scene, world: KnowledgeView, radius_mm: float, deadline: float | None = None,
               margin_mm: float = GUIDE_MARGIN_MM) -> RouteGuide:
@@ -449,6 +712,7 @@ class Crawler:
         self.lookahead = lookahead and mode != "paper"
         self.residual = residual and mode == "guide"
         self.rays = ray_directions()
+        self.code = OBSERVATIONS.index(mode)
 
     def reset(self, scene: Scene, world: KnowledgeView | None = None, guide: RouteGuide | None = None) -> None:
         """Start at the entrance of ``scene``, heading along the feed direction, sensing through ``world`` (default:
@@ -458,6 +722,10 @@ class Crawler:
         self.world = FullView(scene) if world is None else world
         self.checker = ValidityChecker(self.world, self.robot, ROLLOUT)
         self.guide = (guide or self.route_guide(scene, self.world)) if self.mode == "guide" else None
+        self.targets = np.array(scene.targets, dtype=float).reshape(-1, 3)
+        self.guide_arrays = _NO_GUIDE if self.guide is None else (
+            np.array(self.guide.points, dtype=float), np.array(self.guide.arc, dtype=float),
+            np.array(self.guide.target_arc, dtype=float))
         self.guide_s = 0.0
         self.tank_scale = float(np.max(scene.bounds_max))
         self.path = [scene.entrance.position.copy()]
@@ -473,7 +741,13 @@ class Crawler:
         state.setdefault("residual", False)
         state.setdefault("guide", None)
         state.setdefault("guide_s", 0.0)
+        state.setdefault("code", OBSERVATIONS.index(state["mode"]))
         self.__dict__.update(state)
+        if "scene" in state and "targets" not in state:
+            self.targets = np.array(self.scene.targets, dtype=float).reshape(-1, 3)
+            self.guide_arrays = _NO_GUIDE if self.guide is None else (
+                np.array(self.guide.points, dtype=float), np.array(self.guide.arc, dtype=float),
+                np.array(self.guide.target_arc, dtype=float))
 
     def route_guide(self, scene: Scene, world: KnowledgeView, deadline: float | None = None,
                     margin_mm: float = GUIDE_MARGIN_MM) -> RouteGuide:
@@ -501,90 +775,28 @@ class Crawler:
         return np.minimum(d, RAY_RANGE_MM)
 
     def observation(self) -> dict[str, np.ndarray]:
-        """The goal-conditioned observation dict (float32)."""
+        """The goal-conditioned observation dict (float32): ``paper``, the tip position scaled by the scene's size;
+        else the tip position so scaled, the tip frame, the ray ranges (fractions of ``RAY_RANGE_MM``), the
+        previous applied action and the inserted fraction of the arm, then the next target (look-ahead) and the
+        route guide's features (``guide``: :func:`_guide_into`)."""
         tip = self.tip
-        if self.mode != "paper":
-            parts = [tip / self.tank_scale, self.frame.ravel(), self.ranges() / RAY_RANGE_MM, self.prev_action,
-                     [self.depth / self.robot.total_length]]
-            if self.lookahead:
-                parts.append(self._next_target())
-            if self.mode == "guide":
-                parts.append(self._guide_features())
-            vec = np.concatenate(parts)
-        else:
-            vec = tip / self.tank_scale
+        ranges = self.ranges() if self.mode != "paper" else _NO_RANGES
+        vec = np.empty(observation_dim(self.mode, self.lookahead))
+        points, arc, target_arc = self.guide_arrays
+        _observe(self.code, self.lookahead, tip, self.frame, ranges, self.prev_action,
+                 self.depth / self.robot.total_length, self.tank_scale, self.targets, self.target_index, points, arc,
+                 self.guide_s, _guide_end(target_arc, self.target_index), vec)
         return {"observation": vec.astype(np.float32),
                 "achieved_goal": (tip / GOAL_SCALE_MM).astype(np.float32),
                 "desired_goal": (self.goal / GOAL_SCALE_MM).astype(np.float32)}
-
-    def _guide_end(self) -> float:
-        """Arc length (mm) of the current target on the guide."""
-        return float(self.guide.target_arc[min(self.target_index, len(self.guide.target_arc) - 1)])
 
     def _guide_features(self) -> np.ndarray:
         """The guide points ``GUIDE_AHEAD_MM`` ahead of the tip's place on it (never past the current target) and
         the guide's direction at the first, in the tip frame."""
         out = np.empty(GUIDE_DIM)
-        _guide_into(self.frame, self.tip, self.guide.points, self.guide.arc, self.guide_s, self._guide_end(), out)
+        points, arc, target_arc = self.guide_arrays
+        _guide_into(self.frame, self.tip, points, arc, self.guide_s, _guide_end(target_arc, self.target_index), out)
         return out
-
-    def _follow_guide(self) -> None:
-        """Move the tip's place on the guide to the guide point nearest the tip among those from the last place to
-        a few steps ahead of it, and past a target once it is reached."""
-        if self.target_index > 0:
-            self.guide_s = max(self.guide_s, float(self.guide.target_arc[min(self.target_index,
-                                                                              len(self.guide.target_arc)) - 1]))
-        ahead = min(self.guide_s + GUIDE_AHEAD_STEPS * self.step_mm, self._guide_end())
-        self.guide_s = self.guide.progress(self.tip, self.guide_s, ahead)
-
-    def _next_target(self) -> np.ndarray:
-        """The target after the current one in the tip frame (unit direction, scaled length), or zeros."""
-        k = self.target_index + 1
-        if k >= len(self.scene.targets):
-            return np.zeros(LOOKAHEAD_DIM)
-        local = self.frame @ (self.scene.targets[k] - self.tip)
-        dist = _length(local)
-        return np.concatenate([local / max(dist, 1e-9), [min(dist / FEATURE_SCALE_MM, FEATURE_CLIP)]])
-
-    def _new_heading(self, action: np.ndarray) -> np.ndarray:
-        if self.mode == "paper":
-            n = _length(action)
-            return action / n if n > 1e-6 else self.heading
-        v = action[0] * self.frame[1] + action[1] * self.frame[2]
-        n = _length(v)
-        if n < 1e-9:
-            return self.heading
-        angle = min(n, 1.0) * self.max_turn
-        d = math.cos(angle) * self.heading + math.sin(angle) * v / n
-        return d / _length(d)
-
-    def _snap(self) -> np.ndarray | None:
-        """The goal, when this step can end on it within the turning bound; else None."""
-        to = self.goal - self.tip
-        dist = _length(to)
-        if dist > SNAP_FACTOR * self.step_mm or dist < 1e-9:
-            return None
-        bound = math.pi / 2 if self.mode == "paper" else self.max_turn
-        return self.goal.copy() if float(to @ self.heading) / dist >= math.cos(bound) else None
-
-    def _capture(self) -> np.ndarray | None:
-        """Pure pursuit of a goal within ``capture_mm``: the heading turned towards the goal by the vertex angle
-        of chords of the circle through the tip and the goal, 2 asin(step sin(phi) / D), when that is within the
-        turning bound (the circle is no tighter than the turning radius); else None."""
-        to = self.goal - self.tip
-        dist = _length(to)
-        cos = float(to @ self.heading) / max(dist, 1e-9)
-        if dist > self.capture_mm or dist < 1e-9 or cos <= 0.0:
-            return None
-        side = to - (to @ self.heading) * self.heading
-        sin = _length(side) / dist
-        if sin < 1e-9:
-            return self.heading
-        turn = 2.0 * math.asin(min(1.0, self.step_mm * sin / dist))
-        if turn > self.max_turn:
-            return None
-        d = math.cos(turn) * self.heading + math.sin(turn) * side / _length(side)
-        return d / _length(d)
 
     def _failure(self) -> str | None:
         """Why the crawl over the last step is infeasible, or None: with ``check_body`` the validity checker's
@@ -601,36 +813,38 @@ class Crawler:
     def pursuit(self) -> np.ndarray:
         """The pursuit of the guide as an action: ``PURSUIT_GAIN`` times the side and up components of the unit
         direction from the tip to the first guide point ahead, clipped to the action box."""
-        f = self._guide_features()
-        return np.clip(PURSUIT_GAIN * f[1:3], -1.0, 1.0)
+        out = np.empty(GUIDE_DIM)
+        points, arc, target_arc = self.guide_arrays
+        _pursuit_into(self.frame, self.tip, points, arc, self.guide_s, _guide_end(target_arc, self.target_index),
+                      out)
+        return out[:2].copy()
 
     def advance(self, action) -> tuple[str | None, bool]:
         """Apply one action (a residual crawler adds it to :meth:`pursuit`); return (failure or None, whether a
-        target was reached by this step). ``prev_action`` becomes the applied action."""
-        a = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
-        if self.residual:
-            a = np.clip(self.pursuit() + a, -1.0, 1.0)
+        target was reached by this step). ``prev_action`` becomes the applied action.
+
+        A goal within ``SNAP_FACTOR`` steps inside the turning bound ends the step on it; else, with goal capture,
+        a goal an arc within the turning bound reaches is steered to by pure pursuit; else the action turns the
+        heading (``paper``: the action is the new heading)."""
         old = self.tip
-        snapped = self._snap()
-        if snapped is not None:
-            new, heading = snapped, (snapped - old) / _length(snapped - old)
-        else:
-            heading = self._capture() if self.capture_mm > 0.0 else None
-            if heading is None:
-                heading = self._new_heading(a)
-            new = old + self.step_mm * heading
+        a = np.ascontiguousarray(action, dtype=float).reshape(action_dim(self.mode))
+        new, turned, applied, feats = np.empty(3), np.empty(3), np.empty(a.shape[0]), np.empty(GUIDE_DIM)
+        points, arc, target_arc = self.guide_arrays
+        _steer(self.code, self.residual, self.step_mm, self.max_turn, self.capture_mm, old, self.heading,
+               self.frame, self.goal, a, points, arc, self.guide_s, _guide_end(target_arc, self.target_index), feats,
+               new, turned, applied)
         self.path.append(new)
         self.depth += _length(new - old)
-        self.heading = heading
-        self.frame = heading_frame(heading)
-        self.prev_action = a
+        self.heading = turned
+        self.frame = heading_frame(turned)
+        self.prev_action = applied
         self.steps += 1
         failure = self._failure()
         reached = failure is None and _length(new - self.goal) <= REACH_TOLERANCE_MM
         if reached:
             self.target_index += 1
         if self.guide is not None:
-            self._follow_guide()
+            self.guide_s = float(_follow(points, arc, target_arc, self.target_index, self.guide_s, self.step_mm, new))
         return failure, reached
 
     def tip_path(self) -> np.ndarray:
@@ -798,6 +1012,13 @@ class NumpyPolicy:
             width, feeds = w.shape[0], f" (to follow {name})"
         self.layers = checked[:-1]
         self.mu = checked[-1]
+        self.shapes = np.array([w.shape for w, _ in checked], dtype=np.int64)
+        widest = int(max(self.shapes.max(), 1))
+        self.weights = np.zeros((len(checked), widest, widest))  # the compiled actor's form (:func:`_actor`)
+        self.biases = np.zeros((len(checked), widest))
+        for i, (w, b) in enumerate(checked):
+            self.weights[i, :w.shape[1], :w.shape[0]] = w.T
+            self.biases[i, :b.shape[0]] = b
         self.meta = meta
         self.graph = None if graph is None else _check_graph(graph)
         self.mode = mode
@@ -845,11 +1066,12 @@ class NumpyPolicy:
             np.savez_compressed(fh, **arrays)
 
     def act(self, obs: dict) -> np.ndarray:
-        """tanh(mu(features)) for one observation dict (or a batch)."""
+        """tanh(mu(features)) for one observation dict (or a batch), by the compiled actor the roll-outs use."""
         h = policy_input(obs["observation"], obs["achieved_goal"], obs["desired_goal"], self.mode, self.graph)
-        for w, b in self.layers:
-            h = np.maximum(h @ w.T + b, 0.0)
-        return np.tanh(h @ self.mu[0].T + self.mu[1])
+        rows = np.ascontiguousarray(h.reshape(-1, h.shape[-1]))
+        out = np.empty((rows.shape[0], self.shapes[-1, 0]))
+        _actor_rows(rows, self.weights, self.biases, self.shapes, out)
+        return out.reshape(*h.shape[:-1], out.shape[1])
 
     def crawler(self, robot: Chain, check_body: bool = True) -> Crawler:
         """A crawler with the settings this policy was trained with (no goal capture or look-ahead when the file
@@ -902,29 +1124,43 @@ def check_policy_fits(policy: NumpyPolicy, scene: Scene, robot: Chain) -> None:
 
 
 def rollout(policy: NumpyPolicy, scene: Scene, robot: Chain, deadline: float = math.inf,
-            max_steps: int | None = None, check_body: bool = False, noise: float = 0.0,
-            rng: np.random.Generator | None = None, world: KnowledgeView | None = None,
-            guide: RouteGuide | None = None) -> tuple[np.ndarray, str]:
-    """Roll the policy out in ``scene``: (tip path, outcome), outcome "reached", a failure name, "steps" (out of
-    steps) or "timeout". Deterministic unless ``noise`` (std of Gaussian action noise, drawn from ``rng``).
-    Without ``check_body`` (planning: the path is checked afterwards) the crawl stops only on reaching, leaving
-    the bounds or running out of arm. The crawler senses through ``world`` (default: the whole scene) and, in the
-    ``guide`` design, follows ``guide`` (default: the route guide of what ``world`` knows)."""
-    crawler = policy.crawler(robot, check_body)
+            max_steps: int | None = None, noise: float = 0.0, rng: np.random.Generator | None = None,
+            world: KnowledgeView | None = None, guide: RouteGuide | None = None) -> tuple[np.ndarray, str]:
+    """Roll the policy out in ``scene``: (tip path, outcome), outcome "reached", a failure name ("out_of_bounds",
+    "insertion"), "steps" (out of steps) or "timeout" (``deadline``, a perf_counter value, passed before it
+    began). The crawl of :meth:`NumpyPolicy.crawler` without its body check (planning: the path is checked
+    afterwards), compiled whole (:func:`_roll`). Deterministic unless ``noise`` (std of Gaussian action noise
+    from ``rng``, one draw per step taken, as a step-by-step loop would draw it). The crawler senses through ``world``
+    (default: the whole scene) and, in the ``guide`` design, follows ``guide`` (default: the route guide of what
+    ``world`` knows)."""
+    crawler = policy.crawler(robot, check_body=False)
+    world = FullView(scene) if world is None else world
     crawler.reset(scene, world, guide)
+    if time.perf_counter() > deadline:
+        return crawler.tip_path(), "timeout"
     limit = max_steps or math.ceil(robot.total_length / crawler.step_mm) + 1
-    for _ in range(limit):
-        if time.perf_counter() > deadline:
-            return crawler.tip_path(), "timeout"
-        action = policy.act(crawler.observation())
-        if noise > 0.0:
-            action = action + noise * rng.standard_normal(action.shape)
-        failure, _ = crawler.advance(action)
-        if failure is not None:
-            return crawler.tip_path(), failure
-        if crawler.done:
-            return crawler.tip_path(), "reached"
-    return crawler.tip_path(), "steps"
+    adim = action_dim(policy.mode)
+    if noise > 0.0:
+        start = rng.bit_generator.state
+        shake = noise * rng.standard_normal((limit, adim))
+    else:
+        shake = np.zeros((limit, adim))
+    path = np.empty((limit + 1, 3))
+    path[0] = scene.entrance.position
+    graph = _NO_GRAPH if policy.graph is None else (policy.graph.lo, policy.graph.hi, policy.graph.centre,
+                                                     policy.graph.normal, policy.graph.next_portal,
+                                                     policy.graph.after)
+    sensor = world.sensor()
+    count, outcome = _roll(crawler.code, crawler.lookahead, crawler.residual, crawler.step_mm, crawler.max_turn,
+                           crawler.capture_mm, crawler.tank_scale, float(robot.total_length),
+                           np.array(scene.bounds_min, dtype=float), np.array(scene.bounds_max, dtype=float),
+                           crawler.targets, np.array(scene.entrance.direction, dtype=float), crawler.rays,
+                           *crawler.guide_arrays, policy.graph is not None, *graph, policy.weights, policy.biases, policy.shapes,
+                           sensor.packed, sensor.known, sensor.range_mm, sensor.stats, shake, path)
+    if noise > 0.0:  # leave ``rng`` where drawing each step's noise as it is taken would (the same plans)
+        rng.bit_generator.state = start
+        rng.standard_normal((count - 1, adim))
+    return path[:count].copy(), OUTCOMES[outcome]
 
 
 #: The generalist policy (the residual ``guide`` design, trained with sensed knowledge on the ``confined`` family
@@ -1040,11 +1276,14 @@ class SacPlanner(Planner):
         candidates.sort(key=lambda c: -path_smoothness(c[0], step, k_ul))
         raw_failure = 0.0
         for candidate, sigma in candidates:
-            failure = model.first_failure(candidate)
+            if candidate is not path:
+                if model.feasible(candidate):
+                    return candidate, sigma, 0.0
+                continue
+            failure = model.first_failure(path)
             if failure is None:
-                return candidate, sigma, 0.0
-            if candidate is path:
-                raw_failure = failure.depth_mm
+                return path, 0.0, 0.0
+            raw_failure = failure.depth_mm
         return None, 0.0, raw_failure
 
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float

@@ -251,7 +251,7 @@ class RouteGuide:
 
     def progress(self, tip, s_from: float, s_to: float) -> float:
         """Arc length (mm) of the guide point nearest ``tip`` among those between ``s_from`` and ``s_to``."""
-        return _nearest_on_guide(self.points, self.arc, np.asarray(tip, dtype=float), float(s_from), float(s_to))
+        return nearest_on_guide(self.points, self.arc, np.asarray(tip, dtype=float), float(s_from), float(s_to))
 
 
 def route_guide(obstacles: ObstacleSet, bounds_min, bounds_max, entrance: Entrance, targets,
@@ -280,7 +280,7 @@ def route_guide(obstacles: ObstacleSet, bounds_min, bounds_max, entrance: Entran
 
 
 @njit(cache=True)
-def _nearest_on_guide(points, arc, tip, s_from, s_to):
+def nearest_on_guide(points, arc, tip, s_from, s_to):
     """:meth:`RouteGuide.progress`: the arc length of the point nearest ``tip`` with arc in [s_from, s_to] (the
     first point at or after ``s_from`` at least)."""
     i = min(np.searchsorted(arc, s_from), arc.shape[0] - 1)

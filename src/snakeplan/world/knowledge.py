@@ -20,11 +20,20 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
+from numba import njit
 
-from snakeplan.geometry.distance import ObstacleSet
+from snakeplan.geometry.bvh import box_distance
+from snakeplan.geometry.distance import (
+    ObstacleSet,
+    obstacle_distance,
+    ray_into,
+    workspace,
+)
 from snakeplan.geometry.primitives import Obstacle
+from snakeplan.jit import leaf
 from snakeplan.scenes import Scene
 
 #: Default range (mm) of the tip sensor for planners that only know what they have sensed.
@@ -33,6 +42,50 @@ DEFAULT_SENSOR_RANGE_MM = 400.0
 
 class UnsensedObstacleError(RuntimeError):
     """A planner read an obstacle it has not sensed."""
+
+
+class Sensor(NamedTuple):
+    """What a compiled roll-out senses with: the packed obstacles (:attr:`ObstacleSet.packed`), one flag per
+    obstacle, True once known (updated in place by :func:`sense_at`), the sensor's range (mm; inf: no limit) and
+    the evaluation counter of the packed set."""
+
+    packed: tuple
+    known: np.ndarray
+    range_mm: float
+    stats: np.ndarray
+
+
+@leaf
+def sense_at(W, known, range_mm, p, walk) -> bool:
+    """Reveal every unknown obstacle whose exact distance from ``p`` is at most ``range_mm``; True when one was."""
+    new = False
+    for k in range(known.shape[0]):
+        if known[k] or box_distance(W[1][k], p) > range_mm:
+            continue
+        if obstacle_distance(W, k, p, walk) <= range_mm:
+            known[k] = True
+            new = True
+    return new
+
+
+@leaf
+def sensor_rays(W, known, range_mm, origin, dirs, max_dist, eps, out, work, stats) -> None:
+    """The range sensor at ``origin``: it senses there (:func:`sense_at`), then reads into ``out`` the distance
+    (mm) along each unit direction of ``dirs`` to the first known surface, inf when none within ``max_dist`` or
+    the sensor's range."""
+    sense_at(W, known, range_mm, origin, work[2])
+    reach = min(max_dist, range_mm)
+    for i in range(dirs.shape[0]):
+        out[i] = ray_into(W, known, origin, dirs[i], reach, eps, work, stats)
+
+
+@njit(cache=True)
+def _sense_points(W, known, range_mm, points) -> bool:
+    walk = workspace(W)[2]
+    new = False
+    for i in range(points.shape[0]):
+        new |= sense_at(W, known, range_mm, points[i], walk)
+    return new
 
 
 class KnowledgeView(ABC):
@@ -61,6 +114,10 @@ class KnowledgeView(ABC):
         return self.scene.in_bounds(points, margin)
 
     @abstractmethod
+    def sensor(self) -> Sensor:
+        """The view's :class:`Sensor`, for compiled roll-outs (what they reveal is known to the view)."""
+
+    @abstractmethod
     def fresh(self) -> KnowledgeView:
         """The same view before anything was sensed (every plan starts from one)."""
 
@@ -73,10 +130,14 @@ class FullView(KnowledgeView):
     def __init__(self, scene: Scene, obstacles: ObstacleSet | None = None):
         super().__init__(scene)
         self._set = scene.obstacle_set if obstacles is None else obstacles
+        self._sensor = Sensor(self._set.packed, np.ones(len(self._set), dtype=bool), np.inf, self._set.evaluations)
 
     @property
     def obstacle_set(self) -> ObstacleSet:
         return self._set
+
+    def sensor(self) -> Sensor:
+        return self._sensor
 
     def fresh(self) -> FullView:
         return self
@@ -92,57 +153,46 @@ class SensedView(KnowledgeView):
     kind = "sensed"
 
     def __init__(self, scene: Scene, truth: Sequence[Obstacle], sensor_range_mm: float = DEFAULT_SENSOR_RANGE_MM,
-                 prior: Sequence[bool] | None = None):
+                 prior: Sequence[bool] | None = None, truth_set: ObstacleSet | None = None):
         super().__init__(scene if isinstance(scene, _GuardedScene) else guarded(scene))  # structure only
         self._truth = tuple(truth)
+        self._truth_set = ObstacleSet(self._truth) if truth_set is None else truth_set
         self.sensor_range_mm = float(sensor_range_mm)
         self._prior = np.zeros(len(self._truth), dtype=bool) if prior is None else np.array(prior, dtype=bool)
         if self._prior.shape != (len(self._truth),):
             raise ValueError(f"prior: expected {len(self._truth)} flags, got {self._prior.shape}")
         self.known = self._prior.copy()
-        boxes = [o.aabb() for o in self._truth]
-        self._lo = np.array([b[0] for b in boxes], dtype=float).reshape(-1, 3)
-        self._hi = np.array([b[1] for b in boxes], dtype=float).reshape(-1, 3)
-        self._single: dict[int, ObstacleSet] = {}
         self._set: ObstacleSet | None = None
+        self._set_of = self.known.copy()
 
     @classmethod
     def of(cls, scene: Scene, sensor_range_mm: float = DEFAULT_SENSOR_RANGE_MM, prior: bool = True) -> SensedView:
         """The sensed view of ``scene``: its prior obstacles known before the job (none with ``prior=False``)."""
-        return cls(scene, scene.obstacles, sensor_range_mm, scene.prior if prior else None)
+        return cls(scene, scene.obstacles, sensor_range_mm, scene.prior if prior else None, scene.obstacle_set)
 
     @property
     def obstacle_set(self) -> ObstacleSet:
-        if self._set is None:
+        """The known obstacles, packed again whenever more are known than when last packed."""
+        if self._set is None or not np.array_equal(self._set_of, self.known):
             self._set = ObstacleSet([o for o, k in zip(self._truth, self.known) if k])
+            self._set_of = self.known.copy()
         return self._set
 
     def sense(self, points) -> bool:
-        unknown = np.flatnonzero(~self.known)
-        if unknown.size == 0:
+        if self.known.all():
             return False
-        pts = np.asarray(points, dtype=float).reshape(-1, 3)
-        new = False
-        for p in pts:
-            gap = np.maximum(np.maximum(self._lo[unknown] - p, p - self._hi[unknown]), 0.0)
-            for k in unknown[np.linalg.norm(gap, axis=1) <= self.sensor_range_mm]:
-                if self.known[k]:
-                    continue
-                if k not in self._single:
-                    self._single[k] = ObstacleSet([self._truth[k]])
-                if float(self._single[k].signed_distance(p)) <= self.sensor_range_mm:
-                    self.known[k] = True
-                    new = True
-        if new:
-            self._set = None
-        return new
+        pts = np.ascontiguousarray(np.asarray(points, dtype=float).reshape(-1, 3))
+        return bool(_sense_points(self._truth_set.packed, self.known, self.sensor_range_mm, pts))
+
+    def sensor(self) -> Sensor:
+        return Sensor(self._truth_set.packed, self.known, self.sensor_range_mm, self._truth_set.evaluations)
 
     def raycast(self, origins, directions, max_distance: float, eps: float = 1e-3) -> np.ndarray:
         """Readings of the range sensor: it sees no further than its range."""
         return super().raycast(origins, directions, min(float(max_distance), self.sensor_range_mm), eps)
 
     def fresh(self) -> SensedView:
-        return SensedView(self.scene, self._truth, self.sensor_range_mm, self._prior)
+        return SensedView(self.scene, self._truth, self.sensor_range_mm, self._prior, self._truth_set)
 
 
 def view_for(scene: Scene, knowledge: str, sensor_range_mm: float = DEFAULT_SENSOR_RANGE_MM) -> KnowledgeView:

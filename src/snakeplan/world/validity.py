@@ -19,6 +19,7 @@ depth the judge checks.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -109,6 +110,17 @@ def motion_free(W, lo, hi, ax, ay, az, bx, by, bz, radius, joints, radii, work, 
             return False
     radii[0] = radius
     return chain_hit(W, joints, radii, work, stats) < 0
+
+
+@functools.lru_cache(maxsize=64)
+def coarse_to_fine(n: int) -> np.ndarray:
+    """The indices 0..n-1 ordered coarse to fine: 0, then the multiples of the largest power of two below n,
+    then the odd multiples of each smaller power in turn (every index once)."""
+    i = np.arange(n)
+    low = np.where(i == 0, n + 1, i & -i)
+    order = np.lexsort((i, -low))
+    order.flags.writeable = False
+    return order
 
 
 def _last(flags: np.ndarray) -> int:
@@ -251,6 +263,21 @@ class ValidityChecker:
         if i < 0 or (out is not None and out.depth_mm < depths[i]):
             return out
         return Failure(float(depths[i]), FAILURE_KINDS[code], None if link < 0 else int(link))
+
+    def feasible(self, path) -> bool:
+        """Whether the whole crawl is feasible (:meth:`first_failure` is None), answered sooner when it is not:
+        the same depths are checked coarse to fine (:func:`coarse_to_fine`), since a failure holds over a run of
+        consecutive depths (a corner cut, a bend held), wherever along the path it is."""
+        p = np.ascontiguousarray(path, dtype=float)
+        cum = cumulative_length(p)
+        stop = float(cum[-1])
+        if self._bounds_failure(p, cum, 0.0, stop) is not None:
+            return False
+        depths = self._grid(cum, 0.0, stop)
+        obstacles = self.obstacles
+        i, _, _ = _scan(p, cum, self.lengths, self.direction, depths[coarse_to_fine(depths.size)], self.max_bends,
+                        self.radii, obstacles.packed, obstacles.evaluations)
+        return i < 0
 
     def crawl(self, path) -> CrawlCheck:
         """Every state of the crawl from depth 0 to the path's end (or to where insertion must have failed), with
