@@ -5,6 +5,7 @@ import pickle
 
 import numpy as np
 import pytest
+import trimesh
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -232,3 +233,29 @@ def test_raycast_culling_keeps_the_first_hit_among_many_obstacles(seed, many):
         assert (np.isinf(h) and np.isinf(ref)) or abs(h - ref) < 0.01
         if np.isfinite(h):
             assert scene.signed_distance(origin + h * d) < eps
+
+
+@given(flags=st.lists(st.booleans(), min_size=7, max_size=7), seed=st.integers(0, 2**31 - 1))
+@settings(max_examples=30, deadline=None)
+def test_a_subset_answers_as_the_set_of_its_obstacles_packed_alone(flags, seed):
+    ball = trimesh.creation.icosphere(subdivisions=2, radius=60.0)
+    ring = trimesh.creation.annulus(r_min=40.0, r_max=70.0, height=30.0)
+    ring.apply_translation([-250.0, 0.0, 0.0])
+    obstacles = [Box([200.0, 0.0, 0.0], [50.0, 400.0, 400.0]), Mesh(ball.vertices, ball.faces),
+                 Sphere([0.0, 250.0, 0.0], 40.0), Mesh(ring.vertices, ring.faces),
+                 Plate([0.0, 0.0, 300.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [500.0, 500.0], 10.0,
+                       {"offset": [0.0, 0.0], "semi_axes": [80.0, 50.0]}),
+                 Cylinder([0.0, -250.0, 0.0], [1.0, 0.0, 0.0], 30.0, 200.0),
+                 Pipe([0.0, 0.0, -300.0], [0.0, 0.0, 1.0], 60.0, 80.0, 100.0)]
+    whole = ObstacleSet(obstacles)
+    part = whole.subset(flags)
+    alone = ObstacleSet([o for o, f in zip(obstacles, flags) if f])
+    rng = np.random.default_rng(seed)
+    pts = rng.uniform(-400.0, 400.0, (50, 3))
+    dirs = rng.standard_normal((50, 3))
+    assert part.obstacles == alone.obstacles
+    np.testing.assert_array_equal(part.signed_distance(pts), alone.signed_distance(pts))
+    np.testing.assert_array_equal(part.raycast(pts, dirs, 600.0), alone.raycast(pts, dirs, 600.0))
+    joints = rng.uniform(-400.0, 400.0, (20, 4, 3))
+    np.testing.assert_array_equal(part.chain_collides(joints, np.full(3, 10.0)),
+                                  alone.chain_collides(joints, np.full(3, 10.0)))

@@ -658,6 +658,21 @@ class ObstacleSet:
     def __len__(self) -> int:
         return len(self.obstacles)
 
+    def subset(self, flags) -> ObstacleSet:
+        """The set of the obstacles flagged in ``flags`` (one bool per obstacle), sharing this set's packed rows
+        and mesh data: only the tree over their boxes is built (a sensed view's known set, made again as it
+        grows, costs no repacking)."""
+        keep = np.flatnonzero(np.asarray(flags, dtype=bool))
+        out = object.__new__(ObstacleSet)
+        out.obstacles = tuple(self.obstacles[k] for k in keep)
+        out._rows = np.ascontiguousarray(self._rows[keep])
+        out._boxes = np.ascontiguousarray(self._boxes[keep])
+        order, onodes, olinks = bvh.build(out._boxes)
+        W = self._packed
+        out._packed = (out._rows, out._boxes, *W[2:7], onodes, olinks, order, W[10])
+        out.evaluations = np.zeros(1, dtype=np.int64)
+        return out
+
     def __getstate__(self) -> dict:
         """Pickled as its obstacles alone: the packed arrays are derived, and rebuilt on loading."""
         return {"obstacles": self.obstacles}

@@ -6,6 +6,8 @@ everything that measures a path (curvature, follow-the-leader, the judge) first 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -218,7 +220,13 @@ def smooth(path: ArrayLike, sigma: float, pins: ArrayLike = (), step: float = 5.
     ``2 sigma`` mm, lowering the peak curvature; a straight path stays straight, and the result may cut corners,
     so a caller checks it against the obstacles.
     """
-    sig = _check_step(sigma, "sigma")
+    return smoothings(path, (sigma,), pins, step)[0]
+
+
+def smoothings(path: ArrayLike, sigmas: Sequence[float], pins: ArrayLike = (), step: float = 5.0
+               ) -> list[np.ndarray]:
+    """:func:`smooth` at each of ``sigmas`` (mm), resampling and pinning the path once for all."""
+    sigs = [_check_step(sigma, "sigma") for sigma in sigmas]
     pts = resample(path, step)
     fixed = [0]
     for pin in np.asarray(pins, dtype=float).reshape(-1, 3):
@@ -235,13 +243,15 @@ def smooth(path: ArrayLike, sigma: float, pins: ArrayLike = (), step: float = 5.
             pts = np.insert(pts, k, pin, axis=0)
             fixed.append(k)
     fixed.append(len(pts) - 1)
-    out = pts.copy()
-    for a, b in zip(fixed[:-1], fixed[1:]):
-        if b - a < 2:
-            continue
-        seg = pts[a:b + 1]
-        g = gaussian_filter_nearest(seg, sig / step)
-        t = np.linspace(0.0, 1.0, len(seg))[:, None]
-        out[a:b + 1] = g - (1.0 - t) * (g[0] - seg[0]) - t * (g[-1] - seg[-1])
-    out[fixed] = pts[fixed]
-    return out
+    stretches = [(a, b, np.linspace(0.0, 1.0, b - a + 1)[:, None]) for a, b in zip(fixed[:-1], fixed[1:])
+                 if b - a >= 2]
+    smoothed = []
+    for sig in sigs:
+        out = pts.copy()
+        for a, b, t in stretches:
+            seg = pts[a:b + 1]
+            g = gaussian_filter_nearest(seg, sig / step)
+            out[a:b + 1] = g - (1.0 - t) * (g[0] - seg[0]) - t * (g[-1] - seg[-1])
+        out[fixed] = pts[fixed]
+        smoothed.append(out)
+    return smoothed

@@ -1271,8 +1271,8 @@ class SacPlanner(Planner):
         smoothing scale (mm; 0 for the roll-out itself); when none passes, (None, 0, depth (mm) at which the
         roll-out's own crawl fails)."""
         step, k_ul = float(np.mean(problem.robot.lengths)), problem.robot.k_ul
-        candidates = [(path, 0.0)] + [(polyline.smooth(path, sigma, pins=problem.goals), sigma)
-                                      for sigma in self.smoothing]
+        candidates = [(path, 0.0)] + list(zip(polyline.smoothings(path, self.smoothing, pins=problem.goals),
+                                              self.smoothing))
         candidates.sort(key=lambda c: -path_smoothness(c[0], step, k_ul))
         raw_failure = 0.0
         for candidate, sigma in candidates:

@@ -174,7 +174,7 @@ class SensedView(KnowledgeView):
     def obstacle_set(self) -> ObstacleSet:
         """The known obstacles, packed again whenever more are known than when last packed."""
         if self._set is None or not np.array_equal(self._set_of, self.known):
-            self._set = ObstacleSet([o for o, k in zip(self._truth, self.known) if k])
+            self._set = self._truth_set.subset(self.known)
             self._set_of = self.known.copy()
         return self._set
 
