@@ -35,7 +35,7 @@ from snakeplan.geometry.primitives import (
     Mesh,
     Obstacle,
 )
-from snakeplan.jit import leaf
+from snakeplan.jit import inlined, leaf
 
 #: Accuracy (mm) of the minimum clearance reported for a segment.
 CLEARANCE_TOLERANCE_MM = 0.05
@@ -107,7 +107,7 @@ def _ellipse_distance(px: float, py: float, a: float, b: float) -> float:
     return -d if inside else d
 
 
-@leaf
+@inlined
 def _sdf_row(row, W, p, walk):
     """Signed distance from p to the obstacle packed in ``row`` (W: the packed set, walk: tree stacks)."""
     kind = int(row[0])
@@ -343,7 +343,7 @@ def _meshes_exact(W, a, b, n, bound, work, stats):
     return best, keep
 
 
-@leaf
+@inlined
 def _min_over(W, cand, n, p, walk, stats):
     stats[0] += n
     best = np.inf
