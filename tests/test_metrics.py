@@ -7,7 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from snakeplan.evaluation.metrics import curvature_profile, curvature_stats, path_length, smoothness_index
+from snakeplan.evaluation.metrics import ANGLE_ZERO, curvature_profile, curvature_stats, path_length, smoothness_index
+from snakeplan.geometry.polyline import resample_with_arclength
 from snakeplan.geometry.transforms import rot_x, rot_z
 
 K_UL = 0.0055  # SJTU-Snake III, /mm
@@ -104,3 +105,23 @@ def test_path_smoothness_of_an_arc_and_a_line():
     assert path_smoothness(arc, 50.0, k_ul) == pytest.approx(0.5, abs=1e-4)
     line = np.array([[0.0, 0.0, 0.0], [500.0, 0.0, 0.0]])
     assert path_smoothness(line, 50.0, k_ul) == 1.0
+
+
+@given(seed=st.integers(0, 2**31 - 1), step=st.sampled_from([5.0, 37.0, 177.5]))
+@settings(max_examples=60, deadline=None)
+def test_the_curvature_profile_is_the_turning_of_the_resampled_chords(seed, step):
+    """The compiled profile against the definition in NumPy: chords of the path resampled at ``step``, their
+    turning angles (arctan2 of cross and dot), zero below ANGLE_ZERO, over the mean of the two steps."""
+    rng = np.random.default_rng(seed)
+    path = np.cumsum(rng.normal(size=(int(rng.integers(2, 40)), 3)) * rng.uniform(1.0, 80.0), axis=0)
+    s, pts = resample_with_arclength(path, step)
+    got_s, kappa = curvature_profile(path, step)
+    if s[-1] < 2.0 * step:
+        return
+    chords = np.diff(pts, axis=0)
+    a, b = chords[:-1], chords[1:]
+    turn = np.arctan2(np.linalg.norm(np.cross(a, b), axis=1), np.sum(a * b, axis=1))
+    turn[turn < ANGLE_ZERO] = 0.0
+    steps = np.diff(s)
+    np.testing.assert_array_equal(got_s, s[1:-1])
+    np.testing.assert_allclose(kappa, turn / (0.5 * (steps[:-1] + steps[1:])), rtol=1e-12, atol=1e-15)

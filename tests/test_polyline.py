@@ -207,3 +207,20 @@ def test_gaussian_filter_equals_scipy_ndimage(values, sigma):
 
     expected = gaussian_filter1d(values, sigma, axis=0, mode="nearest") if sigma > 0 else values
     np.testing.assert_allclose(gaussian_filter_nearest(values, sigma), expected, rtol=1e-9, atol=1e-7)
+
+
+@given(seed=st.integers(0, 2**31 - 1), step=st.sampled_from([0.5, 5.0, 37.0, 177.5, 1e4]))
+@settings(max_examples=80, deadline=None)
+def test_compiled_resampling_is_its_definition(seed, step):
+    """The compiled resample against its parts in NumPy: duplicates dropped, the arc-length grid, the points at
+    it; paths with repeated points (a last one too) included."""
+    rng = np.random.default_rng(seed)
+    m = int(rng.integers(2, 40))
+    path = np.cumsum(rng.normal(size=(m, 3)) * rng.uniform(1.0, 80.0), axis=0)
+    for k in rng.integers(1, m, int(rng.integers(0, 3))):
+        path[k] = path[k - 1]
+    s, pts = resample_with_arclength(path, step)
+    kept = drop_duplicates(path)
+    grid = arclength_grid(path_length(kept), step)
+    np.testing.assert_array_equal(s, grid)
+    np.testing.assert_allclose(pts, point_at(kept, grid), rtol=0, atol=1e-9)

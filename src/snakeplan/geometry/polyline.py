@@ -6,9 +6,11 @@ everything that measures a path (curvature, follow-the-leader, the judge) first 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike
 
 from snakeplan import inputs
@@ -120,10 +122,56 @@ def arclength_grid(length: float, step: float) -> np.ndarray:
 
 def resample_with_arclength(path: ArrayLike, step: float) -> tuple[np.ndarray, np.ndarray]:
     """Like :func:`resample`, also returning the arc-length position (mm) of each resampled point."""
-    p = drop_duplicates(path)
-    cum = _cumulative(p)
-    s = arclength_grid(cum[-1], step)
-    return s, _points_at(p, cum, s)
+    return _resample(validate_path(path), _check_step(step))
+
+
+@njit(cache=True)
+def _resample(p, h):
+    """:func:`resample_with_arclength` of a validated path, compiled whole (it runs for every curvature a
+    planner ranks): :func:`drop_duplicates`, the cumulative length, :func:`arclength_grid` and the points at it,
+    with their arithmetic."""
+    m = p.shape[0]
+    keep = np.empty(m, dtype=np.int64)
+    keep[0] = 0
+    count = 1
+    for k in range(1, m):
+        if math.sqrt((p[k, 0] - p[k - 1, 0]) ** 2 + (p[k, 1] - p[k - 1, 1]) ** 2
+                     + (p[k, 2] - p[k - 1, 2]) ** 2) > DUPLICATE_TOL:
+            keep[count] = k
+            count += 1
+    if keep[count - 1] != m - 1:
+        if count > 1:
+            keep[count - 1] = m - 1
+        else:
+            keep[1] = m - 1
+            count = 2
+    q = np.empty((count, 3))
+    cum = np.empty(count)
+    for k in range(count):
+        q[k] = p[keep[k]]
+    cum[0] = 0.0
+    for k in range(1, count):
+        cum[k] = cum[k - 1] + math.sqrt((q[k, 0] - q[k - 1, 0]) ** 2 + (q[k, 1] - q[k - 1, 1]) ** 2
+                                        + (q[k, 2] - q[k - 1, 2]) ** 2)
+    length = cum[count - 1]
+    if length == 0.0:
+        s = np.zeros(2)
+    else:
+        n = int(round(length / h))
+        if not (n >= 1 and abs(length - n * h) <= REMAINDER_TOL * h):
+            n = int(math.floor(length / h)) + 1
+        s = np.arange(n + 1) * h
+        s[-1] = length
+    out = np.empty((s.shape[0], 3))
+    i = 0
+    for j in range(s.shape[0]):
+        while i < count - 2 and cum[i + 1] <= s[j]:
+            i += 1
+        seg = cum[i + 1] - cum[i]
+        t = (s[j] - cum[i]) / seg if seg > 0.0 else 0.0
+        for a in range(3):
+            out[j, a] = q[i, a] + t * (q[i + 1, a] - q[i, a])
+    return s, out
 
 
 def resample(path: ArrayLike, step: float) -> np.ndarray:
@@ -197,16 +245,44 @@ def fillet(waypoints: ArrayLike, radius: float, step: float = 5.0) -> np.ndarray
 def gaussian_filter_nearest(values: np.ndarray, sigma: float, truncate: float = 4.0) -> np.ndarray:
     """Gaussian filter of std ``sigma`` samples along axis 0 of ``values (m, k)``, edges extended with the end
     values: ``scipy.ndimage.gaussian_filter1d(values, sigma, axis=0, mode="nearest")`` (same kernel radius
-    ``int(truncate * sigma + 0.5)``, same normalised weights), in NumPy because importing SciPy's ndimage costs a
-    command ~0.4 s before it plans."""
+    ``int(truncate * sigma + 0.5)``, same normalised weights), compiled (:func:`_gaussian_nearest`) because
+    importing SciPy's ndimage costs a command ~0.4 s before it plans."""
     r = int(truncate * float(sigma) + 0.5)
     if r == 0:
         return np.array(values, dtype=float)
     x = np.arange(-r, r + 1, dtype=float)
     w = np.exp(-0.5 * (x / sigma) ** 2)
-    padded = np.pad(np.asarray(values, dtype=float), ((r, r), (0, 0)), mode="edge")
     w /= w.sum()
-    return np.stack([np.convolve(padded[:, k], w, mode="valid") for k in range(padded.shape[1])], axis=1)
+    cols = np.ascontiguousarray(np.asarray(values, dtype=float).T)
+    return _gaussian_nearest(cols, w).T
+
+
+@njit(cache=True)
+def _gaussian_nearest(cols, w):
+    """Each row of ``cols (k, n)`` filtered by the symmetric weights ``w`` (2r + 1), edges extended: every sample
+    adds its weighted value to the outputs within r of it (a loop the compiler vectorises), then each output
+    takes the end values times the weight that falls past each end. A kernel wider than the path costs n^2, not
+    n (2r + 1) as a convolution of the padded path does."""
+    k, n = cols.shape
+    r = (w.shape[0] - 1) // 2
+    cum = np.empty(w.shape[0] + 1)
+    cum[0] = 0.0
+    for m in range(w.shape[0]):
+        cum[m + 1] = cum[m] + w[m]
+    out = np.zeros((k, n))
+    for c in range(k):
+        x, acc = cols[c], out[c]
+        for j in range(n):
+            lo, hi = max(0, j - r), min(n - 1, j + r)
+            weights, targets = w[lo - j + r:hi - j + r + 1], acc[lo:hi + 1]
+            v = x[j]
+            for t in range(weights.shape[0]):
+                targets[t] += weights[t] * v
+        for i in range(n):
+            before = cum[max(0, r - i)]
+            after = cum[2 * r + 1] - cum[min(2 * r + 1, n + r - i)]
+            acc[i] += before * x[0] + after * x[n - 1]
+    return out
 
 
 def smooth(path: ArrayLike, sigma: float, pins: ArrayLike = (), step: float = 5.0) -> np.ndarray:
