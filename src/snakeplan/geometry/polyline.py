@@ -157,9 +157,9 @@ def _resample(p, h):
     if length == 0.0:
         s = np.zeros(2)
     else:
-        n = int(round(length / h))
+        n = round(length / h)
         if not (n >= 1 and abs(length - n * h) <= REMAINDER_TOL * h):
-            n = int(math.floor(length / h)) + 1
+            n = math.floor(length / h) + 1
         s = np.arange(n + 1) * h
         s[-1] = length
     out = np.empty((s.shape[0], 3))
