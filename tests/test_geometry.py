@@ -259,3 +259,21 @@ def test_a_subset_answers_as_the_set_of_its_obstacles_packed_alone(flags, seed):
     joints = rng.uniform(-400.0, 400.0, (20, 4, 3))
     np.testing.assert_array_equal(part.chain_collides(joints, np.full(3, 10.0)),
                                   alone.chain_collides(joints, np.full(3, 10.0)))
+
+
+@given(a=st.floats(5.0, 400.0), b=st.floats(5.0, 400.0), u=st.floats(-3.0, 3.0), v=st.floats(-3.0, 3.0))
+@settings(max_examples=200, deadline=None)
+def test_ellipse_distance_is_the_nearest_rim_point_to_a_micrometre_fraction(a, b, u, v):
+    """The distance to an ellipse's rim (negative inside) against the rim's nearest point found by sampling the
+    rim's angle densely three times, each time around the last nearest sample."""
+    from snakeplan.geometry.distance import _ellipse_distance
+
+    px, py = u * a, v * b
+    centre, half = 0.0, np.pi
+    for _ in range(3):
+        t = np.linspace(centre - half, centre + half, 20001)
+        d = np.hypot(a * np.cos(t) - px, b * np.sin(t) - py)
+        centre, half = t[np.argmin(d)], 4.0 * (t[1] - t[0])
+    nearest = float(d.min())
+    expect = nearest if (px / a) ** 2 + (py / b) ** 2 >= 1.0 else -nearest
+    assert _ellipse_distance(px, py, a, b) == pytest.approx(expect, abs=1e-7)
