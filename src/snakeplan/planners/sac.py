@@ -30,10 +30,12 @@ files live in ``snakeplan/rl/data`` with the learning curve that made them (``.c
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import io
 import json
 import math
+import os
 import time
 import warnings
 from collections import deque
@@ -136,14 +138,17 @@ def heading_frame(d: np.ndarray) -> np.ndarray:
     return out.reshape(*np.shape(d)[:-1], 3, 3)
 
 
+@functools.cache
 def ray_directions() -> np.ndarray:
-    """Unit ray directions ``(K, 3)`` in the tip frame."""
+    """Unit ray directions ``(K, 3)`` in the tip frame (made once; read-only)."""
     dirs = [np.array([1.0, 0.0, 0.0])]
     for polar, count in RAY_RINGS:
         for k in range(count):
             az = 2 * math.pi * k / count
             dirs.append(np.array([math.cos(polar), math.sin(polar) * math.cos(az), math.sin(polar) * math.sin(az)]))
-    return np.array(dirs)
+    out = np.array(dirs)
+    out.flags.writeable = False
+    return out
 
 
 #: Values the look-ahead adds to a ``local`` observation: the target after the current one (unit direction in the
@@ -1189,16 +1194,27 @@ def policy_path(scene_name: str, planner: str) -> Path | None:
 
 
 _POLICIES: dict[str, NumpyPolicy] = {}
+_SEEN: dict[tuple, NumpyPolicy] = {}
 
 
 def load_policy(path: str | Path) -> NumpyPolicy:
     """A policy file, parsed and checked once per content: keyed by the hash of its bytes, not its path, so a file
     that training rewrites in place (``--out DIR/policy.npz``) is read again; ValueError ``policy: ...`` when the
-    file is missing or not a valid policy."""
+    file is missing or not a valid policy. A file whose path, inode, size and modification time were seen before
+    is not read again (a plan in milliseconds should not hash its policy file)."""
+    try:
+        info = os.stat(path)
+        seen = (os.fspath(path), info.st_ino, info.st_size, info.st_mtime_ns)
+    except OSError:
+        seen = None
+    if seen in _SEEN:
+        return _SEEN[seen]
     data = read_weights_file(path, "policy")
     key = hashlib.sha256(data).hexdigest()
     if key not in _POLICIES:
         _POLICIES[key] = NumpyPolicy.from_bytes(data)
+    if seen is not None:
+        _SEEN[seen] = _POLICIES[key]
     return _POLICIES[key]
 
 
