@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 from scipy.stats import chisquare
 
 import snakeplan.rl  # noqa: F401  (registers the environments)
+from snakeplan.bench.kernels import stepped_rollout
 from snakeplan.evaluation import evaluate
 from snakeplan.planners import Problem, get_planner
 from snakeplan.planners.sac import (
@@ -360,22 +361,6 @@ def test_per_buffer_for_box_observations_trains():
 
 
 # --- the compiled roll-out ------------------------------------------------------------------------------------
-def _stepwise(policy, scene, robot, world, noise=0.0, rng=None):
-    """The planning roll-out as a loop of :class:`Crawler` steps in Python (one noise draw per step taken)."""
-    crawler = policy.crawler(robot, check_body=False)
-    crawler.reset(scene, world)
-    for _ in range(math.ceil(robot.total_length / crawler.step_mm) + 1):
-        action = policy.act(crawler.observation())
-        if noise > 0.0:
-            action = action + noise * rng.standard_normal(action.shape)
-        failure, _ = crawler.advance(action)
-        if failure is not None:
-            return crawler.tip_path(), failure
-        if crawler.done:
-            return crawler.tip_path(), "reached"
-    return crawler.tip_path(), "steps"
-
-
 @pytest.mark.parametrize("family, planner, knowledge", [("fuel-tank", "sac-her", "full"),
                                                         ("oil-tank", "sac-per", "sensed"),
                                                         ("confined", "sac", "sensed")])
@@ -390,7 +375,7 @@ def test_the_compiled_roll_out_is_the_crawlers_step_by_step(family, planner, kno
             views = view_for(scene, knowledge), view_for(scene, knowledge)
             rngs = np.random.default_rng(seed), np.random.default_rng(seed)
             path, outcome = rollout(policy, scene, robot, noise=noise, rng=rngs[0], world=views[0])
-            expect, expected = _stepwise(policy, scene, robot, views[1], noise, rngs[1])
+            expect, expected = stepped_rollout(policy, scene, robot, views[1], noise, rngs[1])
             np.testing.assert_array_equal(path, expect)
             assert outcome == expected
             if knowledge == "sensed":

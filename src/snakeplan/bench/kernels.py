@@ -1,8 +1,9 @@
-"""Speed of the hot kernels: chain collision checks, chain clearance, follow-the-leader fits.
+"""Speed of the hot kernels: chain collision checks, chain clearance, follow-the-leader fits, learned roll-outs.
 
 Each kernel is timed as the median of several repeats over one batch and compared with a baseline run in the
 same process: dense-sampling NumPy clearance for the collision kernels, one-call-per-depth Python for the
-follow-the-leader fit. Scene: fuel-tank; robot: sjtu-snake-iii (the issue's reference case).
+follow-the-leader fit, the same crawl stepped from Python (as the training environments step it) for the compiled
+roll-out. Scene: fuel-tank; robot: sjtu-snake-iii (the issue's reference case); policy: the shipped sac-her.
 """
 
 from __future__ import annotations
@@ -88,6 +89,13 @@ def run_kernel_bench(repeats: int = 7, batch: int = 20000, seed: int = 0, print_
     t_loop = median_seconds(lambda: [ftl.fit(path, robot.lengths, s, u) for s in loop_depths], max(1, repeats // 2))
     loop_rate = len(loop_depths) / t_loop
 
+    from snakeplan.planners.sac import load_policy, policy_path, rollout
+
+    policy = load_policy(policy_path("fuel-tank", "sac-her"))
+    steps = len(rollout(policy, scene, robot)[0]) - 1
+    t_roll = median_seconds(lambda: rollout(policy, scene, robot), repeats)
+    t_stepped = median_seconds(lambda: stepped_rollout(policy, scene, robot), max(1, repeats // 2))
+
     colliding = float(scene.chain_collides(bodies, radii).mean())
     result = {
         "scene": "fuel-tank", "seed": seed, "robot": robot.name, "batch": batch, "repeats": repeats,
@@ -100,6 +108,10 @@ def run_kernel_bench(repeats: int = 7, batch: int = 20000, seed: int = 0, print_
         "ftl_fits_per_s": batch / t_fit,
         "baseline_ftl_single_fits_per_s": loop_rate,
         "ftl_speedup_vs_baseline": (batch / t_fit) / loop_rate,
+        "rollout_steps": steps,
+        "rollouts_per_s": 1.0 / t_roll,
+        "baseline_stepped_rollouts_per_s": 1.0 / t_stepped,
+        "rollout_speedup_vs_baseline": t_stepped / t_roll,
     }
     if print_table:
         _print(result)
@@ -120,5 +132,26 @@ def _print(r: dict) -> None:
                   f"{r['baseline_sampled_clearance_per_s']:,.0f}", f"{r['clearance_speedup_vs_baseline']:.0f}x")
     table.add_row("follow-the-leader fit", f"{r['ftl_fits_per_s']:,.0f}",
                   f"{r['baseline_ftl_single_fits_per_s']:,.0f}", f"{r['ftl_speedup_vs_baseline']:.0f}x")
+    table.add_row(f"learned roll-out ({r['rollout_steps']} steps)", f"{r['rollouts_per_s']:,.0f}",
+                  f"{r['baseline_stepped_rollouts_per_s']:,.0f}", f"{r['rollout_speedup_vs_baseline']:.0f}x")
     Console().print(table)
-    Console().print(f"baselines: NumPy clearance sampled every {BASELINE_SAMPLING_MM:g} mm; one ftl.fit call per depth")
+    Console().print(f"baselines: NumPy clearance sampled every {BASELINE_SAMPLING_MM:g} mm; one ftl.fit call per depth; "
+                    f"the roll-out's crawl stepped from Python")
+
+
+def stepped_rollout(policy, scene: Scene, robot: Chain, world=None, noise: float = 0.0,
+                    rng: np.random.Generator | None = None) -> tuple[np.ndarray, str]:
+    """The planning roll-out (:func:`snakeplan.planners.sac.rollout`) as a loop of ``Crawler`` steps in Python,
+    one noise draw per step taken: the baseline of the compiled roll-out, and what a test holds it to."""
+    crawler = policy.crawler(robot, check_body=False)
+    crawler.reset(scene, world)
+    for _ in range(int(np.ceil(robot.total_length / crawler.step_mm)) + 1):
+        action = policy.act(crawler.observation())
+        if noise > 0.0:
+            action = action + noise * rng.standard_normal(action.shape)
+        failure, _ = crawler.advance(action)
+        if failure is not None:
+            return crawler.tip_path(), failure
+        if crawler.done:
+            return crawler.tip_path(), "reached"
+    return crawler.tip_path(), "steps"
