@@ -288,3 +288,11 @@ def test_bench_speed_refuses_bad_options_before_any_work(capsys, tmp_path, monke
     code, out, err = run(capsys, "bench", "speed", *argv)
     assert code == 2 and err == expected and out == ""
     assert list(tmp_path.iterdir()) == []
+
+
+def test_bench_kernels_reports_each_kernel_beside_its_baseline(capsys):
+    code, out, _ = run(capsys, "bench", "kernels", "--batch", "10", "--repeats", "1", "--json")
+    result = json.loads(out[out.index("{"):])
+    assert code == 0 and result["rollout_steps"] > 0
+    for kernel in ("collision", "clearance", "ftl", "rollout"):
+        assert result[f"{kernel}_speedup_vs_baseline"] > 0.0
