@@ -135,8 +135,8 @@ def _print(r: dict) -> None:
     table.add_row(f"learned roll-out ({r['rollout_steps']} steps)", f"{r['rollouts_per_s']:,.0f}",
                   f"{r['baseline_stepped_rollouts_per_s']:,.0f}", f"{r['rollout_speedup_vs_baseline']:.0f}x")
     Console().print(table)
-    Console().print(f"baselines: NumPy clearance sampled every {BASELINE_SAMPLING_MM:g} mm; one ftl.fit call per depth; "
-                    f"the roll-out's crawl stepped from Python")
+    Console().print(f"baselines: NumPy clearance sampled every {BASELINE_SAMPLING_MM:g} mm; one ftl.fit call per "
+                    f"depth; the roll-out's crawl stepped from Python")
 
 
 def stepped_rollout(policy, scene: Scene, robot: Chain, world=None, noise: float = 0.0,

@@ -16,15 +16,15 @@ This module holds everything a roll-out needs, so planning never imports the tra
   The ``guide`` design replaces the rooms by a route guide through the obstacles known before the job
   (:func:`snakeplan.scenes.reach.route_guide`), so it plans in any scene; a ``residual`` guide policy corrects the
   pursuit of the guide (:meth:`Crawler.pursuit`).
-- :class:`NumpyPolicy`: the actor from a plain ``.npz`` weights file (no pickle, no torch), ~20 us a call; a file
+- :class:`NumpyPolicy`: the actor from a plain ``.npz`` weights file (no pickle, no torch), ~5 us a call; a file
   is checked before use (one ``policy: ...`` error names what is wrong) and :func:`check_policy_fits` says when
   it fits a problem (another robot: refused; another scene family: a warning).
 
-The planners roll the policy out from the entrance (a roll-out takes milliseconds) until every target is reached;
-the smoothest of the roll-out and its Gaussian smoothings (``SMOOTHING_SIGMAS_MM``) that passes the planning-time
-crawl check (the ``PLANNING`` profile of :class:`~snakeplan.world.ValidityChecker`) is planned; when none passes,
-the policy is rolled out again with seeded action noise, up to ``PLAN_ATTEMPTS`` times within the budget; the path
-goes to the judge. Which policy file ships for which scene family is the scene spec's to say (``policies``); the
+The planners roll the policy out from the entrance (compiled whole, :func:`rollout`: about a millisecond) until
+every target is reached; the smoothest of the roll-out and its Gaussian smoothings (``SMOOTHING_SIGMAS_MM``) that
+passes the planning-time crawl check (the ``PLANNING`` profile of :class:`~snakeplan.world.ValidityChecker`) is
+planned; when none passes, the policy is rolled out again with seeded action noise, up to ``PLAN_ATTEMPTS`` times
+within the budget; the path goes to the judge. Which policy file ships for which scene family is the scene spec's to say (``policies``); the
 files live in ``snakeplan/rl/data`` with the learning curve that made them (``.curve.json``).
 """
 
@@ -727,10 +727,7 @@ class Crawler:
         self.world = FullView(scene) if world is None else world
         self.checker = ValidityChecker(self.world, self.robot, ROLLOUT)
         self.guide = (guide or self.route_guide(scene, self.world)) if self.mode == "guide" else None
-        self.targets = np.array(scene.targets, dtype=float).reshape(-1, 3)
-        self.guide_arrays = _NO_GUIDE if self.guide is None else (
-            np.array(self.guide.points, dtype=float), np.array(self.guide.arc, dtype=float),
-            np.array(self.guide.target_arc, dtype=float))
+        self._compiled_state()
         self.guide_s = 0.0
         self.tank_scale = float(np.max(scene.bounds_max))
         self.path = [scene.entrance.position.copy()]
@@ -749,10 +746,14 @@ class Crawler:
         state.setdefault("code", OBSERVATIONS.index(state["mode"]))
         self.__dict__.update(state)
         if "scene" in state and "targets" not in state:
-            self.targets = np.array(self.scene.targets, dtype=float).reshape(-1, 3)
-            self.guide_arrays = _NO_GUIDE if self.guide is None else (
-                np.array(self.guide.points, dtype=float), np.array(self.guide.arc, dtype=float),
-                np.array(self.guide.target_arc, dtype=float))
+            self._compiled_state()
+
+    def _compiled_state(self) -> None:
+        """The scene's targets and the guide's arrays in the form the compiled crawl kernels take."""
+        self.targets = np.array(self.scene.targets, dtype=float).reshape(-1, 3)
+        self.guide_arrays = _NO_GUIDE if self.guide is None else (
+            np.array(self.guide.points, dtype=float), np.array(self.guide.arc, dtype=float),
+            np.array(self.guide.target_arc, dtype=float))
 
     def route_guide(self, scene: Scene, world: KnowledgeView, deadline: float | None = None,
                     margin_mm: float = GUIDE_MARGIN_MM) -> RouteGuide:
@@ -1160,7 +1161,8 @@ def rollout(policy: NumpyPolicy, scene: Scene, robot: Chain, deadline: float = m
                            crawler.capture_mm, crawler.tank_scale, float(robot.total_length),
                            np.array(scene.bounds_min, dtype=float), np.array(scene.bounds_max, dtype=float),
                            crawler.targets, np.array(scene.entrance.direction, dtype=float), crawler.rays,
-                           *crawler.guide_arrays, policy.graph is not None, *graph, policy.weights, policy.biases, policy.shapes,
+                           *crawler.guide_arrays, policy.graph is not None, *graph, policy.weights, policy.biases,
+                           policy.shapes,
                            sensor.packed, sensor.known, sensor.range_mm, sensor.stats, shake, path)
     if noise > 0.0:  # leave ``rng`` where drawing each step's noise as it is taken would (the same plans)
         rng.bit_generator.state = start
@@ -1235,8 +1237,9 @@ SMOOTHING_SIGMAS_MM = (480.0, 320.0, 240.0, 160.0, 120.0, 80.0)
 @register_planner
 class SacPlanner(Planner):
     """`sac`: a plain-SAC policy rolled out deterministically; ``policy=`` a file (``"generalist"``: the shipped
-    generalist), else the one that ships for the scene (:func:`shipped_policy`). A roll-out that reaches every target is planned as the smoothest of itself and its ``smoothing``
-    scales (:data:`SMOOTHING_SIGMAS_MM`) that passes the planning-time crawl check (the ``PLANNING`` profile of
+    generalist), else the one that ships for the scene (:func:`shipped_policy`). A roll-out that reaches every
+    target is planned as the smoothest of itself and its ``smoothing`` scales (:data:`SMOOTHING_SIGMAS_MM`) that
+    passes the planning-time crawl check (the ``PLANNING`` profile of
     :class:`~snakeplan.world.ValidityChecker`); when none passes, it is rolled out again with seeded action noise,
     up to ``attempts`` roll-outs within the budget; when none passes, the plan is ``approximate``: the reaching
     roll-out whose crawl failed deepest, else the first roll-out. It plans with ``knowledge="sensed"`` too: its
