@@ -239,7 +239,8 @@ def _sdf_points(W, pts, cap, stats):
 def _grid_sdf(W, origin, spacing, nx, ny, k0, k1, cap, out, stats):
     """``out[i, j, k - k0]`` = the capped signed distance at the centre of grid cell (i, j, k), for k0 <= k < k1,
     obstacle by obstacle: only the cells within an obstacle's box grown by ``cap`` evaluate it (outside that box
-    it is farther than ``cap``), so a finite cap costs the cells near each obstacle, not cells times tree walks.
+    it is farther than ``cap``), and of those only the ones its box is nearer to than the least value so far, so a
+    finite cap costs the cells near each obstacle, not cells times tree walks.
     The same values as :func:`_scene_sdf` with ``cap`` at the centres."""
     walk = workspace(W)[2]
     rows, boxes = W[0], W[1]
@@ -258,6 +259,9 @@ def _grid_sdf(W, origin, spacing, nx, ny, k0, k1, cap, out, stats):
                 p[1] = origin[1] + (j + 0.5) * spacing[1]
                 for k in range(z0, z1 + 1):
                     p[2] = origin[2] + (k + 0.5) * spacing[2]
+                    outside = bvh.box_distance(boxes[o], p)
+                    if outside > 0.0 and outside >= out[i, j, k - k0]:
+                        continue  # outside its box, the obstacle is at least as far as the box
                     stats[0] += 1
                     out[i, j, k - k0] = min(out[i, j, k - k0], _sdf_row(rows[o], W, p, walk))
 
