@@ -24,8 +24,9 @@ The planners roll the policy out from the entrance (compiled whole, :func:`rollo
 every target is reached; the smoothest of the roll-out and its Gaussian smoothings (``SMOOTHING_SIGMAS_MM``) that
 passes the planning-time crawl check (the ``PLANNING`` profile of :class:`~snakeplan.world.ValidityChecker`) is
 planned; when none passes, the policy is rolled out again with seeded action noise, up to ``PLAN_ATTEMPTS`` times
-within the budget; the path goes to the judge. Which policy file ships for which scene family is the scene spec's to say (``policies``); the
-files live in ``snakeplan/rl/data`` with the learning curve that made them (``.curve.json``).
+within the budget; the path goes to the judge. Which policy file ships for which scene family is the scene spec's
+to say (``policies``); the files live in ``snakeplan/rl/data`` with the learning curve that made them
+(``.curve.json``).
 """
 
 from __future__ import annotations
@@ -721,11 +722,11 @@ class Crawler:
 
     def reset(self, scene: Scene, world: KnowledgeView | None = None, guide: RouteGuide | None = None) -> None:
         """Start at the entrance of ``scene``, heading along the feed direction, sensing through ``world`` (default:
-        the whole scene) and checking each step's crawl with the ``ROLLOUT`` profile. The ``guide`` design follows
-        ``guide`` (default: :meth:`route_guide` of what ``world`` knows now)."""
+        the whole scene) and, with ``check_body``, checking each step's crawl with the ``ROLLOUT`` profile. The
+        ``guide`` design follows ``guide`` (default: :meth:`route_guide` of what ``world`` knows now)."""
         self.scene = scene
         self.world = FullView(scene) if world is None else world
-        self.checker = ValidityChecker(self.world, self.robot, ROLLOUT)
+        self.checker = ValidityChecker(self.world, self.robot, ROLLOUT) if self.check_body else None
         self.guide = (guide or self.route_guide(scene, self.world)) if self.mode == "guide" else None
         self._compiled_state()
         self.guide_s = 0.0

@@ -155,12 +155,12 @@ class SensedView(KnowledgeView):
     def __init__(self, scene: Scene, truth: Sequence[Obstacle], sensor_range_mm: float = DEFAULT_SENSOR_RANGE_MM,
                  prior: Sequence[bool] | None = None, truth_set: ObstacleSet | None = None):
         super().__init__(scene if isinstance(scene, _GuardedScene) else guarded(scene))  # structure only
-        self._truth = tuple(truth)
-        self._truth_set = ObstacleSet(self._truth) if truth_set is None else truth_set
+        self._truth_set = ObstacleSet(truth) if truth_set is None else truth_set
         self.sensor_range_mm = float(sensor_range_mm)
-        self._prior = np.zeros(len(self._truth), dtype=bool) if prior is None else np.array(prior, dtype=bool)
-        if self._prior.shape != (len(self._truth),):
-            raise ValueError(f"prior: expected {len(self._truth)} flags, got {self._prior.shape}")
+        count = len(self._truth_set)
+        self._prior = np.zeros(count, dtype=bool) if prior is None else np.array(prior, dtype=bool)
+        if self._prior.shape != (count,):
+            raise ValueError(f"prior: expected {count} flags, got {self._prior.shape}")
         self.known = self._prior.copy()
         self._set: ObstacleSet | None = None
         self._set_of = self.known.copy()
@@ -192,7 +192,7 @@ class SensedView(KnowledgeView):
         return super().raycast(origins, directions, min(float(max_distance), self.sensor_range_mm), eps)
 
     def fresh(self) -> SensedView:
-        return SensedView(self.scene, self._truth, self.sensor_range_mm, self._prior, self._truth_set)
+        return SensedView(self.scene, self._truth_set.obstacles, self.sensor_range_mm, self._prior, self._truth_set)
 
 
 def view_for(scene: Scene, knowledge: str, sensor_range_mm: float = DEFAULT_SENSOR_RANGE_MM) -> KnowledgeView:

@@ -257,9 +257,7 @@ class ValidityChecker:
         depths = self._grid(cum, start, stop if out is None else out.depth_mm)
         if depths.size == 0:
             return out
-        obstacles = self.obstacles
-        i, code, link = _scan(p, cum, self.lengths, self.direction, depths, self.max_bends, self.radii,
-                              obstacles.packed, obstacles.evaluations)
+        i, code, link = self._scan(p, cum, depths)
         if i < 0 or (out is not None and out.depth_mm < depths[i]):
             return out
         return Failure(float(depths[i]), FAILURE_KINDS[code], None if link < 0 else int(link))
@@ -274,10 +272,13 @@ class ValidityChecker:
         if self._bounds_failure(p, cum, 0.0, stop) is not None:
             return False
         depths = self._grid(cum, 0.0, stop)
+        return self._scan(p, cum, depths[coarse_to_fine(depths.size)])[0] < 0
+
+    def _scan(self, p: np.ndarray, cum: np.ndarray, depths: np.ndarray) -> tuple[int, int, int]:
+        """:func:`_scan` of the crawl along ``p`` at ``depths``, in their order, against the obstacles known now."""
         obstacles = self.obstacles
-        i, _, _ = _scan(p, cum, self.lengths, self.direction, depths[coarse_to_fine(depths.size)], self.max_bends,
-                        self.radii, obstacles.packed, obstacles.evaluations)
-        return i < 0
+        return _scan(p, cum, self.lengths, self.direction, depths, self.max_bends, self.radii, obstacles.packed,
+                     obstacles.evaluations)
 
     def crawl(self, path) -> CrawlCheck:
         """Every state of the crawl from depth 0 to the path's end (or to where insertion must have failed), with
