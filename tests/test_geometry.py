@@ -119,7 +119,7 @@ def test_least_clearance_is_the_least_of_every_chains_clearance(chains, radius):
 @given(st.lists(point, min_size=1, max_size=40), st.floats(0.0, 300.0))
 def test_capped_signed_distance_is_the_least_of_each_obstacles_and_the_cap(points, cap):
     """A capped query equals min(the distance to each obstacle alone, cap) and evaluates no more obstacles than
-    the uncapped one; free_space on a grid is the capped distance at the cell centres."""
+    the uncapped one; free_space on a grid is the distance at the cell centres clamped to [-cap, cap]."""
     from snakeplan.scenes.reach import Grid, free_space
 
     shapes = [Box([0, 0, 0], [100, 200, 150]), Sphere([250, 50, 0], 60), cube_mesh(40.0),
@@ -135,10 +135,42 @@ def test_capped_signed_distance_is_the_least_of_each_obstacles_and_the_cap(point
     assert capped <= int(obstacles.evaluations[0]) - before - capped
     grid = Grid.covering(np.array([-400.0, -300, -300]), np.array([400.0, 400, 300]), 50.0)
     centres = grid.centres().reshape(-1, 3)
-    expect = np.minimum(obstacles.signed_distance(centres), cap).reshape(grid.shape)
+    expect = np.clip(obstacles.signed_distance(centres), -cap, cap).reshape(grid.shape)
     np.testing.assert_allclose(free_space(obstacles, grid, cap), expect, rtol=0, atol=1e-9)
     np.testing.assert_allclose(obstacles.grid_distance(grid.origin, grid.spacing, grid.shape, cap, (3, 7)),
                                expect[:, :, 3:7], rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("cell, cap", [(50.0, 120.0), (80.0, 60.0)])
+def test_a_mesh_grid_field_is_the_clamped_distance_far_inside_and_outside_and_is_kept_per_content(cell, cap):
+    """A mesh is searched only within the cap of each cell, and a cell farther than that takes its side from the
+    cell before it (cell < cap) or from a ray (cell > cap): a 600 mm cube mesh's field equals the box's analytic
+    distance clamped to [-cap, cap], deep inside included; a non-convex closed mesh (an annulus) and an open shell
+    equal their exact point queries, clamped. An equal mesh built again reuses the field without evaluating."""
+    from snakeplan.geometry import distance
+    from snakeplan.scenes.reach import Grid, free_space
+
+    distance._MESH_GRIDS.clear()
+    grid = Grid.covering(np.array([-500.0, -450, -420]), np.array([480.0, 500, 430]), cell)
+    centres = grid.centres().reshape(-1, 3)
+    cube = ObstacleSet([cube_mesh(300.0)])
+    box = ObstacleSet([Box([0, 0, 0], [600, 600, 600])]).signed_distance(centres)
+    assert (box < -cap).any() and (box > cap).any()
+    field = free_space(cube, grid, cap)
+    np.testing.assert_allclose(field.reshape(-1), np.clip(box, -cap, cap), rtol=0, atol=1e-9)
+    assert cube.evaluations[0] > 0
+    again = ObstacleSet([Sphere([0, 0, 900], 20), cube_mesh(300.0)])
+    both = free_space(again, grid, cap)
+    assert again.evaluations[0] <= np.prod(grid.shape) // 4  # the sphere's cells only
+    sphere = np.linalg.norm(centres - [0, 0, 900], axis=1) - 20
+    np.testing.assert_allclose(both.reshape(-1), np.clip(np.minimum(box, sphere), -cap, cap), rtol=0, atol=1e-9)
+    ring = trimesh.creation.annulus(r_min=150, r_max=400, height=500, sections=48)
+    cup = trimesh.creation.box(extents=[700, 700, 500])
+    cup = trimesh.Trimesh(cup.vertices, cup.faces[np.abs(cup.face_normals[:, 2] - 1) > 1e-9])  # no top: a shell
+    for mesh in (Mesh(ring.vertices, ring.faces), Mesh(cup.vertices, cup.faces, thickness=20.0)):
+        one = ObstacleSet([mesh])
+        exact = np.clip(one.signed_distance(centres), -cap, cap)
+        np.testing.assert_allclose(free_space(one, grid, cap).reshape(-1), exact, rtol=0, atol=1e-9)
 
 
 def test_an_obstacle_set_pickles_as_its_obstacles_and_loads_an_older_versions_state():

@@ -512,7 +512,9 @@ def test_scene_import_help_is_its_own(capsys):
 @pytest.mark.parametrize("planner", ["rrt-star", "sp-rrt", "as-rrt"])
 def test_sampling_planners_keep_their_time_budget_on_a_134k_triangle_mesh(planner):
     """The contract's deadline rule (conformance suite) on a mesh scene: a solvable problem within 1 s and a walled
-    one (no plan exists; a new obstacle set around the same mesh) within 0.05 s, each plus the contract's slack."""
+    one (no plan exists; a new obstacle set around the same mesh) within 0.05 s, each plus the contract's slack.
+    The walled problem ends in a timeout, or for sp-rrt, whose field of the mesh is kept from the first problem,
+    may be found walled in (failed) before its budget ends."""
     from snakeplan.planners import Problem
     from snakeplan.planners.conformance import check_planner
     from snakeplan.robots import get_robot
@@ -521,4 +523,5 @@ def test_sampling_planners_keep_their_time_budget_on_a_134k_triangle_mesh(planne
     scene = make_scene("pipework", 0)
     assert len(scene.obstacles[0].faces) > 100_000
     report = check_planner(planner, [Problem(scene, get_robot(scene_spec("pipework").robot), time_limit_s=1.0)])
-    assert report.plans[0].endswith(": found") and report.plans[1].endswith("0.05 s: timeout")
+    assert report.plans[0].endswith(": found")
+    assert report.plans[1].endswith("0.05 s: timeout" if planner != "sp-rrt" else ("0.05 s: timeout", "0.05 s: failed"))

@@ -10,6 +10,7 @@ no collision is missed (the bound is exact, not a sampling heuristic). Distances
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from collections.abc import Sequence
 
 import numpy as np
@@ -236,17 +237,24 @@ def _sdf_points(W, pts, cap, stats):
 
 
 @njit(cache=True)
-def _grid_sdf(W, origin, spacing, nx, ny, k0, k1, cap, out, stats):
-    """``out[i, j, k - k0]`` = the capped signed distance at the centre of grid cell (i, j, k), for k0 <= k < k1,
-    obstacle by obstacle: only the cells within an obstacle's box grown by ``cap`` evaluate it (outside that box
-    it is farther than ``cap``), and of those only the ones its box is nearer to than the least value so far, so a
-    finite cap costs the cells near each obstacle, not cells times tree walks.
-    The same values as :func:`_scene_sdf` with ``cap`` at the centres."""
+def _grid_sdf(W, which, origin, spacing, nx, ny, k0, k1, cap, out, stats):
+    """``out[i, j, k - k0]`` lowered to the signed distance at the centre of grid cell (i, j, k) to the obstacles
+    ``which``, clamped to [-cap, cap], for k0 <= k < k1 (``out`` holds at most ``cap`` on entry), obstacle by
+    obstacle: only the cells within an obstacle's box grown by ``cap`` evaluate it
+    (outside that box it is farther than ``cap``), and of those only the ones its box is nearer to than the least
+    value so far, so a finite cap costs the cells near each obstacle, not cells times tree walks.
+    A mesh is searched only within ``cap`` of each cell (:func:`mesh_sdf`'s ``reach``). A cell with no surface that
+    near lies on the same side of a closed mesh as the cell before it in z when that one is nearer than ``cap``
+    (the segment between them cannot cross a surface farther than ``cap``), else a ray settles its side
+    (:func:`mesh_inside`). The same values as :func:`_scene_sdf` with ``cap`` at the centres, clamped below at
+    ``-cap``."""
     walk = workspace(W)[2]
-    rows, boxes = W[0], W[1]
+    rows, boxes, ranges = W[0], W[1], W[3]
     p = np.empty(3)
-    out[:] = cap
-    for o in range(rows.shape[0]):
+    inherit = spacing[2] < cap
+    for o in which:
+        row = rows[o]
+        mesh = int(row[0]) == KIND_MESH
         i0 = max(0, math.ceil((boxes[o, 0] - cap - origin[0]) / spacing[0] - 0.5))
         i1 = min(nx - 1, math.floor((boxes[o, 3] + cap - origin[0]) / spacing[0] - 0.5))
         j0 = max(0, math.ceil((boxes[o, 1] - cap - origin[1]) / spacing[1] - 0.5))
@@ -257,13 +265,28 @@ def _grid_sdf(W, origin, spacing, nx, ny, k0, k1, cap, out, stats):
             p[0] = origin[0] + (i + 0.5) * spacing[0]
             for j in range(j0, j1 + 1):
                 p[1] = origin[1] + (j + 0.5) * spacing[1]
+                side = 0.0  # the side of the mesh the cell before lies on (0: not known)
                 for k in range(z0, z1 + 1):
                     p[2] = origin[2] + (k + 0.5) * spacing[2]
                     outside = bvh.box_distance(boxes[o], p)
                     if outside > 0.0 and outside >= out[i, j, k - k0]:
+                        side = 0.0
                         continue  # outside its box, the obstacle is at least as far as the box
                     stats[0] += 1
-                    out[i, j, k - k0] = min(out[i, j, k - k0], _sdf_row(rows[o], W, p, walk))
+                    if mesh:
+                        root, half = ranges[int(row[_P + 1]), 2], row[_P + 2]
+                        d = mesh_sdf(W[2], W[4], W[5], W[6], root, half, p, walk[1], cap + half)
+                        if math.isnan(d):
+                            if half > 0.0 or (inherit and side > 0.0):
+                                d = cap
+                            elif inherit and side < 0.0:
+                                d = -cap
+                            else:
+                                d = -cap if mesh_inside(W[2], W[4], W[5], W[6], root, p, walk[1]) else cap
+                        side = 1.0 if d >= 0.0 else -1.0
+                    else:
+                        d = _sdf_row(row, W, p, walk)
+                    out[i, j, k - k0] = min(out[i, j, k - k0], max(d, -cap))
 
 
 @leaf
@@ -627,6 +650,36 @@ def _kernel_array(x) -> np.ndarray:
     return np.require(np.asarray(x, dtype=float), requirements=["C", "W"])
 
 
+#: Grid fields of meshes kept by :func:`_mesh_grid`, newest last, and the most cells they may hold in all.
+_MESH_GRIDS: OrderedDict = OrderedDict()
+MESH_GRID_CELLS = 4_000_000
+
+
+def _split_meshes(obstacles: Sequence[Obstacle]) -> tuple[np.ndarray, np.ndarray]:
+    """(the indices of the meshes among ``obstacles``, the indices of the rest)."""
+    is_mesh = np.array([isinstance(o, Mesh) for o in obstacles], dtype=bool)
+    return np.flatnonzero(is_mesh), np.flatnonzero(~is_mesh)
+
+
+def _mesh_grid(obstacles: ObstacleSet, meshes: np.ndarray, query: tuple) -> np.ndarray:
+    """The clamped grid field (:meth:`ObstacleSet.grid_distance`) of the meshes ``meshes`` of ``obstacles`` alone,
+    read-only, kept per the meshes' content (:meth:`Mesh.fingerprint`) and the grid, the least recently used
+    dropped past :data:`MESH_GRID_CELLS` cells in all: a later job in the same structure reuses it."""
+    origin, spacing, nx, ny, k0, k1, cap = query
+    key = (tuple(obstacles.obstacles[k].fingerprint() for k in meshes), origin.tobytes(), spacing.tobytes(),
+           nx, ny, k0, k1, cap)
+    field = _MESH_GRIDS.get(key)
+    if field is None:
+        field = np.full((nx, ny, k1 - k0), cap)
+        _grid_sdf(obstacles.packed, meshes, *query, field, obstacles.evaluations)
+        field.setflags(write=False)
+        _MESH_GRIDS[key] = field
+        while sum(f.size for f in _MESH_GRIDS.values()) > MESH_GRID_CELLS and len(_MESH_GRIDS) > 1:
+            _MESH_GRIDS.popitem(last=False)
+    _MESH_GRIDS.move_to_end(key)
+    return field
+
+
 class ObstacleSet:
     """A packed, immutable set of obstacles with batched exact queries (mm).
 
@@ -665,6 +718,7 @@ class ObstacleSet:
                         np.concatenate(nodes) if nodes else np.zeros((0, 6)),
                         np.concatenate(links) if links else np.zeros((0, 2), dtype=np.int64),
                         onodes, olinks, order, triangle_balls(all_tris))
+        self._split = _split_meshes(self.obstacles)
         #: Point-to-obstacle distance evaluations made by this set's queries so far (a cost measure for tests and
         #: benchmarks, independent of the machine's speed).
         self.evaluations = np.zeros(1, dtype=np.int64)
@@ -684,6 +738,7 @@ class ObstacleSet:
         order, onodes, olinks = bvh.build(out._boxes)
         W = self._packed
         out._packed = (out._rows, out._boxes, *W[2:7], onodes, olinks, order, W[10])
+        out._split = _split_meshes(out.obstacles)
         out.evaluations = np.zeros(1, dtype=np.int64)
         return out
 
@@ -713,14 +768,23 @@ class ObstacleSet:
     def grid_distance(self, origin, spacing, shape: tuple[int, int, int], cap: float, layers: tuple[int, int] | None = None
                       ) -> np.ndarray:
         """:meth:`signed_distance` with a finite ``cap`` at the centres ``origin + (index + 0.5) * spacing`` (mm) of
-        a grid of ``shape`` cells (the z layers ``layers = (k0, k1)`` only; default all), shape ``(nx, ny, k1 -
-        k0)``; each obstacle is evaluated only at the cells within ``cap`` of its box."""
+        a grid of ``shape`` cells (the z layers ``layers = (k0, k1)`` only; default all), clamped below at
+        ``-cap``; shape ``(nx, ny, k1 - k0)``. Each obstacle is evaluated only at the cells within ``cap`` of its
+        box. The part the meshes make is kept (:func:`_mesh_grid`): a mesh is usually the fixed structure of
+        many jobs, and its part costs far more than the primitives'."""
         if not math.isfinite(cap):
             raise ValueError(f"cap: a grid query needs a finite cap, got {cap}")
         k0, k1 = layers if layers is not None else (0, shape[2])
-        out = np.empty((shape[0], shape[1], k1 - k0))
-        _grid_sdf(self._packed, np.asarray(origin, dtype=float), np.asarray(spacing, dtype=float), int(shape[0]),
-                  int(shape[1]), int(k0), int(k1), float(cap), out, self.evaluations)
+        origin = np.asarray(origin, dtype=float)
+        spacing = np.asarray(spacing, dtype=float)
+        query = (origin, spacing, int(shape[0]), int(shape[1]), int(k0), int(k1), float(cap))
+        meshes, others = self._split
+        if len(meshes):
+            out = _mesh_grid(self, meshes, query).copy()
+        else:
+            out = np.full((shape[0], shape[1], k1 - k0), float(cap))
+        if len(others):
+            _grid_sdf(self._packed, others, *query, out, self.evaluations)
         return out
 
     def chain_clearance(self, joints, radii, tol: float = CLEARANCE_TOLERANCE_MM) -> np.ndarray:

@@ -247,11 +247,13 @@ def closest_on_triangle(p, a, b, c):
 
 
 @leaf
-def mesh_sdf(tris, normals, nodes, links, root, half_thickness, p, stack):
+def mesh_sdf(tris, normals, nodes, links, root, half_thickness, p, stack, reach=np.inf):
     """Signed distance from p to the mesh whose tree has root node ``root``: a closed solid when
     ``half_thickness`` is 0 (pseudonormal sign), else a shell (unsigned distance - half_thickness).
+    With a finite ``reach`` (mm) only the surface nearer than it is searched, and a point with none that near
+    gets NaN (its distance is at least ``reach``; its side is the caller's to settle).
     ``stack`` is an int64 work array of at least :data:`bvh.STACK_SIZE`."""
-    best = np.inf
+    best = reach * reach
     tri = -1
     feature = 0
     qx = qy = qz = 0.0
@@ -280,6 +282,8 @@ def mesh_sdf(tris, normals, nodes, links, root, half_thickness, p, stack):
         if dnear < best:
             stack[top] = near
             top += 1
+    if tri < 0:
+        return np.nan
     d = math.sqrt(best)
     if half_thickness > 0.0:
         return d - half_thickness

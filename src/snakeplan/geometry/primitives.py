@@ -8,6 +8,7 @@ scenes without Python in the loop. Signed distance is negative inside the materi
 
 from __future__ import annotations
 
+import hashlib
 import math
 from dataclasses import MISSING, dataclass, field, fields
 from typing import Any, ClassVar
@@ -331,6 +332,18 @@ class Mesh(Obstacle):
     def triangles(self) -> np.ndarray:
         """Face corners, shape (F, 3, 3)."""
         return self.vertices[self.faces]
+
+    def fingerprint(self) -> str:
+        """A digest of the mesh's defining content (vertices, faces, thickness), made once: equal for equal meshes
+        however they were loaded, so what is derived from one mesh can be kept for the next job in it."""
+        key = self.__dict__.get("_fingerprint")
+        if key is None:
+            h = hashlib.sha1(self.vertices.tobytes())
+            h.update(self.faces.tobytes())
+            h.update(repr(self.thickness).encode())
+            key = h.hexdigest()
+            object.__setattr__(self, "_fingerprint", key)
+        return key
 
     def distance_data(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(triangles in leaf order, normals, nodes, links) of :func:`mesh_distance.prepare`, built once."""
