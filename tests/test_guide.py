@@ -51,6 +51,34 @@ def test_guide_passes_a_wall_through_its_hole():
     assert g.target_arc[0] > np.linalg.norm(target[0] - entrance.position)
 
 
+def test_free_space_grows_with_the_obstacles_and_routes_as_a_guide_made_afresh():
+    """A free space extended by newly known obstacles (a superset of its set) equals the field of the larger set
+    computed afresh, and so does one handed a set that is not a superset; a route through it at any inflation up
+    to its cap is the guide made from scratch at that inflation."""
+    from snakeplan.geometry.primitives import Box, Sphere
+    from snakeplan.scenes.reach import GUIDE_CELL_MM, FreeSpace, Grid, free_space, route_through
+
+    rng = np.random.default_rng(3)
+    shapes = [Box(rng.uniform(LO + 100, HI - 100), rng.uniform(40, 200, 3)) for _ in range(6)]
+    shapes += [Sphere(rng.uniform(LO + 100, HI - 100), float(rng.uniform(20, 80))) for _ in range(6)]
+    everything = ObstacleSet(shapes)
+    grid = Grid.covering(LO, HI, GUIDE_CELL_MM)
+    first = FreeSpace.of(everything.subset(np.arange(12) < 5), grid, 120.0)
+    grown = first.including(everything)
+    assert grown.obstacles is everything
+    np.testing.assert_array_equal(grown.sdf, free_space(everything, grid, 120.0))
+    other = FreeSpace.of(ObstacleSet([Sphere([500.0, 300, 300], 50)]), grid, 120.0).including(everything)
+    np.testing.assert_array_equal(other.sdf, grown.sdf)
+    entrance = Entrance([0.0, 300.0, 300.0], [1.0, 0.0, 0.0])
+    target = np.array([[900.0, 250.0, 320.0]])
+    for inflate in (30.0, 80.0, 120.0):
+        route = route_through(grown, entrance, target, inflate)
+        fresh = route_guide(everything, LO, HI, entrance, target, inflate_mm=inflate)
+        np.testing.assert_array_equal(route.points, fresh.points)
+    with pytest.raises(ValueError, match="inflate_mm: at most the field's cap"):
+        route_through(grown, entrance, target, 121.0)
+
+
 def test_a_sensed_guide_ignores_undiscovered_clutter():
     scene = make_scene("fuel-tank", 0)
     sensed = SensedView.of(scene)

@@ -57,7 +57,16 @@ from snakeplan.planners.registry import register_planner
 from snakeplan.planners.weights import read_npz, read_weights_file
 from snakeplan.robots import Chain, get_robot
 from snakeplan.scenes import Scene, SceneSpec, scene_spec, spec_for
-from snakeplan.scenes.reach import FieldDeadline, RouteGuide, nearest_on_guide, route_guide
+from snakeplan.scenes.reach import (
+    GUIDE_CELL_MM,
+    FieldDeadline,
+    FreeSpace,
+    Grid,
+    RouteGuide,
+    nearest_on_guide,
+    route_guide,
+    route_through,
+)
 from snakeplan.world import PLANNING, REACH_TOLERANCE_MM, ROLLOUT, FullView, KnowledgeView, ValidityChecker
 from snakeplan.world.knowledge import sensor_rays
 
@@ -696,6 +705,17 @@ def guide_for(scene: Scene, world: KnowledgeView, radius_mm: float, deadline: fl
                        radius_mm + margin_mm, deadline=deadline)
 
 
+def guide_space(scene: Scene, world: KnowledgeView, radius_mm: float, deadline: float | None = None,
+                space: FreeSpace | None = None) -> FreeSpace:
+    """The free space of :func:`guide_for` through what ``world`` knows now, for every margin up to
+    ``GUIDE_MARGIN_MAX_MM`` beyond an arm of body radius ``radius_mm``: ``space`` (an earlier one of the same plan)
+    with what was sensed since, when given (:class:`~snakeplan.scenes.reach.FieldDeadline` past ``deadline``)."""
+    if space is not None:
+        return space.including(world.obstacle_set, deadline)
+    grid = Grid.covering(scene.bounds_min, scene.bounds_max, GUIDE_CELL_MM)
+    return FreeSpace.of(world.obstacle_set, grid, radius_mm + GUIDE_MARGIN_MAX_MM, deadline)
+
+
 def _length(v: np.ndarray) -> float:
     """Length of a 3-vector (mm): the crawl's per-step arithmetic, without ``np.linalg.norm``'s overhead."""
     return math.sqrt(float(v @ v))
@@ -1314,16 +1334,17 @@ class SacPlanner(Planner):
         details = {"policy": policy.meta.get("name", str(self.policy or self.name))}
         best, best_reach, path = None, -1.0, None
         guide, known, margin, routed, widest = None, -1, GUIDE_MARGIN_MM, GUIDE_MARGIN_MM, GUIDE_MARGIN_MAX_MM
+        space, radius = None, float(np.max(problem.robot.radii))
         for attempt in range(self.attempts):
             noise = self.noise_levels[(attempt - 1) % RETRY_LEVELS] if attempt else 0.0
             if policy.mode == "guide" and (len(problem.world.obstacle_set) != known or margin != routed):
                 known = len(problem.world.obstacle_set)  # re-route on what was sensed, or farther from it
                 try:
-                    wider = guide_for(problem.scene, problem.world, float(np.max(problem.robot.radii)), deadline,
-                                      margin)
+                    space = guide_space(problem.scene, problem.world, radius, deadline, space)
                 except FieldDeadline:
                     details.update(outcome="timeout", attempts=attempt)
                     break
+                wider = route_through(space, problem.scene.entrance, problem.scene.targets, radius + margin)
                 if guide is None or wider.complete:
                     guide, routed = wider, margin
                 else:  # too wide for an opening: keep the last guide, and try no wider

@@ -254,14 +254,52 @@ class RouteGuide:
         return nearest_on_guide(self.points, self.arc, np.asarray(tip, dtype=float), float(s_from), float(s_to))
 
 
+@dataclass(frozen=True, eq=False)
+class FreeSpace:
+    """:func:`free_space` of ``obstacles`` on ``grid``, capped at ``cap_mm``: the route guide's free cells for any
+    inflation up to the cap. :meth:`including` a superset of its obstacles evaluates only the added ones (the
+    field of a union is the least of the parts' fields), so a guide made again after sensing costs the newly
+    known obstacles, not the structure again."""
+
+    grid: Grid
+    cap_mm: float
+    sdf: np.ndarray
+    obstacles: ObstacleSet
+
+    @classmethod
+    def of(cls, obstacles: ObstacleSet, grid: Grid, cap_mm: float, deadline: float | None = None) -> FreeSpace:
+        """The field of ``obstacles`` (:class:`FieldDeadline` past ``deadline``)."""
+        return cls(grid, float(cap_mm), free_space(obstacles, grid, cap_mm, deadline), obstacles)
+
+    def including(self, obstacles: ObstacleSet, deadline: float | None = None) -> FreeSpace:
+        """The field of ``obstacles``: only those not in this field's set are evaluated when they are a superset
+        of it (the same obstacle objects; a sensed view's known set grows so), else all of them."""
+        held = {id(o) for o in self.obstacles.obstacles}
+        added = np.array([id(o) not in held for o in obstacles.obstacles], dtype=bool)
+        if len(obstacles) - int(added.sum()) != len(held):
+            return FreeSpace.of(obstacles, self.grid, self.cap_mm, deadline)
+        if not added.any():
+            return FreeSpace(self.grid, self.cap_mm, self.sdf, obstacles)
+        extra = free_space(obstacles.subset(added), self.grid, self.cap_mm, deadline)
+        return FreeSpace(self.grid, self.cap_mm, np.minimum(self.sdf, extra), obstacles)
+
+
 def route_guide(obstacles: ObstacleSet, bounds_min, bounds_max, entrance: Entrance, targets,
                 inflate_mm: float = DEFAULT_INFLATE_MM, cell_mm: float = GUIDE_CELL_MM,
                 deadline: float | None = None) -> RouteGuide:
     """The :class:`RouteGuide` through ``obstacles`` (a planner passes what it knows before the job: its knowledge
     view's obstacles) from ``entrance`` through ``targets`` in order; :class:`FieldDeadline` past ``deadline``
     (a perf_counter value) while its free space is computed."""
-    grid = Grid.covering(bounds_min, bounds_max, cell_mm)
-    sdf = free_space(obstacles, grid, inflate_mm + SDF_HORIZON_MM, deadline)
+    space = FreeSpace.of(obstacles, Grid.covering(bounds_min, bounds_max, cell_mm), inflate_mm, deadline)
+    return route_through(space, entrance, targets, inflate_mm)
+
+
+def route_through(space: FreeSpace, entrance: Entrance, targets, inflate_mm: float) -> RouteGuide:
+    """:func:`route_guide` through the cells of ``space`` at least ``inflate_mm`` (at most its cap) from its
+    obstacles."""
+    if inflate_mm > space.cap_mm:
+        raise ValueError(f"inflate_mm: at most the field's cap {space.cap_mm:g} mm, got {inflate_mm:g}")
+    grid, sdf = space.grid, space.sdf
     source, pieces, ends, complete = entrance, [entrance.position[None]], [], True
     for k, target in enumerate(np.asarray(targets, dtype=float).reshape(-1, 3)):
         feed = DEFAULT_FEED_MM if k == 0 else 0.0
