@@ -146,6 +146,12 @@ def _numeric_array(value: Any) -> np.ndarray | None:
 
 
 def _first_bad(arr: np.ndarray, name: str, limit: float) -> None:
+    """Raise naming the first entry of ``arr`` that is not finite or exceeds ``limit`` in magnitude."""
+    if arr.size == 0:
+        return
+    top = float(np.abs(arr).max())  # NaN when any entry is NaN
+    if top <= limit and math.isfinite(top):  # one pass when all is well
+        return
     bad = ~np.isfinite(arr) | (np.abs(arr) > limit)
     if np.any(bad):
         idx = tuple(int(i) for i in np.argwhere(bad)[0])

@@ -89,7 +89,6 @@ from snakeplan.planners.registry import register_planner
 from snakeplan.world import PLANNING, Failure, ValidityChecker
 from snakeplan.scenes.reach import (
     DEFAULT_FEED_MM,
-    SDF_HORIZON_MM,
     FieldDeadline,
     Grid,
     free_space,
@@ -348,7 +347,7 @@ class _Search:
                 self.source_depth = float(a)
                 break
         grid = Grid.covering(scene.bounds_min, scene.bounds_max, cell_mm)
-        sdf = free_space(self.model.obstacles, grid, self.radius + SDF_HORIZON_MM, self.deadline)
+        sdf = free_space(self.model.obstacles, grid, self.radius, self.deadline)  # only thresholded at the radius
         source = Entrance(self.entrance + self.source_depth * self.u, self.u)
         self.field = geodesic_from_sdf(grid, sdf, source, self.radius, DEFAULT_FEED_MM)
 
@@ -589,8 +588,9 @@ class _Search:
     # --- main loop --------------------------------------------------------------------------------------------
     def _try_solution(self, i: int) -> np.ndarray | None:
         """The first entrance connection of node ``i`` whose path passes the crawl check, if any."""
-        chain = self.tree.chain(i)
-        for prefix in self._entrance_paths(i):
+        prefixes = self._entrance_paths(i)
+        chain = self.tree.chain(i) if prefixes else []
+        for prefix in prefixes:
             path = np.vstack([prefix, self.tree.pos[chain]])
             self.solutions += 1
             t0 = time.perf_counter()
