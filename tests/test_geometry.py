@@ -173,6 +173,23 @@ def test_a_mesh_grid_field_is_the_clamped_distance_far_inside_and_outside_and_is
         np.testing.assert_allclose(free_space(one, grid, cap).reshape(-1), exact, rtol=0, atol=1e-9)
 
 
+def test_the_kept_mesh_fields_stay_within_their_bound_dropping_the_least_recently_used(monkeypatch):
+    from snakeplan.geometry import distance
+    from snakeplan.scenes.reach import Grid, free_space
+
+    distance._MESH_GRIDS.clear()
+    grid = Grid.covering(np.array([-200.0, -200, -200]), np.array([200.0, 200, 200]), 40.0)
+    monkeypatch.setattr(distance, "MESH_GRID_CELLS", 2 * int(np.prod(grid.shape)))
+    small, large, third = (ObstacleSet([cube_mesh(h)]) for h in (50.0, 70.0, 90.0))
+    for obstacles in (small, large, small, third):  # small used again: large is the least recently used
+        free_space(obstacles, grid, 60.0)
+    kept = {key[0] for key in distance._MESH_GRIDS}
+    assert kept == {(small.obstacles[0].fingerprint(),), (third.obstacles[0].fingerprint(),)}
+    before = int(large.evaluations[0])
+    free_space(large, grid, 60.0)
+    assert large.evaluations[0] > before  # dropped, so evaluated again
+
+
 def test_an_obstacle_set_pickles_as_its_obstacles_and_loads_an_older_versions_state():
     # A training checkpoint pickles the environment, obstacle sets included; the packed arrays are derived, so a
     # state written before they changed (here: a dict without them) must load into today's form.

@@ -10,6 +10,7 @@ no collision is missed (the bound is exact, not a sampling heuristic). Distances
 from __future__ import annotations
 
 import math
+import threading
 from collections import OrderedDict
 from collections.abc import Sequence
 
@@ -650,9 +651,11 @@ def _kernel_array(x) -> np.ndarray:
     return np.require(np.asarray(x, dtype=float), requirements=["C", "W"])
 
 
-#: Grid fields of meshes kept by :func:`_mesh_grid`, newest last, and the most cells they may hold in all.
+#: Grid fields of meshes kept by :func:`_mesh_grid`, newest last, the most cells they may hold in all, and the
+#: lock that keeps the store whole when planners run in threads.
 _MESH_GRIDS: OrderedDict = OrderedDict()
 MESH_GRID_CELLS = 4_000_000
+_MESH_GRIDS_LOCK = threading.Lock()
 
 
 def _split_meshes(obstacles: Sequence[Obstacle]) -> tuple[np.ndarray, np.ndarray]:
@@ -668,15 +671,18 @@ def _mesh_grid(obstacles: ObstacleSet, meshes: np.ndarray, query: tuple) -> np.n
     origin, spacing, nx, ny, k0, k1, cap = query
     key = (tuple(obstacles.obstacles[k].fingerprint() for k in meshes), origin.tobytes(), spacing.tobytes(),
            nx, ny, k0, k1, cap)
-    field = _MESH_GRIDS.get(key)
-    if field is None:
-        field = np.full((nx, ny, k1 - k0), cap)
-        _grid_sdf(obstacles.packed, meshes, *query, field, obstacles.evaluations)
-        field.setflags(write=False)
+    with _MESH_GRIDS_LOCK:
+        field = _MESH_GRIDS.get(key)
+        if field is not None:
+            _MESH_GRIDS.move_to_end(key)
+            return field
+    field = np.full((nx, ny, k1 - k0), cap)
+    _grid_sdf(obstacles.packed, meshes, *query, field, obstacles.evaluations)
+    field.setflags(write=False)
+    with _MESH_GRIDS_LOCK:
         _MESH_GRIDS[key] = field
         while sum(f.size for f in _MESH_GRIDS.values()) > MESH_GRID_CELLS and len(_MESH_GRIDS) > 1:
             _MESH_GRIDS.popitem(last=False)
-    _MESH_GRIDS.move_to_end(key)
     return field
 
 
