@@ -10,13 +10,21 @@ from hypothesis import strategies as st
 
 import snakeplan.rl  # noqa: F401  (registers the environments)
 from snakeplan.geometry.distance import ObstacleSet
-from snakeplan.geometry.primitives import Plate
+from snakeplan.geometry.primitives import Box, Plate, Sphere
 from snakeplan.planners.sac import GUIDE_AHEAD_MM, GUIDE_MARGIN_MM, Crawler, input_dim, policy_input
 from snakeplan.rl.envs import SnakeEnv
 from snakeplan.robots import get_robot
 from snakeplan.scenes import Entrance, make_scene
 from snakeplan.scenes.fuel_tank import outside_turning_region
-from snakeplan.scenes.reach import geodesic_field, route_guide
+from snakeplan.scenes.reach import (
+    GUIDE_CELL_MM,
+    FreeSpace,
+    Grid,
+    free_space,
+    geodesic_field,
+    route_guide,
+    route_through,
+)
 from snakeplan.world import SensedView
 
 ROBOT = get_robot("sjtu-snake-iii")
@@ -55,9 +63,6 @@ def test_free_space_grows_with_the_obstacles_and_routes_as_a_guide_made_afresh()
     """A free space extended by newly known obstacles (a superset of its set) equals the field of the larger set
     computed afresh, and so does one handed a set that is not a superset; a route through it at any inflation up
     to its cap is the guide made from scratch at that inflation."""
-    from snakeplan.geometry.primitives import Box, Sphere
-    from snakeplan.scenes.reach import GUIDE_CELL_MM, FreeSpace, Grid, free_space, route_through
-
     rng = np.random.default_rng(3)
     shapes = [Box(rng.uniform(LO + 100, HI - 100), rng.uniform(40, 200, 3)) for _ in range(6)]
     shapes += [Sphere(rng.uniform(LO + 100, HI - 100), float(rng.uniform(20, 80))) for _ in range(6)]
