@@ -241,9 +241,9 @@ def _sdf_points(W, pts, cap, stats):
 def _grid_sdf(W, which, origin, spacing, nx, ny, k0, k1, cap, out, stats):
     """``out[i, j, k - k0]`` lowered to the signed distance at the centre of grid cell (i, j, k) to the obstacles
     ``which``, clamped to [-cap, cap], for k0 <= k < k1 (``out`` holds at most ``cap`` on entry), obstacle by
-    obstacle: only the cells within an obstacle's box grown by ``cap`` evaluate it
-    (outside that box it is farther than ``cap``), and of those only the ones its box is nearer to than the least
-    value so far, so a finite cap costs the cells near each obstacle, not cells times tree walks.
+    obstacle: only the cells within an obstacle's box grown by ``cap`` evaluate it (outside that box it is farther
+    than ``cap``), and of those only the ones its box is nearer to than the least value so far, so a finite cap
+    costs the cells near each obstacle, not cells times tree walks.
     A mesh is searched only within ``cap`` of each cell (:func:`mesh_sdf`'s ``reach``). A cell with no surface that
     near lies on the same side of a closed mesh as the cell before it in z when that one is nearer than ``cap``
     (the segment between them cannot cross a surface farther than ``cap``), else a ray settles its side

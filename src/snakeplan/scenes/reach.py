@@ -163,7 +163,8 @@ DEADLINE_CHUNK_CELLS = 4096
 
 def free_space(obstacles: ObstacleSet, grid: Grid, horizon_mm: float = math.inf,
                deadline: float | None = None) -> np.ndarray:
-    """Signed distance (mm) at every cell centre, shape ``grid.shape``; values above ``horizon_mm`` are capped.
+    """Signed distance (mm) at every cell centre, shape ``grid.shape``, clamped to [-``horizon_mm``,
+    ``horizon_mm``] (its users compare it with an inflation at most the horizon, and with 0).
 
     A finite horizon evaluates each obstacle only at the cells within the horizon of its box
     (:meth:`ObstacleSet.grid_distance`), so a cell far from everything costs nothing. With a ``deadline`` (a
