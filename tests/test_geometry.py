@@ -134,6 +134,10 @@ def test_capped_signed_distance_is_the_least_of_each_obstacles_and_the_cap(point
     obstacles.signed_distance(p)
     assert capped <= int(obstacles.evaluations[0]) - before - capped
     grid = Grid.covering(np.array([-400.0, -300, -300]), np.array([400.0, 400, 300]), 50.0)
+    if cap <= 0.0:  # a field clamped to [0, 0] would lose the side of every cell
+        with pytest.raises(ValueError, match="cap: a grid query needs a finite positive cap"):
+            free_space(obstacles, grid, cap)
+        return
     centres = grid.centres().reshape(-1, 3)
     expect = np.clip(obstacles.signed_distance(centres), -cap, cap).reshape(grid.shape)
     np.testing.assert_allclose(free_space(obstacles, grid, cap), expect, rtol=0, atol=1e-9)
@@ -143,10 +147,12 @@ def test_capped_signed_distance_is_the_least_of_each_obstacles_and_the_cap(point
 
 @pytest.mark.parametrize("cell, cap", [(50.0, 120.0), (80.0, 60.0)])
 def test_a_mesh_grid_field_is_the_clamped_distance_far_inside_and_outside_and_is_kept_per_content(cell, cap):
-    """A mesh is searched only within the cap of each cell, and a cell farther than that takes its side from the
-    cell before it (cell < cap) or from a ray (cell > cap): a 600 mm cube mesh's field equals the box's analytic
-    distance clamped to [-cap, cap], deep inside included; a non-convex closed mesh (an annulus) and an open shell
-    equal their exact point queries, clamped. An equal mesh built again reuses the field without evaluating."""
+    """A mesh is searched only near each cell (within the cap, and beyond the z spacing), and a cell with no surface
+    that near takes its side from the cell before it, or from a ray at the first cell of a column (a chunk of
+    layers starts inside the cube): a 600 mm cube mesh's field equals the box's analytic distance clamped to
+    [-cap, cap], deep inside included, with the cell smaller and larger than the cap; a non-convex closed mesh
+    (an annulus) and an open shell equal their exact point queries, clamped. An equal mesh built again reuses the
+    field without evaluating."""
     from snakeplan.geometry import distance
     from snakeplan.scenes.reach import Grid, free_space
 

@@ -82,6 +82,8 @@ def test_free_space_grows_with_the_obstacles_and_routes_as_a_guide_made_afresh()
         np.testing.assert_array_equal(route.points, fresh.points)
     with pytest.raises(ValueError, match="inflate_mm: at most the field's cap"):
         route_through(grown, entrance, target, 121.0)
+    wall = ObstacleSet([Box([500.0, 300, 300], [100.0, 600, 600])])  # solid, across the whole box
+    assert not route_guide(wall, LO, HI, entrance, target, inflate_mm=0.0).complete
 
 
 def test_a_sensed_guide_ignores_undiscovered_clutter():

@@ -244,15 +244,16 @@ def _grid_sdf(W, which, origin, spacing, nx, ny, k0, k1, cap, out, stats):
     obstacle: only the cells within an obstacle's box grown by ``cap`` evaluate it (outside that box it is farther
     than ``cap``), and of those only the ones its box is nearer to than the least value so far, so a finite cap
     costs the cells near each obstacle, not cells times tree walks.
-    A mesh is searched only within ``cap`` of each cell (:func:`mesh_sdf`'s ``reach``). A cell with no surface that
-    near lies on the same side of a closed mesh as the cell before it in z when that one is nearer than ``cap``
-    (the segment between them cannot cross a surface farther than ``cap``), else a ray settles its side
-    (:func:`mesh_inside`). The same values as :func:`_scene_sdf` with ``cap`` at the centres, clamped below at
-    ``-cap``."""
+    A mesh is searched only near each cell (:func:`mesh_sdf`'s ``reach``): within ``cap`` of it, and for a closed
+    mesh at least a little beyond the z spacing. A cell with no surface that near lies on the same side of a closed
+    mesh as the cell before it in z (the segment between them cannot cross a surface farther than the spacing);
+    the first cell of a column takes its side from a ray (:func:`mesh_inside`). The same values as
+    :func:`_scene_sdf` with ``cap`` at the centres, clamped below at ``-cap`` (for a closed mesh whose surface
+    does not cross itself: there the two ways of telling a side may disagree)."""
     walk = workspace(W)[2]
     rows, boxes, ranges = W[0], W[1], W[3]
     p = np.empty(3)
-    inherit = spacing[2] < cap
+    side_reach = max(cap, spacing[2] * (1.0 + 1e-9))  # beyond the step from the cell before
     for o in which:
         row = rows[o]
         mesh = int(row[0]) == KIND_MESH
@@ -276,11 +277,12 @@ def _grid_sdf(W, which, origin, spacing, nx, ny, k0, k1, cap, out, stats):
                     stats[0] += 1
                     if mesh:
                         root, half = ranges[int(row[_P + 1]), 2], row[_P + 2]
-                        d = mesh_sdf(W[2], W[4], W[5], W[6], root, half, p, walk[1], cap + half)
+                        reach = cap + half if half > 0.0 else side_reach
+                        d = mesh_sdf(W[2], W[4], W[5], W[6], root, half, p, walk[1], reach)
                         if math.isnan(d):
-                            if half > 0.0 or (inherit and side > 0.0):
+                            if half > 0.0 or side > 0.0:
                                 d = cap
-                            elif inherit and side < 0.0:
+                            elif side < 0.0:
                                 d = -cap
                             else:
                                 d = -cap if mesh_inside(W[2], W[4], W[5], W[6], root, p, walk[1]) else cap
@@ -726,7 +728,7 @@ class ObstacleSet:
                         onodes, olinks, order, triangle_balls(all_tris))
         self._split = _split_meshes(self.obstacles)
         #: Point-to-obstacle distance evaluations made by this set's queries so far (a cost measure for tests and
-        #: benchmarks, independent of the machine's speed).
+        #: benchmarks, independent of the machine's speed; a kept mesh grid field costs none).
         self.evaluations = np.zeros(1, dtype=np.int64)
 
     def __len__(self) -> int:
@@ -778,8 +780,8 @@ class ObstacleSet:
         ``-cap``; shape ``(nx, ny, k1 - k0)``. Each obstacle is evaluated only at the cells within ``cap`` of its
         box. The part the meshes make is kept (:func:`_mesh_grid`): a mesh is usually the fixed structure of
         many jobs, and its part costs far more than the primitives'."""
-        if not math.isfinite(cap):
-            raise ValueError(f"cap: a grid query needs a finite cap, got {cap}")
+        if not (math.isfinite(cap) and cap > 0.0):
+            raise ValueError(f"cap: a grid query needs a finite positive cap (mm), got {cap}")
         k0, k1 = layers if layers is not None else (0, shape[2])
         origin = np.asarray(origin, dtype=float)
         spacing = np.asarray(spacing, dtype=float)

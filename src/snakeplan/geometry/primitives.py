@@ -338,9 +338,10 @@ class Mesh(Obstacle):
         however they were loaded, so what is derived from one mesh can be kept for the next job in it."""
         key = self.__dict__.get("_fingerprint")
         if key is None:
-            h = hashlib.sha1(self.vertices.tobytes())
+            h = hashlib.sha1(repr((self.vertices.shape, self.vertices.dtype.str, self.faces.shape,
+                                   self.faces.dtype.str, self.thickness)).encode())
+            h.update(self.vertices.tobytes())
             h.update(self.faces.tobytes())
-            h.update(repr(self.thickness).encode())
             key = h.hexdigest()
             object.__setattr__(self, "_fingerprint", key)
         return key

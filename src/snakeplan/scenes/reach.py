@@ -30,7 +30,8 @@ DEFAULT_CELL_MM = 20.0
 DEFAULT_INFLATE_MM = 30.0
 #: Length (mm) of the straight stretch along the feed axis, from the entrance inwards, that counts as free.
 DEFAULT_FEED_MM = 100.0
-#: The field keeps exact cell-centre distances up to the inflation plus this much (mm); larger ones are capped.
+#: A field made for one inflation keeps exact cell-centre distances up to the inflation plus this much (mm);
+#: farther ones are clamped (to minus this much inside material).
 SDF_HORIZON_MM = 40.0
 #: Largest grid (cells) a field may use, about 100 MB of working memory.
 MAX_CELLS = 8_000_000
@@ -105,8 +106,8 @@ class GeodesicField:
     """Free cells and the any-angle geodesic distance (mm) from ``source`` through them.
 
     ``distance`` is inf in blocked or unreachable cells; ``parent`` holds each reached cell's parent as a flat
-    cell index (-1: the source point itself). ``sdf`` is the signed distance at the cell centres (capped at
-    ``inflate_mm + SDF_HORIZON_MM`` when built by :func:`geodesic_field`).
+    cell index (-1: the source point itself). ``sdf`` is the signed distance at the cell centres, clamped to
+    [-cap, cap] for the cap it was made with (``inflate_mm + SDF_HORIZON_MM`` by :func:`geodesic_field`).
     """
 
     grid: Grid
@@ -267,6 +268,9 @@ class FreeSpace:
     sdf: np.ndarray
     obstacles: ObstacleSet
 
+    def __post_init__(self) -> None:
+        self.sdf.setflags(write=False)  # shared by the spaces extended from it and the fields routed through it
+
     @classmethod
     def of(cls, obstacles: ObstacleSet, grid: Grid, cap_mm: float, deadline: float | None = None) -> FreeSpace:
         """The field of ``obstacles`` (:class:`FieldDeadline` past ``deadline``)."""
@@ -276,9 +280,10 @@ class FreeSpace:
         """The field of ``obstacles``: only those not in this field's set are evaluated when they are a superset
         of it (the same obstacle objects; a sensed view's known set grows so), else all of them."""
         held = {id(o) for o in self.obstacles.obstacles}
-        added = np.array([id(o) not in held for o in obstacles.obstacles], dtype=bool)
-        if len(obstacles) - int(added.sum()) != len(held):
+        given = [id(o) for o in obstacles.obstacles]
+        if not held.issubset(given):
             return FreeSpace.of(obstacles, self.grid, self.cap_mm, deadline)
+        added = np.array([k not in held for k in given], dtype=bool)
         if not added.any():
             return FreeSpace(self.grid, self.cap_mm, self.sdf, obstacles)
         extra = free_space(obstacles.subset(added), self.grid, self.cap_mm, deadline)
@@ -291,7 +296,8 @@ def route_guide(obstacles: ObstacleSet, bounds_min, bounds_max, entrance: Entran
     """The :class:`RouteGuide` through ``obstacles`` (a planner passes what it knows before the job: its knowledge
     view's obstacles) from ``entrance`` through ``targets`` in order; :class:`FieldDeadline` past ``deadline``
     (a perf_counter value) while its free space is computed."""
-    space = FreeSpace.of(obstacles, Grid.covering(bounds_min, bounds_max, cell_mm), inflate_mm, deadline)
+    space = FreeSpace.of(obstacles, Grid.covering(bounds_min, bounds_max, cell_mm), inflate_mm + SDF_HORIZON_MM,
+                         deadline)
     return route_through(space, entrance, targets, inflate_mm)
 
 
