@@ -64,10 +64,16 @@ from snakeplan.scenes.reach import (
     Grid,
     RouteGuide,
     nearest_on_guide,
-    route_guide,
     route_through,
 )
-from snakeplan.world import PLANNING, REACH_TOLERANCE_MM, ROLLOUT, FullView, KnowledgeView, ValidityChecker
+from snakeplan.world import (
+    PLANNING,
+    REACH_TOLERANCE_MM,
+    ROLLOUT,
+    FullView,
+    KnowledgeView,
+    ValidityChecker,
+)
 from snakeplan.world.knowledge import sensor_rays
 
 #: Tip advance per step (mm).
@@ -697,23 +703,24 @@ def _roll(mode, lookahead, residual, step_mm, max_turn, capture_mm, tank_scale, 
 
 
 # --- the crawl ----------------------------------------------------------------------------------------------
-def guide_for(scene: Scene, world: KnowledgeView, radius_mm: float, deadline: float | None = None,
-              margin_mm: float = GUIDE_MARGIN_MM) -> RouteGuide:
-    """The route guide of ``scene`` through what ``world`` knows now, kept ``margin_mm`` beyond an arm of body
-    radius ``radius_mm`` (:class:`~snakeplan.scenes.reach.FieldDeadline` past ``deadline``)."""
-    return route_guide(world.obstacle_set, scene.bounds_min, scene.bounds_max, scene.entrance, scene.targets,
-                       radius_mm + margin_mm, deadline=deadline)
-
-
 def guide_space(scene: Scene, world: KnowledgeView, radius_mm: float, deadline: float | None = None,
                 space: FreeSpace | None = None) -> FreeSpace:
-    """The free space of :func:`guide_for` through what ``world`` knows now, for every margin up to
+    """The free space of a route guide through what ``world`` knows now, for every margin up to
     ``GUIDE_MARGIN_MAX_MM`` beyond an arm of body radius ``radius_mm``: ``space`` (an earlier one of the same plan)
     with what was sensed since, when given (:class:`~snakeplan.scenes.reach.FieldDeadline` past ``deadline``)."""
     if space is not None:
         return space.including(world.obstacle_set, deadline)
     grid = Grid.covering(scene.bounds_min, scene.bounds_max, GUIDE_CELL_MM)
     return FreeSpace.of(world.obstacle_set, grid, radius_mm + GUIDE_MARGIN_MAX_MM, deadline)
+
+
+def guide_for(scene: Scene, world: KnowledgeView, radius_mm: float, deadline: float | None = None,
+              margin_mm: float = GUIDE_MARGIN_MM) -> RouteGuide:
+    """The route guide of ``scene`` through what ``world`` knows now, kept ``margin_mm`` (at most
+    ``GUIDE_MARGIN_MAX_MM``) beyond an arm of body radius ``radius_mm``, through :func:`guide_space` as a plan
+    makes it (:class:`~snakeplan.scenes.reach.FieldDeadline` past ``deadline``)."""
+    space = guide_space(scene, world, radius_mm, deadline)
+    return route_through(space, scene.entrance, scene.targets, radius_mm + margin_mm)
 
 
 def _length(v: np.ndarray) -> float:
