@@ -12,7 +12,7 @@ import pytest
 from snakeplan.evaluation import evaluate
 from snakeplan.evaluation.metrics import curvature_profile
 from snakeplan.geometry.primitives import Box
-from snakeplan.planners.as_rrt import AsRRT, arc, biarc, landings
+from snakeplan.planners.as_rrt import AsRRT, arc, arc_distance, biarc, landings
 from snakeplan.planners.base import Plan, Problem
 from snakeplan.world import PLANNING, ValidityChecker
 from snakeplan.planners.registry import get_planner
@@ -124,6 +124,19 @@ def test_unreachable_target_times_out_within_the_budget():
     plan = AsRRT().plan(Problem(scene, ROBOT, 1.0), 0)
     assert plan.status == "timeout" and plan.path is None
     assert plan.compute_time_s < 1.5
+
+
+def test_arc_distance_is_the_tangent_arc_within_the_limit_and_a_detour_beyond():
+    # From the origin heading +x: a point on the tangent circle of radius 200 mm, 0.8 rad round it, is 160 mm of
+    # arc away; a point 50 mm to the side needs curvature 1/25 mm, beyond a limit of 1/100 mm, so its distance is
+    # the chord plus the turn radius times the 90 degrees off the heading.
+    P, T = np.zeros((2, 3)), np.array([[1.0, 0, 0], [1.0, 0, 0]])
+    on_circle = np.array([200.0 * math.sin(0.8), 200.0 * (1 - math.cos(0.8)), 0.0])
+    d = arc_distance(P, T, on_circle, 1 / 100.0, 100.0)
+    assert np.allclose(d, 160.0)
+    assert np.isclose(arc_distance(P[:1], T[:1], np.array([0.0, 50.0, 0.0]), 1 / 100.0, 100.0)[0],
+                      50.0 + 100.0 * math.pi / 2)
+    assert np.isclose(arc_distance(P[:1], T[:1], np.array([70.0, 0.0, 0.0]), 1 / 100.0, 100.0)[0], 70.0)
 
 
 def test_arc_points_lie_on_the_circle_and_end_tangent():

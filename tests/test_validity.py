@@ -15,7 +15,7 @@ from snakeplan.robots.chain import Section
 from snakeplan.scenes import Entrance, Scene, make_scene, scene_names
 from snakeplan.scenes.mesh_families import MESH_FAMILIES
 from snakeplan.world import JUDGE, PLANNING, ROLLOUT, FullView, Tolerances, ValidityChecker, targets_reached
-from snakeplan.world.validity import coarse_to_fine
+from snakeplan.world.validity import coarse_to_fine, crawl_free
 
 CRAWL_FAILURES = ("collision", "bend_limit", "insertion", "out_of_bounds")
 
@@ -257,3 +257,38 @@ def test_feasible_is_first_failure_none(name, scene, seed):
     path = random_path(scene, robot, np.random.default_rng(seed))
     model = checker(scene, robot, PLANNING)
     assert model.feasible(path) == (model.first_failure(path) is None)
+
+
+def test_compiled_crawl_check_fails_each_kind_where_first_failure_does():
+    """The hand-computed failures above, each alone: a wall met at the path's last depth only (checked from the
+    depth before it), leaving the bounds with nothing else wrong, a corner too sharp, a path longer than the arm;
+    and a straight 300 mm path, clear in each scene."""
+    turn = math.radians(60)
+    corner = line([0, 0, 0], [300, 0, 0], [300 + 300 * math.cos(turn), 300 * math.sin(turn), 0])
+    cases = [(open_scene([Box([450.0, 0.0, 0.0], [100.0, 800.0, 800.0])]), line([0, 0, 0], [395, 0, 0]), 390.0,
+              "collision"),
+             (open_scene(hi=(400.0, 1000.0, 1000.0), targets=((100.0, 0.0, 0.0),)), line([0, 0, 0], [450, 0, 0]), 0.0,
+              "out_of_bounds"),
+             (open_scene(), corner, 0.0, "bend_limit"),
+             (open_scene(), line([0, 0, 0], [900, 0, 0]), 500.0, "insertion")]
+    for scene, path, start, kind in cases:
+        c = checker(scene, arm())
+        W, stats = c.obstacles.packed, c.obstacles.evaluations
+        assert c.first_failure(path, start).kind == kind
+        assert not crawl_free(path, start, c.spec, W, stats)
+        assert crawl_free(line([0, 0, 0], [300, 0, 0]), 0.0, c.spec, W, stats)
+
+
+@pytest.mark.parametrize("name, scene", FAMILIES[:4], ids=[n for n, _ in FAMILIES[:4]])
+@given(seed=st.integers(0, 2**31 - 1), start=st.floats(0.0, 1.0))
+@settings(max_examples=25, deadline=None)
+def test_compiled_crawl_check_is_first_failure_none(name, scene, seed, start):
+    # crawl_free is what planners call from their own compiled loops; from any depth it must say what
+    # first_failure says, failures of every kind included (random paths fail by all four).
+    robot = get_robot(scene.metadata["robot"])
+    path = random_path(scene, robot, np.random.default_rng(seed))
+    model = checker(scene, robot, PLANNING)
+    from_depth = start * float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1)))
+    obstacles = model.obstacles
+    assert crawl_free(path, from_depth, model.spec, obstacles.packed, obstacles.evaluations) == (
+        model.first_failure(path, from_depth) is None)

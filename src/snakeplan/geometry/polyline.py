@@ -43,12 +43,14 @@ def cumulative_length(path: ArrayLike) -> np.ndarray:
     return _cumulative(validate_path(path))
 
 
-def _cumulative(p: np.ndarray) -> np.ndarray:
-    """Cumulative arc length of an already validated path."""
-    seg = np.linalg.norm(np.diff(p, axis=0), axis=1)
-    out = np.empty(seg.shape[0] + 1)
-    out[0] = 0.0
-    np.cumsum(seg, out=out[1:])
+@njit(cache=True)
+def _cumulative(p):
+    """Cumulative arc length (mm) of an already validated path ``(m, 3)`` (compiled: crawl checks in planners'
+    own loops use it)."""
+    out = np.zeros(p.shape[0])
+    for k in range(1, p.shape[0]):
+        out[k] = out[k - 1] + math.sqrt((p[k, 0] - p[k - 1, 0]) ** 2 + (p[k, 1] - p[k - 1, 1]) ** 2
+                                        + (p[k, 2] - p[k - 1, 2]) ** 2)
     return out
 
 
@@ -108,16 +110,20 @@ def arclength_grid(length: float, step: float) -> np.ndarray:
     length = float(length)
     if not np.isfinite(length) or length < 0.0:
         raise ValueError(f"length must be a non-negative finite number of mm, got {length}")
+    return _grid(length, h)
+
+
+@njit(cache=True)
+def _grid(length, h):
+    """:func:`arclength_grid` of a checked length and step (compiled: crawl checks and resampling use it)."""
     if length == 0.0:
         return np.zeros(2)
-    n = int(round(length / h))
-    if n >= 1 and abs(length - n * h) <= REMAINDER_TOL * h:
-        grid = np.arange(n + 1) * h
-    else:
-        n = int(np.floor(length / h))
-        grid = np.arange(n + 2) * h
-    grid[-1] = length
-    return grid
+    n = round(length / h)
+    if not (n >= 1 and abs(length - n * h) <= REMAINDER_TOL * h):
+        n = math.floor(length / h) + 1
+    s = np.arange(n + 1) * h
+    s[-1] = length
+    return s
 
 
 def resample_with_arclength(path: ArrayLike, step: float) -> tuple[np.ndarray, np.ndarray]:
@@ -146,22 +152,10 @@ def _resample(p, h):
             keep[1] = m - 1
             count = 2
     q = np.empty((count, 3))
-    cum = np.empty(count)
     for k in range(count):
         q[k] = p[keep[k]]
-    cum[0] = 0.0
-    for k in range(1, count):
-        cum[k] = cum[k - 1] + math.sqrt((q[k, 0] - q[k - 1, 0]) ** 2 + (q[k, 1] - q[k - 1, 1]) ** 2
-                                        + (q[k, 2] - q[k - 1, 2]) ** 2)
-    length = cum[count - 1]
-    if length == 0.0:
-        s = np.zeros(2)
-    else:
-        n = round(length / h)
-        if not (n >= 1 and abs(length - n * h) <= REMAINDER_TOL * h):
-            n = math.floor(length / h) + 1
-        s = np.arange(n + 1) * h
-        s[-1] = length
+    cum = _cumulative(q)
+    s = _grid(cum[count - 1], h)
     out = np.empty((s.shape[0], 3))
     i = 0
     for j in range(s.shape[0]):

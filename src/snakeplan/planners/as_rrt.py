@@ -25,12 +25,18 @@ section lengths long (shorter when it reaches q first), sampled at ``ARC_POINTS`
 repeat the pose of a node of its stage (``TWIN_MM``, ``TWIN_COS``) is not added.
 
 Validity, for every extension and landing, cheap check first. (1) Sweep: the tip capsule (body radius plus the
-planning margin) clears every known obstacle along each chord of the arcs, inside the bounds. (2) Body: the
-follow-the-leader crawl of the new branch from the parent's depth to the new node's (``ValidityChecker.first_failure``,
-every ``PLANNING_CRAWL_STEP_MM``: every link clear, bends within the limits, insertion within the arm's length).
-The crawl runs on every extension that passes the sweep: the jitted kernels make it about a millisecond, and
-checking less often would grow branches whose body already collides, which the judge would reject. A failed
-extension is dropped whole (no partial arcs).
+planning margin) clears every known obstacle along each chord of the arcs, inside the bounds
+(:func:`snakeplan.world.validity.motion_free`). (2) Body: the follow-the-leader crawl of the new branch from the
+parent's depth to the new node's (:func:`snakeplan.world.validity.crawl_free`, the compiled form of
+``ValidityChecker.first_failure``: every link clear, bends within the limits, insertion within the arm's length,
+at the planning profile's depths). The crawl runs on every extension that passes the sweep: checking less often
+would grow branches whose body already collides, which the judge would reject. A failed extension is dropped
+whole (no partial arcs).
+
+Compiled. An extension (nearest node, steer, arc, twin test, sweep, crawl, new node) is one numba call on the
+tree's arrays; the random draws, landings and sensing stay in Python. Per extension, NumPy's small-array calls had
+cost twice the crawl itself. The same seed gives the same tree as the NumPy form it replaced, up to round-off
+(the sines of an arc's points differ in the last bit), which can turn a near tie the other way.
 
 Landing. A new node within ``LANDING_RADIUS_MM`` of its stage's target tries to end exactly on it, at most
 ``LANDING_SECTIONS`` section lengths further and turning at most ``MAX_LANDING_TURN_RAD`` in all:
@@ -74,10 +80,13 @@ import math
 import time
 
 import numpy as np
+from numba import njit
 
+from snakeplan.geometry.distance import workspace
 from snakeplan.planners.base import Planner, Problem, Status
 from snakeplan.planners.registry import register_planner
 from snakeplan.world import PLANNING, ValidityChecker
+from snakeplan.world.validity import crawl_free, motion_free
 
 #: Probability (per iteration) of sampling the stage's target instead of a uniform point in the bounds.
 GOAL_BIAS = 0.3
@@ -118,23 +127,25 @@ CLOCK_EVERY = 8
 _EPS = 1e-12
 
 
-def _any_normal(t: np.ndarray) -> np.ndarray:
+@njit(cache=True)
+def _any_normal(t):
     """A unit vector perpendicular to the unit vector t."""
     e = np.zeros(3)
-    e[int(np.argmin(np.abs(t)))] = 1.0
+    e[np.argmin(np.abs(t))] = 1.0
     v = e - (e @ t) * t
     return v / np.linalg.norm(v)
 
 
-def tangent_circle(p: np.ndarray, t: np.ndarray, q: np.ndarray) -> tuple[float, np.ndarray, float, float]:
+@njit(cache=True)
+def tangent_circle(p, t, q):
     """The circle tangent to unit heading t at p through q: ``(curvature 1/mm, unit normal toward its centre,
     arc length p -> q (mm), turn (rad))``; a straight line (curvature 0) when q is dead ahead, and an infinite
     length when q is dead behind."""
     d = q - p
-    c = float(np.linalg.norm(d))
-    along = float(d @ t)
+    c = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+    along = d[0] * t[0] + d[1] * t[1] + d[2] * t[2]
     perp = d - along * t
-    s = float(np.linalg.norm(perp))
+    s = math.sqrt(perp[0] * perp[0] + perp[1] * perp[1] + perp[2] * perp[2])
     if s <= 1e-9 * max(c, _EPS):
         if along > 0.0 or c < _EPS:
             return 0.0, _any_normal(t), c, 0.0
@@ -143,21 +154,25 @@ def tangent_circle(p: np.ndarray, t: np.ndarray, q: np.ndarray) -> tuple[float, 
     return 2.0 * s / (c * c), perp / s, a * c / math.sin(a), 2.0 * a
 
 
-def arc(p: np.ndarray, t: np.ndarray, n: np.ndarray, kappa: float, length: float, count: int
-        ) -> tuple[np.ndarray, np.ndarray]:
+@njit(cache=True)
+def arc(p, t, n, kappa, length, count):
     """``count`` points (after p, the last at arc length ``length``) of the arc of curvature ``kappa`` leaving p
     along t and bending toward n, and the unit heading at its end."""
-    s = np.linspace(length / count, length, count)
+    pts = np.empty((count, 3))
     if kappa < _EPS:
-        return p + s[:, None] * t, t.copy()
-    ks = kappa * s
-    pts = p + (np.sin(ks) / kappa)[:, None] * t + ((1.0 - np.cos(ks)) / kappa)[:, None] * n
-    end = math.cos(ks[-1]) * t + math.sin(ks[-1]) * n
+        for j in range(count):
+            pts[j] = p + (length * (j + 1) / count) * t
+        return pts, t.copy()
+    ks = 0.0
+    for j in range(count):
+        ks = kappa * (length * (j + 1) / count)
+        pts[j] = p + (math.sin(ks) / kappa) * t + ((1.0 - math.cos(ks)) / kappa) * n
+    end = math.cos(ks) * t + math.sin(ks) * n
     return pts, end / np.linalg.norm(end)
 
 
-def steer(p: np.ndarray, t: np.ndarray, q: np.ndarray, kappa_max: float, length: float
-          ) -> tuple[float, np.ndarray, float]:
+@njit(cache=True)
+def steer(p, t, q, kappa_max, length):
     """The extension from pose (p, t) toward q: ``(curvature, unit normal, arc length)``: the tangent circle
     through q with its curvature clamped to ``kappa_max``, ``length`` long or shorter if it reaches q first."""
     kappa, n, reach, _ = tangent_circle(p, t, q)
@@ -166,18 +181,23 @@ def steer(p: np.ndarray, t: np.ndarray, q: np.ndarray, kappa_max: float, length:
     return kappa_max, n, length
 
 
-def arc_distance(P: np.ndarray, T: np.ndarray, q: np.ndarray, kappa_max: float, turn_radius: float) -> np.ndarray:
+@njit(cache=True)
+def arc_distance(P, T, q, kappa_max, turn_radius):
     """Arc-length metric (mm) from poses (P, T) ``(m, 3)`` to q: the tangent circle's arc within the curvature
     limit, else the chord plus the turn radius times the angle off the heading."""
-    d = q - P
-    c = np.linalg.norm(d, axis=1)
-    along = np.einsum("ij,ij->i", d, T)
-    s = np.sqrt(np.maximum(c * c - along * along, 0.0))
-    a = np.arctan2(s, along)
-    sin_a = s / np.maximum(c, _EPS)
-    reach = np.where(sin_a > 1e-9, a / np.maximum(sin_a, 1e-9), 1.0) * c
-    kappa = 2.0 * s / np.maximum(c * c, _EPS)
-    return np.where(kappa <= kappa_max, reach, c + turn_radius * a)
+    out = np.empty(P.shape[0])
+    for i in range(P.shape[0]):
+        d0, d1, d2 = q[0] - P[i, 0], q[1] - P[i, 1], q[2] - P[i, 2]
+        c = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        along = d0 * T[i, 0] + d1 * T[i, 1] + d2 * T[i, 2]
+        s = math.sqrt(max(c * c - along * along, 0.0))
+        a = math.atan2(s, along)
+        if 2.0 * s / max(c * c, _EPS) <= kappa_max:
+            sin_a = s / max(c, _EPS)
+            out[i] = (a / max(sin_a, 1e-9) if sin_a > 1e-9 else 1.0) * c
+        else:
+            out[i] = c + turn_radius * a
+    return out
 
 
 def landings(p: np.ndarray, t: np.ndarray, q: np.ndarray, kappa_max: float, max_length: float, max_turn: float,
@@ -257,6 +277,89 @@ def biarc(p: np.ndarray, t: np.ndarray, q: np.ndarray, h: np.ndarray, kappa_max:
     return pieces
 
 
+@njit(cache=True)
+def _add_node(P, T, depth, parent, stage, arcs, n, i, pts, heading, k):
+    """Write node ``n``: the end of arc ``pts`` from node i, arriving with ``heading``, of stage k."""
+    P[n], T[n], arcs[n] = pts[-1], heading, pts
+    length, prev = 0.0, P[i]
+    for j in range(pts.shape[0]):
+        length += math.sqrt((pts[j, 0] - prev[0]) ** 2 + (pts[j, 1] - prev[1]) ** 2 + (pts[j, 2] - prev[2]) ** 2)
+        prev = pts[j]
+    depth[n] = depth[i] + length
+    parent[n], stage[n] = i, k
+
+
+@njit(cache=True)
+def _has_twin(P, T, stage, n, p, t, k):
+    """Whether one of the first n nodes of stage k already has (nearly) the pose (p, t)."""
+    for i in range(n):
+        if stage[i] == k and ((P[i, 0] - p[0]) ** 2 + (P[i, 1] - p[1]) ** 2 + (P[i, 2] - p[2]) ** 2 <= TWIN_MM ** 2
+                              and T[i, 0] * t[0] + T[i, 1] * t[1] + T[i, 2] * t[2] >= TWIN_COS):
+            return True
+    return False
+
+
+@njit(cache=True)
+def _branch(P, parent, arcs, i, tail):
+    """The tip path (mm) from the root to node i, then the points ``tail``."""
+    count, k = 0, i
+    while k > 0:
+        count += 1
+        k = parent[k]
+    a = arcs.shape[1]
+    out = np.empty((1 + count * a + tail.shape[0], 3))
+    out[0] = P[0]
+    k = i
+    for r in range(count - 1, -1, -1):
+        out[1 + r * a:1 + (r + 1) * a] = arcs[k]
+        k = parent[k]
+    out[1 + count * a:] = tail
+    return out
+
+
+@njit(cache=True)
+def _check(P, depth, parent, arcs, i, pts, tip_radius, spec, W, stats):
+    """Whether the tip can sweep ``pts`` from node i (0), else 1, and then whether the body can crawl there (0),
+    else 2: the sweep of each chord (:func:`motion_free`), then the crawl of the new depths (:func:`crawl_free`)."""
+    joints, radii, work = np.empty((2, 3)), np.empty(1), workspace(W)
+    a = P[i]
+    for j in range(pts.shape[0]):
+        b = pts[j]
+        if not motion_free(W, spec.lo, spec.hi, a[0], a[1], a[2], b[0], b[1], b[2], tip_radius, joints, radii, work,
+                           stats):
+            return 1
+        a = b
+    if not crawl_free(_branch(P, parent, arcs, i, pts), depth[i], spec, W, stats):
+        return 2
+    return 0
+
+
+@njit(cache=True)
+def _extend(P, T, depth, parent, stage, arcs, tried, n, eligible, to_goal, q, k, kappa_max, turn_radius, step,
+            total_length, count, tip_radius, spec, W, stats):
+    """One extension of stage k toward q from the nearest eligible node (of the first n): the new node's index
+    n, or -1 (too short), -2 (a twin), -3 (the sweep fails), -4 (the crawl fails). Marks the node tried when
+    ``to_goal``."""
+    d = arc_distance(P[:n], T[:n], q, kappa_max, turn_radius)
+    i, best = -1, math.inf
+    for j in range(n):
+        if eligible[j] and d[j] < best:
+            i, best = j, d[j]
+    tried[i] |= to_goal
+    kappa, normal, length = steer(P[i], T[i], q, kappa_max, step)
+    length = min(length, total_length - depth[i])
+    if length < MIN_ARC_MM:
+        return -1
+    pts, heading = arc(P[i], T[i], normal, kappa, length, count)
+    if _has_twin(P, T, stage, n, pts[-1], heading, k):
+        return -2
+    code = _check(P, depth, parent, arcs, i, pts, tip_radius, spec, W, stats)
+    if code:
+        return -2 - code
+    _add_node(P, T, depth, parent, stage, arcs, n, i, pts, heading, k)
+    return n
+
+
 class _Tree:
     """Node poses (mm), depths (mm), parents, stages, goal-tried flags and the arc points leading to each node."""
 
@@ -274,32 +377,28 @@ class _Tree:
         self.arcs = np.zeros((cap, arc_points, 3))
         self.P[0], self.T[0] = root, heading
 
-    def add(self, parent: int, pts: np.ndarray, heading: np.ndarray, stage: int) -> int:
-        """Append the node at the end of arc ``pts`` from ``parent``; its index."""
-        if self.n == self.P.shape[0]:
+    def reserve(self, extra: int) -> None:
+        """Room for ``extra`` more nodes (the arrays double when full)."""
+        while self.n + extra > self.P.shape[0]:
             for name in self._FIELDS:
                 a = getattr(self, name)
                 setattr(self, name, np.concatenate([a, np.zeros_like(a)]))
-        i = self.n
-        chords = np.diff(np.vstack([self.P[parent][None], pts]), axis=0)
-        self.P[i], self.T[i], self.arcs[i] = pts[-1], heading, pts
-        self.depth[i] = self.depth[parent] + float(np.sum(np.linalg.norm(chords, axis=1)))
-        self.parent[i], self.stage[i] = parent, stage
+
+    def add(self, parent: int, pts: np.ndarray, heading: np.ndarray, stage: int) -> int:
+        """Append the node at the end of arc ``pts`` from ``parent``; its index."""
+        self.reserve(1)
+        _add_node(self.P, self.T, self.depth, self.parent, self.stage, self.arcs, self.n, parent, pts, heading,
+                  stage)
         self.n += 1
-        return i
+        return self.n - 1
 
     def has_twin(self, p: np.ndarray, t: np.ndarray, stage: int) -> bool:
         """Whether a node of ``stage`` already has (nearly) this pose."""
-        near = (np.sum((self.P[:self.n] - p) ** 2, axis=1) <= TWIN_MM ** 2) & (self.stage[:self.n] == stage)
-        return bool(np.any(self.T[:self.n][near] @ t >= TWIN_COS))
+        return bool(_has_twin(self.P, self.T, self.stage, self.n, p, t, stage))
 
     def branch(self, i: int) -> np.ndarray:
         """The tip path (mm) from the root to node i."""
-        chain = []
-        while i > 0:
-            chain.append(i)
-            i = int(self.parent[i])
-        return np.concatenate([self.P[0][None]] + [self.arcs[k] for k in reversed(chain)], axis=0)
+        return _branch(self.P, self.parent, self.arcs, i, np.empty((0, 3)))
 
 
 class _Search:
@@ -309,7 +408,7 @@ class _Search:
         self.planner = planner
         self.problem = problem
         self.rng = rng
-        self.goals = problem.goals
+        self.goals = np.array(problem.goals, dtype=float)  # writable: the kernels take one array type
         self.world = problem.world
         self.world.sense(problem.start)
         self.model = ValidityChecker(self.world, problem.robot, PLANNING)
@@ -370,27 +469,25 @@ class _Search:
     def _extend(self, stage: int, live: np.ndarray) -> int | None:
         """One extension of ``stage`` toward a sample; the new node, or None."""
         tree, rng = self.tree, self.rng
-        goal = self.goals[stage]
-        to_goal = rng.random() < self.planner.goal_bias and bool(np.any(live & ~tree.tried[:tree.n]))
+        untried = live & ~tree.tried[:tree.n]
+        to_goal = rng.random() < self.planner.goal_bias and bool(untried.any())
         if to_goal:
-            q, live = goal, live & ~tree.tried[:tree.n]
+            q, live = self.goals[stage], untried
         else:
             lo, hi = self.problem.scene.bounds_min, self.problem.scene.bounds_max
             q = lo + rng.random(3) * (hi - lo)
-        idx = np.flatnonzero(live)
-        i = int(idx[np.argmin(arc_distance(tree.P[idx], tree.T[idx], q, self.kappa_max, self.model.turn_radius))])
-        tree.tried[i] |= to_goal
-        kappa, n, length = steer(tree.P[i], tree.T[i], q, self.kappa_max, self.step)
-        length = min(length, self.model.total_length - float(tree.depth[i]))
-        if length < MIN_ARC_MM:
+        tree.reserve(1)
+        obstacles = self.model.obstacles
+        k = _extend(tree.P, tree.T, tree.depth, tree.parent, tree.stage, tree.arcs, tree.tried, tree.n, live, to_goal,
+                    q, stage, self.kappa_max, self.model.turn_radius, self.step, self.model.total_length, ARC_POINTS,
+                    self.model.tip_radius, self.model.spec, obstacles.packed, obstacles.evaluations)
+        if k < 0:
+            if k < -1:
+                self.counts[_REJECTS[-k - 2]] += 1
             return None
-        pts, heading = arc(tree.P[i], tree.T[i], n, kappa, length, ARC_POINTS)
-        if tree.has_twin(pts[-1], heading, stage):
-            self.counts["twins"] += 1
-            return None
-        if not self._valid(i, pts):
-            return None
-        return self._add(i, pts, heading, stage)
+        tree.n += 1
+        self._sensed(k)
+        return k
 
     def _land(self, j: int, stage: int) -> int | None:
         """Try to land node j on the stage's target; the landing node, or None."""
@@ -429,22 +526,28 @@ class _Search:
 
     def _valid(self, i: int, pts: np.ndarray) -> bool:
         """Whether the tip can sweep ``pts`` from node i and the body can crawl there (known obstacles)."""
-        starts = np.vstack([self.tree.P[i][None], pts[:-1]])
-        if not bool(self.model.segment_free(starts, pts).all()):
-            self.counts["sweep_rejects"] += 1
-            return False
-        if self.model.first_failure(np.vstack([self.tree.branch(i), pts]), float(self.tree.depth[i])) is not None:
-            self.counts["body_rejects"] += 1
-            return False
-        return True
+        tree, obstacles = self.tree, self.model.obstacles
+        code = _check(tree.P, tree.depth, tree.parent, tree.arcs, i, np.ascontiguousarray(pts),
+                      self.model.tip_radius, self.model.spec, obstacles.packed, obstacles.evaluations)
+        if code:
+            self.counts[_REJECTS[code]] += 1
+        return not code
 
     def _add(self, parent: int, pts: np.ndarray, heading: np.ndarray, stage: int) -> int:
-        """Add a node and sense from it; a target closer to a newly seen obstacle than the tip radius (or out of
-        bounds) can never be landed on, which ``blocked`` records."""
+        """Add a node and sense from it."""
         k = self.tree.add(parent, pts, heading, stage)
+        self._sensed(k)
+        return k
+
+    def _sensed(self, k: int) -> None:
+        """Sense from node k; a target closer to a newly seen obstacle than the tip radius (or out of bounds) can
+        never be landed on, which ``blocked`` records."""
         if self.world.sense(self.tree.P[k]):
             self.blocked = not bool(self.model.tip_free(self.goals).all())
-        return k
+
+
+#: The counters of :func:`_extend`'s codes -2, -3, -4 (and of :func:`_check`'s 1 and 2).
+_REJECTS = ("twins", "sweep_rejects", "body_rejects")
 
 
 @register_planner
@@ -458,6 +561,24 @@ class AsRRT(Planner):
     def __init__(self, goal_bias: float = GOAL_BIAS, arc_sections: float = ARC_SECTIONS):
         self.goal_bias = goal_bias
         self.arc_sections = arc_sections
+
+    def warm_up(self, problem: Problem) -> None:
+        """The default, then each kernel of the search on a one-node tree: an extension (the sweep and crawl
+        inside it), a landing's arcs, a check and a node added from Python; cold, they compiled inside the first
+        plan's budget."""
+        super().warm_up(problem)
+        search = _Search(self, problem, np.random.default_rng(0))
+        tree = search.tree
+        search._extend(0, np.ones(1, dtype=bool))
+        p, t = tree.P[0], tree.T[0]
+        goal = p + 2.0 * MIN_ARC_MM * t
+        biarc(p, t, goal, t, search.kappa_max, search.landing_max, MAX_LANDING_TURN_RAD, ARC_POINTS)
+        for pieces in landings(p, t, goal, search.kappa_max, search.landing_max, MAX_LANDING_TURN_RAD, ARC_POINTS,
+                               1):
+            pts, heading = pieces[-1]
+            search._valid(0, pts)
+            tree.has_twin(pts[-1], heading, 0)
+            tree.branch(tree.add(0, pts, heading, 0))
 
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float
                ) -> tuple[Status, np.ndarray | None, dict]:

@@ -23,14 +23,14 @@ import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, NamedTuple
 
 import numpy as np
 from numba import njit
 
 from snakeplan import ftl
 from snakeplan.geometry.distance import ObstacleSet, chain_hit, workspace
-from snakeplan.geometry.polyline import arclength_grid, cumulative_length, validate_path
+from snakeplan.geometry.polyline import _cumulative, _grid, cumulative_length, validate_path
 from snakeplan.jit import leaf
 from snakeplan.robots import Chain
 from snakeplan.world.knowledge import KnowledgeView
@@ -96,6 +96,58 @@ def _scan(p, cum, lengths, u, depths, max_bends, radii, W, stats):
         if arc[0] > ftl.INSERTION_TOL:
             return i, _INSERTION, -1
     return -1, -1, -1
+
+
+class CrawlSpec(NamedTuple):
+    """What a compiled crawl check needs of a :class:`ValidityChecker` (mm, rad): the scene's bounds, the profile's
+    depth step, and the arm's section lengths, feed direction, bend limits and link radii under the profile, and
+    its length."""
+
+    lo: np.ndarray
+    hi: np.ndarray
+    step_mm: float
+    lengths: np.ndarray
+    direction: np.ndarray
+    max_bends: np.ndarray
+    radii: np.ndarray
+    total_length: float
+
+
+@njit(cache=True)
+def crawl_depths(start, stop, step, total_length):
+    """The profile's depths (mm) in (start, stop], and 0 when start is 0: the grid 0, h, 2h, ... of the crawl to
+    ``stop``, never past where insertion must fail (one step beyond the arm's length)."""
+    full = _grid(min(stop, total_length + step), step)
+    return full[full > start] if start > 0.0 else full
+
+
+@njit(cache=True)
+def first_out_vertex(p, cum, start, stop, lo, hi):
+    """The first vertex of the tip path ``p`` outside the bounds [lo, hi], among those from the one at or before
+    depth ``start`` to the one at or after ``stop`` (mm; ``cum`` its cumulative length), or -1."""
+    first = max(np.searchsorted(cum, start, side="right") - 1, 0)
+    last = min(np.searchsorted(cum, stop, side="left"), p.shape[0] - 1)
+    for i in range(first, last + 1):
+        for k in range(3):
+            if not lo[k] <= p[i, k] <= hi[k]:
+                return i
+    return -1
+
+
+@njit(cache=True)
+def crawl_free(p, start, spec, W, stats):
+    """Whether the crawl along the tip path ``p (m, 3)`` is feasible at every depth in (start, end] (mm; depth 0
+    included when start is 0) against the packed obstacles ``W``: :meth:`ValidityChecker.first_failure` is None,
+    compiled so that planners call it from their own compiled loops."""
+    cum = _cumulative(p)
+    stop = cum[-1]
+    start = min(max(start, 0.0), stop)
+    if first_out_vertex(p, cum, start, stop, spec.lo, spec.hi) >= 0:
+        return False
+    depths = crawl_depths(start, stop, spec.step_mm, spec.total_length)
+    if depths.shape[0] == 0:
+        return True
+    return _scan(p, cum, spec.lengths, spec.direction, depths, spec.max_bends, spec.radii, W, stats)[0] < 0
 
 
 @leaf
@@ -178,6 +230,10 @@ class ValidityChecker:
         self.max_bends = robot.max_bends * tolerances.bend_fraction
         self.total_length = robot.total_length
         self.turn_radius = min_turn_radius(robot.lengths, self.max_bends)
+        scene = world.scene
+        self.spec = CrawlSpec(scene.bounds_min.astype(float), scene.bounds_max.astype(float),
+                              float(tolerances.step_mm), self.lengths.astype(float), self.direction.astype(float),
+                              self.max_bends.astype(float), self.radii.astype(float), float(self.total_length))
 
     @property
     def obstacles(self) -> ObstacleSet:
@@ -222,21 +278,15 @@ class ValidityChecker:
         return check
 
     # --- crawls -------------------------------------------------------------------------------------------------
-    def _grid(self, cum: np.ndarray, start: float, stop: float) -> np.ndarray:
-        """The profile's depths in (start, stop], and 0 when start is 0; never past where insertion must fail."""
-        h = self.tolerances.step_mm
-        stop = min(stop, self.total_length + h)
-        full = arclength_grid(stop, h)
-        return full[full > start] if start > 0.0 else full
+    def _grid(self, start: float, stop: float) -> np.ndarray:
+        """:func:`crawl_depths` under this profile."""
+        return crawl_depths(float(start), float(stop), self.spec.step_mm, self.spec.total_length)
 
     def _bounds_failure(self, p: np.ndarray, cum: np.ndarray, start: float, stop: float) -> Failure | None:
         """The depth at which the tip path first leaves the bounds within [start, stop], exactly."""
-        lo_vertex = max(int(np.searchsorted(cum, start, side="right")) - 1, 0)
-        hi_vertex = int(np.searchsorted(cum, stop, side="left"))
-        out = np.flatnonzero(~self.world.in_bounds(p[lo_vertex:hi_vertex + 1]))
-        if out.size == 0:
+        i = int(first_out_vertex(p, cum, float(start), float(stop), self.spec.lo, self.spec.hi))
+        if i < 0:
             return None
-        i = lo_vertex + int(out[0])
         if i == 0:
             return Failure(0.0, "out_of_bounds", 0)
         a, d = p[i - 1], p[i] - p[i - 1]
@@ -254,7 +304,7 @@ class ValidityChecker:
         stop = float(cum[-1]) if to_depth is None else min(max(float(to_depth), 0.0), float(cum[-1]))
         start = min(max(float(from_depth), 0.0), stop)
         out = self._bounds_failure(p, cum, start, stop)
-        depths = self._grid(cum, start, stop if out is None else out.depth_mm)
+        depths = self._grid(start, stop if out is None else out.depth_mm)
         if depths.size == 0:
             return out
         i, code, link = self._scan(p, cum, depths)
@@ -271,13 +321,13 @@ class ValidityChecker:
         stop = float(cum[-1])
         if self._bounds_failure(p, cum, 0.0, stop) is not None:
             return False
-        depths = self._grid(cum, 0.0, stop)
+        depths = self._grid(0.0, stop)
         return self._scan(p, cum, depths[coarse_to_fine(depths.size)])[0] < 0
 
     def _scan(self, p: np.ndarray, cum: np.ndarray, depths: np.ndarray) -> tuple[int, int, int]:
         """:func:`_scan` of the crawl along ``p`` at ``depths``, in their order, against the obstacles known now."""
-        obstacles = self.obstacles
-        return _scan(p, cum, self.lengths, self.direction, depths, self.max_bends, self.radii, obstacles.packed,
+        obstacles, spec = self.obstacles, self.spec
+        return _scan(p, cum, spec.lengths, spec.direction, depths, spec.max_bends, spec.radii, obstacles.packed,
                      obstacles.evaluations)
 
     def crawl(self, path) -> CrawlCheck:
@@ -285,7 +335,7 @@ class ValidityChecker:
         exact clearances: what the judge reports."""
         p = validate_path(path)
         cum = cumulative_length(p)
-        depths = self._grid(cum, 0.0, float(cum[-1]))
+        depths = self._grid(0.0, float(cum[-1]))
         states = ftl.fit_states(p, self.lengths, depths, self.direction)
         # the least clearance alone (each state's search cut off at the least so far: 3-4x cheaper than every
         # state's own), and collisions by the collision test, which agrees with clearance < -CONTACT_RESOLUTION_MM
