@@ -137,6 +137,9 @@ def test_arc_distance_is_the_tangent_arc_within_the_limit_and_a_detour_beyond():
     assert np.isclose(arc_distance(P[:1], T[:1], np.array([0.0, 50.0, 0.0]), 1 / 100.0, 100.0)[0],
                       50.0 + 100.0 * math.pi / 2)
     assert np.isclose(arc_distance(P[:1], T[:1], np.array([70.0, 0.0, 0.0]), 1 / 100.0, 100.0)[0], 70.0)
+    # dead behind no tangent circle reaches: a half turn's detour
+    assert np.isclose(arc_distance(P[:1], T[:1], np.array([-5.0, 0.0, 0.0]), 1 / 100.0, 100.0)[0],
+                      5.0 + 100.0 * math.pi)
 
 
 def test_arc_points_lie_on_the_circle_and_end_tangent():

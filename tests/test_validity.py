@@ -279,6 +279,14 @@ def test_compiled_crawl_check_fails_each_kind_where_first_failure_does():
         assert crawl_free(line([0, 0, 0], [300, 0, 0]), 0.0, c.spec, W, stats)
 
 
+def test_a_path_of_zero_length_outside_the_bounds_is_out_of_bounds():
+    scene = open_scene(hi=(400.0, 1000.0, 1000.0), targets=((100.0, 0.0, 0.0),))
+    c = checker(scene, arm())
+    path = line([500, 0, 0], [500, 0, 0])
+    assert c.first_failure(path).kind == "out_of_bounds"
+    assert not crawl_free(path, 0.0, c.spec, c.obstacles.packed, c.obstacles.evaluations)
+
+
 @pytest.mark.parametrize("name, scene", FAMILIES[:4], ids=[n for n, _ in FAMILIES[:4]])
 @given(seed=st.integers(0, 2**31 - 1), start=st.floats(0.0, 1.0))
 @settings(max_examples=25, deadline=None)

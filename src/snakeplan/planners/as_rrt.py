@@ -14,10 +14,10 @@ Curvature. Every arc has curvature at most ``1 / ValidityChecker.turn_radius``: 
 bend within the bend limits times the planning safety factor (217.5 mm for SJTU-Snake III).
 
 Extension (one iteration). Draw a sample: the stage's target with probability ``GOAL_BIAS``, otherwise uniform
-in the scene's bounds (the coarse prior an operator has). Pick the nearest node under an arc-length metric,
-vectorised over the eligible nodes: a point q at chord c from a node, seen at angle a off its heading, lies on
-the node's tangent circle of curvature 2 sin(a) / c; within the limit the distance is that circle's arc a c /
-sin(a), beyond it the chord plus the turn radius times a (the detour of a sharper turn). Eligible: nodes of the
+in the scene's bounds (the coarse prior an operator has). Pick the nearest eligible node under an arc-length
+metric: a point q at chord c from a node, seen at angle a off its heading, lies on the node's tangent circle of
+curvature 2 sin(a) / c; within the limit the distance is that circle's arc a c / sin(a), beyond it (and for a
+point dead behind) the chord plus the turn radius times a (the detour of a sharper turn). Eligible: nodes of the
 stage being grown (see multi-target) with at least ``MIN_ARC_MM`` of arm left; for a target sample, only nodes
 not yet extended toward it (a repeat would rebuild the same arc). Steer: the arc from the node in the plane of
 its heading and q, the tangent circle through q with its curvature clamped to the limit, ``ARC_SECTIONS`` mean
@@ -182,21 +182,28 @@ def steer(p, t, q, kappa_max, length):
 
 
 @njit(cache=True)
+def _arc_distance(p, t, q, kappa_max, turn_radius):
+    """:func:`arc_distance` from one pose (p, t)."""
+    d0, d1, d2 = q[0] - p[0], q[1] - p[1], q[2] - p[2]
+    c = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    along = d0 * t[0] + d1 * t[1] + d2 * t[2]
+    s = math.sqrt(max(c * c - along * along, 0.0))
+    a = math.atan2(s, along)
+    sin_a = s / max(c, _EPS)
+    if sin_a <= 1e-9 and along < 0.0:
+        return c + turn_radius * math.pi  # dead behind: no tangent circle reaches it
+    if 2.0 * s / max(c * c, _EPS) <= kappa_max:
+        return (a / max(sin_a, 1e-9) if sin_a > 1e-9 else 1.0) * c
+    return c + turn_radius * a
+
+
+@njit(cache=True)
 def arc_distance(P, T, q, kappa_max, turn_radius):
     """Arc-length metric (mm) from poses (P, T) ``(m, 3)`` to q: the tangent circle's arc within the curvature
-    limit, else the chord plus the turn radius times the angle off the heading."""
+    limit, else (and for a point dead behind) the chord plus the turn radius times the angle off the heading."""
     out = np.empty(P.shape[0])
     for i in range(P.shape[0]):
-        d0, d1, d2 = q[0] - P[i, 0], q[1] - P[i, 1], q[2] - P[i, 2]
-        c = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-        along = d0 * T[i, 0] + d1 * T[i, 1] + d2 * T[i, 2]
-        s = math.sqrt(max(c * c - along * along, 0.0))
-        a = math.atan2(s, along)
-        if 2.0 * s / max(c * c, _EPS) <= kappa_max:
-            sin_a = s / max(c, _EPS)
-            out[i] = (a / max(sin_a, 1e-9) if sin_a > 1e-9 else 1.0) * c
-        else:
-            out[i] = c + turn_radius * a
+        out[i] = _arc_distance(P[i], T[i], q, kappa_max, turn_radius)
     return out
 
 
@@ -340,11 +347,14 @@ def _extend(P, T, depth, parent, stage, arcs, tried, n, eligible, to_goal, q, k,
     """One extension of stage k toward q from the nearest eligible node (of the first n): the new node's index
     n, or -1 (too short), -2 (a twin), -3 (the sweep fails), -4 (the crawl fails). Marks the node tried when
     ``to_goal``."""
-    d = arc_distance(P[:n], T[:n], q, kappa_max, turn_radius)
     i, best = -1, math.inf
     for j in range(n):
-        if eligible[j] and d[j] < best:
-            i, best = j, d[j]
+        if eligible[j]:
+            d = _arc_distance(P[j], T[j], q, kappa_max, turn_radius)
+            if d < best:
+                i, best = j, d
+    if i < 0:
+        return -1
     tried[i] |= to_goal
     kappa, normal, length = steer(P[i], T[i], q, kappa_max, step)
     length = min(length, total_length - depth[i])
@@ -573,12 +583,11 @@ class AsRRT(Planner):
         p, t = tree.P[0], tree.T[0]
         goal = p + 2.0 * MIN_ARC_MM * t
         biarc(p, t, goal, t, search.kappa_max, search.landing_max, MAX_LANDING_TURN_RAD, ARC_POINTS)
-        for pieces in landings(p, t, goal, search.kappa_max, search.landing_max, MAX_LANDING_TURN_RAD, ARC_POINTS,
-                               1):
-            pts, heading = pieces[-1]
-            search._valid(0, pts)
-            tree.has_twin(pts[-1], heading, 0)
-            tree.branch(tree.add(0, pts, heading, 0))
+        landings(p, t, goal, search.kappa_max, search.landing_max, MAX_LANDING_TURN_RAD, ARC_POINTS, 1)
+        pts, heading = arc(p, t, _any_normal(t), 0.0, MIN_ARC_MM, ARC_POINTS)
+        search._valid(0, pts)
+        tree.has_twin(pts[-1], heading, 0)
+        tree.branch(tree.add(0, pts, heading, 0))
 
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float
                ) -> tuple[Status, np.ndarray | None, dict]:

@@ -126,19 +126,25 @@ def first_out_vertex(p, cum, start, stop, lo, hi):
     """The first vertex of the tip path ``p`` outside the bounds [lo, hi], among those from the one at or before
     depth ``start`` to the one at or after ``stop`` (mm; ``cum`` its cumulative length), or -1."""
     first = max(np.searchsorted(cum, start, side="right") - 1, 0)
-    last = min(np.searchsorted(cum, stop, side="left"), p.shape[0] - 1)
+    last = max(min(np.searchsorted(cum, stop, side="left"), p.shape[0] - 1), first)
     for i in range(first, last + 1):
-        for k in range(3):
-            if not lo[k] <= p[i, k] <= hi[k]:
-                return i
+        if not in_box(lo, hi, p[i, 0], p[i, 1], p[i, 2]):
+            return i
     return -1
+
+
+@leaf
+def in_box(lo, hi, x, y, z):
+    """Whether the point (x, y, z) lies in the box [lo, hi] (mm; boundary included; NaN is outside)."""
+    return lo[0] <= x <= hi[0] and lo[1] <= y <= hi[1] and lo[2] <= z <= hi[2]
 
 
 @njit(cache=True)
 def crawl_free(p, start, spec, W, stats):
     """Whether the crawl along the tip path ``p (m, 3)`` is feasible at every depth in (start, end] (mm; depth 0
     included when start is 0) against the packed obstacles ``W``: :meth:`ValidityChecker.first_failure` is None,
-    compiled so that planners call it from their own compiled loops."""
+    compiled so that planners call it from their own compiled loops. Unchecked, unlike ``first_failure``: ``p``
+    is a C-contiguous float64 array of at least two finite points starting at the entrance."""
     cum = _cumulative(p)
     stop = cum[-1]
     start = min(max(start, 0.0), stop)
@@ -155,11 +161,10 @@ def motion_free(W, lo, hi, ax, ay, az, bx, by, bz, radius, joints, radii, work, 
     """Whether the capsule of ``radius`` along (ax, ay, az) -> (bx, by, bz) is clear and both ends are in the
     bounds [lo, hi] (one segment, scalars in: the per-motion check of a sampling planner; jitted, so compiled
     planners call it too)."""
+    if not (in_box(lo, hi, ax, ay, az) and in_box(lo, hi, bx, by, bz)):
+        return False
     joints[0, 0], joints[0, 1], joints[0, 2] = ax, ay, az
     joints[1, 0], joints[1, 1], joints[1, 2] = bx, by, bz
-    for k in range(3):
-        if not (lo[k] <= joints[0, k] <= hi[k] and lo[k] <= joints[1, k] <= hi[k]):
-            return False
     radii[0] = radius
     return chain_hit(W, joints, radii, work, stats) < 0
 
@@ -222,18 +227,17 @@ class ValidityChecker:
         self.world = world
         self.robot = robot
         self.tolerances = tolerances
-        self.entrance = world.scene.entrance.position
-        self.direction = world.scene.entrance.direction
-        self.lengths = robot.lengths
-        self.radii = robot.radii + tolerances.margin_mm
-        self.tip_radius = float(self.radii[-1])
-        self.max_bends = robot.max_bends * tolerances.bend_fraction
-        self.total_length = robot.total_length
-        self.turn_radius = min_turn_radius(robot.lengths, self.max_bends)
         scene = world.scene
-        self.spec = CrawlSpec(scene.bounds_min.astype(float), scene.bounds_max.astype(float),
-                              float(tolerances.step_mm), self.lengths.astype(float), self.direction.astype(float),
-                              self.max_bends.astype(float), self.radii.astype(float), float(self.total_length))
+        self.entrance = scene.entrance.position
+        self.spec = CrawlSpec(np.array(scene.bounds_min, dtype=float), np.array(scene.bounds_max, dtype=float),
+                              float(tolerances.step_mm), np.array(robot.lengths, dtype=float),
+                              np.array(scene.entrance.direction, dtype=float),
+                              robot.max_bends * tolerances.bend_fraction, robot.radii + tolerances.margin_mm,
+                              float(robot.total_length))
+        self.direction, self.lengths, self.total_length = self.spec.direction, self.spec.lengths, self.spec.total_length
+        self.radii, self.max_bends = self.spec.radii, self.spec.max_bends
+        self.tip_radius = float(self.radii[-1])
+        self.turn_radius = min_turn_radius(self.lengths, self.max_bends)
 
     @property
     def obstacles(self) -> ObstacleSet:
@@ -326,8 +330,8 @@ class ValidityChecker:
 
     def _scan(self, p: np.ndarray, cum: np.ndarray, depths: np.ndarray) -> tuple[int, int, int]:
         """:func:`_scan` of the crawl along ``p`` at ``depths``, in their order, against the obstacles known now."""
-        obstacles, spec = self.obstacles, self.spec
-        return _scan(p, cum, spec.lengths, spec.direction, depths, spec.max_bends, spec.radii, obstacles.packed,
+        obstacles = self.obstacles
+        return _scan(p, cum, self.lengths, self.direction, depths, self.max_bends, self.radii, obstacles.packed,
                      obstacles.evaluations)
 
     def crawl(self, path) -> CrawlCheck:
