@@ -186,6 +186,22 @@ def _repeats_kernel(new, dirs, stages, pos, out, stage, n, gap, cos_min):
 
 
 @njit(cache=True)
+def _informed_cells(geo, centres, target, limit):
+    """The cells whose geodesic distance ``geo`` (mm, inf: unreached) plus straight distance to ``target`` is at
+    most ``limit``: their centres and distances, by distance (ties in cell order)."""
+    keep = np.empty(geo.shape[0], dtype=np.int64)
+    m = 0
+    for i in range(geo.shape[0]):
+        if np.isfinite(geo[i]) and geo[i] + math.sqrt((centres[i, 0] - target[0]) ** 2 + (centres[i, 1] - target[1])
+                                                      ** 2 + (centres[i, 2] - target[2]) ** 2) <= limit:
+            keep[m] = i
+            m += 1
+    kept = keep[:m]
+    order = kept[np.argsort(geo[kept], kind="mergesort")]
+    return centres[order], geo[order]
+
+
+@njit(cache=True)
 def _subtree_kernel(parent, root, n):
     """Mask of ``root`` and all its descendants among the first ``n`` nodes (children follow their parents)."""
     mask = np.zeros(n, dtype=np.bool_)
@@ -268,6 +284,7 @@ class SpRRT(Planner):
         super().warm_up(problem)
         e = problem.scene.entrance
         position = np.array(e.position, dtype=float)
+        _informed_cells(np.zeros(1), position[None, :], np.asarray(problem.goals, dtype=float)[-1], 1.0)
         ftl.fit_states(np.vstack([position, position + e.direction]), problem.robot.lengths, [0.5], e.direction)
         grid = Grid.covering(position - self.field_cell_mm, position + self.field_cell_mm, self.field_cell_mm)
         field = geodesic_from_sdf(grid, np.full(grid.shape, np.inf), Entrance(position, np.array(e.direction)),
@@ -359,13 +376,9 @@ class _Search:
     def _prepare_cells(self) -> None:
         """Free cells of the informed set, sorted by geodesic distance from the entrance."""
         f = self.field
-        d = f.distance.reshape(-1) - self.source_depth
-        centres = f.grid.centres().reshape(-1, 3)
-        keep = np.isfinite(d)
-        keep[keep] = d[keep] + np.linalg.norm(centres[keep] - self.targets[-1], axis=1) <= self.arm + BUDGET_SLACK_MM
-        order = np.argsort(d[keep], kind="stable")
-        self.cells = centres[keep][order]
-        self.cell_geo = d[keep][order]
+        self.cells, self.cell_geo = _informed_cells(f.distance.reshape(-1) - self.source_depth,
+                                                    f.grid.centres().reshape(-1, 3), self.targets[-1],
+                                                    self.arm + BUDGET_SLACK_MM)
         self.half_cell = f.grid.spacing / 2
 
     def _admissible(self, pts: np.ndarray, depth: np.ndarray, stage: np.ndarray, geo: np.ndarray) -> np.ndarray:
@@ -556,16 +569,25 @@ class _Search:
         p = t.pos[near]
         return self._grow(near, p + self._step(t.depth[near])[:, None] * _unit(self.targets[s] - p))
 
+    def _queued(self, idx: np.ndarray) -> list[int]:
+        """The new nodes ``idx`` that have something to try: a through connection (stage >= 0), or an entrance
+        connection (stage -1, a joint left behind it, ahead of the entrance and within two sections of it)."""
+        t = self.tree
+        k = t.depth[idx]
+        w = t.pos[idx] - self.entrance
+        near = ((k + 1 <= self.n) & (np.sum(w * self.u, axis=1) > 0.0)
+                & (np.sqrt(np.sum(w * w, axis=1)) <= self.steps[k] + self.steps[np.minimum(k + 1, self.n + 1)]))
+        return idx[(t.stage[idx] >= 0) | near].tolist()
+
     def _entrance_paths(self, i: int) -> list[np.ndarray]:
-        """Entrance connections of stage -1 node ``i``: the points (entrance first) to put before its chain."""
+        """Entrance connections of stage -1 node ``i``, one :meth:`_queued` lets through: the points (entrance
+        first) to put before its chain."""
         t = self.tree
         p, k = t.pos[i], int(t.depth[i])
         e, u = self.entrance, self.u
         w = p - e
         d0 = float(np.linalg.norm(w))
         la = float(self._step(k))
-        if k + 1 > self.n or float(w @ u) <= 0.0 or d0 > la + float(self._step(k + 1)):
-            return []
         out = []
         if 1e-6 < d0 <= la:
             # direct: i is the last node; its link starts on the feed ray at B, one section from it
@@ -647,19 +669,19 @@ class _Search:
         stage = np.array([len(self.targets) - 2])
         if not self._admissible(root, np.array([0]), stage, self._geo(root))[0]:
             return Status.FAILED, None, {**self._details(t_start), "reason": "target beyond the arm's geodesic reach"}
-        queue = list(self._add(root, np.array([-1]), np.array([0]), stage))
+        queue = self._queued(self._add(root, np.array([-1]), np.array([0]), stage))
         while True:
             while queue and time.perf_counter() < self.deadline:
-                i = int(queue.pop())
+                i = queue.pop()
                 if self.tree.stage[i] < 0:
                     path = self._try_solution(i)
                     if path is not None:
                         return Status.FOUND, path, self._details(t_start)
                 else:
-                    queue.extend(self._through(i))
+                    queue.extend(self._queued(self._through(i)))
             if time.perf_counter() >= self.deadline:
                 return Status.TIMEOUT, None, self._details(t_start)
             if self.tree.n >= MAX_NODES or not self.open_count.any():
                 return Status.FAILED, None, self._details(t_start)
-            queue = list(self._extend())
+            queue = self._queued(self._extend())
             self.iterations += 1
