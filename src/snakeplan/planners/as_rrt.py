@@ -207,6 +207,53 @@ def arc_distance(P, T, q, kappa_max, turn_radius):
     return out
 
 
+@njit(cache=True)
+def _landing_firsts(p, t, n, q, kappa_max, max_length, max_turn, keep):
+    """The first arcs (curvatures, signed toward n, and lengths) of :func:`landings`' ways, gentlest first: the
+    candidates of its grid that pass, ordered by peak curvature, then total length, then grid order."""
+    m = 1 + LANDING_CURVATURES * (LANDING_LENGTHS - 1)
+    k1, l1 = np.zeros(m), np.zeros(m)
+    for a in range(LANDING_CURVATURES):
+        for b in range(1, LANDING_LENGTHS):
+            r = 1 + a * (LANDING_LENGTHS - 1) + b - 1
+            k1[r] = -kappa_max + 2.0 * kappa_max * a / (LANDING_CURVATURES - 1)
+            l1[r] = max_length * b / (LANDING_LENGTHS - 1)
+    peak, total = np.full(m, np.inf), np.full(m, np.inf)
+    for r in range(m):
+        th = k1[r] * l1[r]
+        if abs(k1[r]) > _EPS:
+            fwd, side = math.sin(th) / k1[r], (1.0 - math.cos(th)) / k1[r]
+        else:
+            fwd, side = l1[r], 0.0
+        c2 = math.cos(th)
+        s2 = math.sin(th)
+        d = q - (p + fwd * t + side * n)
+        h = c2 * t + s2 * n
+        c = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+        along = d[0] * h[0] + d[1] * h[1] + d[2] * h[2]
+        off = math.sqrt(max(c * c - along * along, 0.0))
+        a2 = math.atan2(off, along)
+        k2 = 2.0 * off / max(c * c, _EPS)
+        sin_a2 = off / max(c, _EPS)
+        length = l1[r] + (a2 / max(sin_a2, 1e-9) if sin_a2 > 1e-9 else 1.0) * c
+        if k2 <= kappa_max and length <= max_length and abs(th) + 2.0 * a2 <= max_turn and c > _EPS:
+            peak[r], total[r] = max(abs(k1[r]), k2), length
+    chosen = np.empty(min(keep, m), dtype=np.int64)
+    count = 0
+    for _ in range(chosen.shape[0]):
+        best = -1
+        for r in range(m):
+            if peak[r] < np.inf and (best < 0 or peak[r] < peak[best]
+                                     or (peak[r] == peak[best] and total[r] < total[best])):
+                best = r
+        if best < 0:
+            break
+        chosen[count] = best
+        count += 1
+        peak[best] = np.inf
+    return k1[chosen[:count]], l1[chosen[:count]]
+
+
 def landings(p: np.ndarray, t: np.ndarray, q: np.ndarray, kappa_max: float, max_length: float, max_turn: float,
              count: int, keep: int) -> list[list[tuple[np.ndarray, np.ndarray]]]:
     """Up to ``keep`` ways from pose (p, t) to end exactly on q, each a list of arcs (points, end heading).
@@ -218,28 +265,9 @@ def landings(p: np.ndarray, t: np.ndarray, q: np.ndarray, kappa_max: float, max_
     ``max_turn``; ordered by peak curvature, then length (the gentlest first).
     """
     _, n, _, _ = tangent_circle(p, t, q)
-    k1 = np.repeat(np.linspace(-kappa_max, kappa_max, LANDING_CURVATURES), LANDING_LENGTHS - 1)
-    l1 = np.tile(np.linspace(0.0, max_length, LANDING_LENGTHS)[1:], LANDING_CURVATURES)
-    k1, l1 = np.r_[0.0, k1], np.r_[0.0, l1]
-    th = k1 * l1
-    safe = np.where(np.abs(k1) > _EPS, k1, 1.0)
-    fwd = np.where(np.abs(k1) > _EPS, np.sin(th) / safe, l1)
-    side = np.where(np.abs(k1) > _EPS, (1.0 - np.cos(th)) / safe, 0.0)
-    P = p + fwd[:, None] * t + side[:, None] * n
-    T = np.cos(th)[:, None] * t + np.sin(th)[:, None] * n
-    d = q - P
-    c = np.linalg.norm(d, axis=1)
-    along = np.einsum("ij,ij->i", d, T)
-    off = np.sqrt(np.maximum(c * c - along * along, 0.0))
-    a2 = np.arctan2(off, along)
-    k2 = 2.0 * off / np.maximum(c * c, _EPS)
-    sin_a2 = off / np.maximum(c, _EPS)
-    total = l1 + np.where(sin_a2 > 1e-9, a2 / np.maximum(sin_a2, 1e-9), 1.0) * c
-    ok = (k2 <= kappa_max) & (total <= max_length) & (np.abs(th) + 2.0 * a2 <= max_turn) & (c > _EPS)
-    idx = np.flatnonzero(ok)
-    order = idx[np.lexsort((total[idx], np.maximum(np.abs(k1[idx]), k2[idx])))][:keep]
+    k1, l1 = _landing_firsts(p, t, n, q, kappa_max, max_length, max_turn, keep)
     ways = []
-    for i in order:
+    for i in range(k1.shape[0]):
         pieces, start, heading = [], p, t
         if l1[i] > 0.0:
             pts, heading = arc(p, t, n * np.sign(k1[i]) if k1[i] else n, abs(float(k1[i])), float(l1[i]), count)
