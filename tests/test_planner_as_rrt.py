@@ -164,6 +164,33 @@ def test_landings_end_on_the_target_within_the_limit(q):
         assert kappa.size == 0 or kappa.max() <= kmax * 1.02
 
 
+@pytest.mark.parametrize("q", [[300, 100, 0], [300, -150, 80], [150, 20, -10], [40, 200, 0]])
+def test_free_landings_are_ranked_gentlest_first(q):
+    # Brute force over the same grid with NumPy: every candidate first arc, the tangent circle after it, the
+    # three limits; ranked by peak curvature, then total length, then grid order.
+    from snakeplan.planners.as_rrt import LANDING_CURVATURES, LANDING_LENGTHS, _landing_firsts, tangent_circle
+
+    p, t, q = np.zeros(3), np.array([1.0, 0, 0]), np.array(q, dtype=float)
+    kmax, length, turn = 1 / 217.5, 355.0, math.pi / 2
+    n = tangent_circle(p, t, q)[1]
+    k1 = np.r_[0.0, np.repeat(np.linspace(-kmax, kmax, LANDING_CURVATURES), LANDING_LENGTHS - 1)]
+    l1 = np.r_[0.0, np.tile(np.linspace(0.0, length, LANDING_LENGTHS)[1:], LANDING_CURVATURES)]
+    th = k1 * l1
+    bent = np.abs(k1) > 1e-12
+    fwd = np.where(bent, np.sin(th) / np.where(bent, k1, 1.0), l1)
+    side = np.where(bent, (1.0 - np.cos(th)) / np.where(bent, k1, 1.0), 0.0)
+    start = p + fwd[:, None] * t + side[:, None] * n
+    heading = np.cos(th)[:, None] * t + np.sin(th)[:, None] * n
+    circles = [tangent_circle(a, h, q) for a, h in zip(start, heading)]
+    k2 = np.array([c[0] for c in circles])
+    total = l1 + np.array([c[2] for c in circles])
+    ok = (k2 <= kmax) & (total <= length) & (np.abs(th) + np.array([c[3] for c in circles]) <= turn)
+    idx = np.flatnonzero(ok)
+    order = idx[np.lexsort((total[idx], np.maximum(np.abs(k1[idx]), k2[idx])))][:3]
+    got_k, got_l = _landing_firsts(p, t, n, q, kmax, length, turn, 3)
+    assert np.allclose(got_k, k1[order], atol=1e-12) and np.allclose(got_l, l1[order])
+
+
 def test_biarc_joins_two_poses_g1():
     p, t = np.zeros(3), np.array([1.0, 0, 0])
     q, h = np.array([350.0, 60.0, 40.0]), np.array([0.9, 0.1, 0.3])
