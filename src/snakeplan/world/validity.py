@@ -121,6 +121,12 @@ def crawl_depths(start, stop, step, total_length):
     return full[full > start] if start > 0.0 else full
 
 
+@leaf
+def in_box(lo, hi, x, y, z):
+    """Whether the point (x, y, z) lies in the box [lo, hi] (mm; boundary included; NaN is outside)."""
+    return lo[0] <= x <= hi[0] and lo[1] <= y <= hi[1] and lo[2] <= z <= hi[2]
+
+
 @njit(cache=True)
 def first_out_vertex(p, cum, start, stop, lo, hi):
     """The first vertex of the tip path ``p`` outside the bounds [lo, hi], among those from the one at or before
@@ -131,12 +137,6 @@ def first_out_vertex(p, cum, start, stop, lo, hi):
         if not in_box(lo, hi, p[i, 0], p[i, 1], p[i, 2]):
             return i
     return -1
-
-
-@leaf
-def in_box(lo, hi, x, y, z):
-    """Whether the point (x, y, z) lies in the box [lo, hi] (mm; boundary included; NaN is outside)."""
-    return lo[0] <= x <= hi[0] and lo[1] <= y <= hi[1] and lo[2] <= z <= hi[2]
 
 
 @njit(cache=True)
