@@ -12,12 +12,22 @@ import pytest
 from snakeplan.evaluation import evaluate
 from snakeplan.evaluation.metrics import curvature_profile
 from snakeplan.geometry.primitives import Box
-from snakeplan.planners.as_rrt import AsRRT, arc, arc_distance, biarc, landings
+from snakeplan.planners.as_rrt import (
+    LANDING_CURVATURES,
+    LANDING_LENGTHS,
+    AsRRT,
+    _landing_firsts,
+    arc,
+    arc_distance,
+    biarc,
+    landings,
+    tangent_circle,
+)
 from snakeplan.planners.base import Plan, Problem
-from snakeplan.world import PLANNING, ValidityChecker
 from snakeplan.planners.registry import get_planner
 from snakeplan.robots import get_robot
 from snakeplan.scenes import Entrance, Scene, make_scene
+from snakeplan.world import PLANNING, ValidityChecker
 
 ROBOT = get_robot("sjtu-snake-iii")
 BUDGET_S = 10.0
@@ -168,8 +178,6 @@ def test_landings_end_on_the_target_within_the_limit(q):
 def test_free_landings_are_ranked_gentlest_first(q):
     # Brute force over the same grid with NumPy: every candidate first arc, the tangent circle after it, the
     # three limits; ranked by peak curvature, then total length, then grid order.
-    from snakeplan.planners.as_rrt import LANDING_CURVATURES, LANDING_LENGTHS, _landing_firsts, tangent_circle
-
     p, t, q = np.zeros(3), np.array([1.0, 0, 0]), np.array(q, dtype=float)
     kmax, length, turn = 1 / 217.5, 355.0, math.pi / 2
     n = tangent_circle(p, t, q)[1]

@@ -507,8 +507,10 @@ class _Search:
     def _extend(self, stage: int, live: np.ndarray) -> int | None:
         """One extension of ``stage`` toward a sample; the new node, or None."""
         tree, rng = self.tree, self.rng
-        untried = live & ~tree.tried[:tree.n]
-        to_goal = rng.random() < self.planner.goal_bias and bool(untried.any())
+        to_goal = rng.random() < self.planner.goal_bias
+        if to_goal:
+            untried = live & ~tree.tried[:tree.n]
+            to_goal = bool(untried.any())
         if to_goal:
             q, live = self.goals[stage], untried
         else:

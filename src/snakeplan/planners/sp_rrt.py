@@ -576,7 +576,7 @@ class _Search:
         k = t.depth[idx]
         w = t.pos[idx] - self.entrance
         near = ((k + 1 <= self.n) & (np.sum(w * self.u, axis=1) > 0.0)
-                & (np.sqrt(np.sum(w * w, axis=1)) <= self.steps[k] + self.steps[np.minimum(k + 1, self.n + 1)]))
+                & (np.sqrt(np.sum(w * w, axis=1)) <= self.steps[k] + self.steps[k + 1]))
         return idx[(t.stage[idx] >= 0) | near].tolist()
 
     def _entrance_paths(self, i: int) -> list[np.ndarray]:
