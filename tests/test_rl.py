@@ -220,6 +220,61 @@ def test_per_sac_updates_priorities_and_learns_a_few_steps():
     assert 0.0 < model.epsilon < 1.0
 
 
+def _her_model(seed: int = 0):
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from snakeplan.rl.agents import EpsilonGreedySAC
+    from snakeplan.rl.extractor import GoalRouteExtractor
+    from snakeplan.rl.her import FastHerReplayBuffer
+
+    venv = DummyVecEnv([lambda: SnakeEnv("fuel-tank", seeds=FEW_SEEDS)])
+    graph = RoomGraph.from_scene(venv.envs[0].scene)
+    return EpsilonGreedySAC("MultiInputPolicy", venv, replay_buffer_class=FastHerReplayBuffer,
+                            replay_buffer_kwargs={"n_sampled_goal": 4, "goal_selection_strategy": "future"},
+                            learning_starts=300, batch_size=32, seed=seed, device="cpu",
+                            policy_kwargs={"net_arch": [32, 32], "features_extractor_class": GoalRouteExtractor,
+                                           "features_extractor_kwargs": {"mode": "local", "graph": graph.arrays()}})
+
+
+def test_sac_update_gives_sb3s_weights():
+    """The shared update (features once per mini-batch, fused target update) is SB3's SAC update: the same
+    weights after the same updates on the same draws."""
+    import copy
+
+    from stable_baselines3 import SAC
+
+    model = _her_model()
+    model.learn(300)  # fills the buffer; learning starts after it
+    reference = copy.deepcopy(model)
+    for train in (model.train, lambda n, b: SAC.train(reference, n, b)):
+        np.random.seed(3)  # the buffer's draws
+        th.manual_seed(3)  # the actor's samples
+        train(25, 32)
+    ours, theirs = model.policy.state_dict(), reference.policy.state_dict()
+    assert ours.keys() == theirs.keys()
+    for key in ours:
+        assert th.equal(ours[key], theirs[key]), key
+    assert th.equal(model.log_ent_coef, reference.log_ent_coef)
+    assert not th.equal(ours["actor.mu.weight"], _her_model().policy.state_dict()["actor.mu.weight"])
+
+
+def test_sac_refuses_an_extractor_with_weights():
+    from stable_baselines3.common.torch_layers import FlattenExtractor
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from snakeplan.rl.agents import EpsilonGreedySAC
+
+    class Learned(FlattenExtractor):
+        def __init__(self, space):
+            super().__init__(space)
+            self.scale = th.nn.Parameter(th.ones(1))
+
+    venv = DummyVecEnv([lambda: SnakeEnv("fuel-tank", seeds=FEW_SEEDS, observation="paper")])
+    with pytest.raises(ValueError, match="features_extractor_class"):
+        EpsilonGreedySAC("MlpPolicy", gym.wrappers.FlattenObservation(venv.envs[0]), device="cpu",
+                         policy_kwargs={"features_extractor_class": Learned})
+
+
 def test_room_graph_routes_through_holes():
     scene = make_scene("fuel-tank", 3)
     graph = RoomGraph.from_scene(scene)

@@ -15,7 +15,6 @@ import numpy as np
 import torch as th
 from gymnasium import spaces
 from stable_baselines3.common.buffers import DictReplayBuffer, ReplayBuffer
-from stable_baselines3.common.utils import polyak_update
 from stable_baselines3.common.vec_env import VecNormalize
 
 from snakeplan.rl.agents import EpsilonGreedySAC
@@ -170,50 +169,13 @@ class PerSAC(EpsilonGreedySAC):
     def train(self, gradient_steps: int, batch_size: int = 64) -> None:
         buffer = self.replay_buffer
         buffer.beta = self.beta_start + (1.0 - self.beta_start) * (1.0 - self._current_progress_remaining)
-        self.policy.set_training_mode(True)
-        optimizers = [self.actor.optimizer, self.critic.optimizer]
-        if self.ent_coef_optimizer is not None:
-            optimizers.append(self.ent_coef_optimizer)
-        self._update_learning_rate(optimizers)
-        critic_losses, actor_losses = [], []
-        for step in range(gradient_steps):
-            data = buffer.sample(batch_size, env=self._vec_normalize_env)
-            actions_pi, log_prob = self.actor.action_log_prob(data.observations)
-            log_prob = log_prob.reshape(-1, 1)
-            if self.ent_coef_optimizer is not None:
-                ent_coef = th.exp(self.log_ent_coef.detach())
-                ent_loss = -(self.log_ent_coef * (log_prob + self.target_entropy).detach()).mean()
-                self.ent_coef_optimizer.zero_grad()
-                ent_loss.backward()
-                self.ent_coef_optimizer.step()
-            else:
-                ent_coef = self.ent_coef_tensor
-            with th.no_grad():
-                next_actions, next_log_prob = self.actor.action_log_prob(data.next_observations)
-                next_q = th.min(th.cat(self.critic_target(data.next_observations, next_actions), dim=1), dim=1,
-                                keepdim=True)[0]
-                soft_q = next_q - ent_coef * next_log_prob.reshape(-1, 1)
-                target = data.rewards + (1 - data.dones) * self.gamma * soft_q
-            current = self.critic(data.observations, data.actions)
-            deltas = [target - q for q in current]
-            critic_loss = 0.5 * sum((data.weights * d.pow(2)).mean() for d in deltas)
-            self.critic.optimizer.zero_grad()
-            critic_loss.backward()
-            self.critic.optimizer.step()
-            td = th.stack([d.detach().abs() for d in deltas]).mean(dim=0)
-            buffer.update_priorities(data.indices, td.cpu().numpy())
-            q_pi = th.min(th.cat(self.critic(data.observations, actions_pi), dim=1), dim=1, keepdim=True)[0]
-            actor_loss = (ent_coef * log_prob - q_pi).mean()
-            self.actor.optimizer.zero_grad()
-            actor_loss.backward()
-            self.actor.optimizer.step()
-            if step % self.target_update_interval == 0:
-                polyak_update(self.critic.parameters(), self.critic_target.parameters(), self.tau)
-                polyak_update(self.batch_norm_stats, self.batch_norm_stats_target, 1.0)
-            critic_losses.append(critic_loss.item())
-            actor_losses.append(actor_loss.item())
-        self._n_updates += gradient_steps
-        self.logger.record("train/n_updates", self._n_updates, exclude="tensorboard")
-        self.logger.record("train/critic_loss", float(np.mean(critic_losses)))
-        self.logger.record("train/actor_loss", float(np.mean(actor_losses)))
+        super().train(gradient_steps, batch_size)
         self.logger.record("train/beta", buffer.beta)
+
+    def _critic_loss(self, data: PrioritizedSamples, current: list[th.Tensor], target: th.Tensor) -> th.Tensor:
+        """The importance-weighted critic loss (eq. 16); sets the sampled transitions' priorities to their mean
+        absolute TD error over the Q networks (eqs. 17-19)."""
+        deltas = [target - q for q in current]
+        self.replay_buffer.update_priorities(data.indices, th.stack([d.detach().abs() for d in deltas]).mean(dim=0)
+                                             .cpu().numpy())
+        return 0.5 * sum((data.weights * d.pow(2)).mean() for d in deltas)
