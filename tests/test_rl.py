@@ -448,3 +448,67 @@ def test_the_compiled_actor_is_the_layers_in_numpy():
     ours = np.empty_like(expect)
     _actor_rows(obs, policy.weights, policy.biases, policy.shapes, ours)
     np.testing.assert_allclose(ours, expect, rtol=0, atol=1e-12)
+
+
+def test_upcoming_scene_seeds_are_the_environments_own_draws():
+    from snakeplan.rl.envs import upcoming
+
+    envs = [SnakeEnv("fuel-tank", seeds=(1_000_000, 1_000_006)) for _ in range(2)]
+    for k, env in enumerate(envs):
+        env.reset(seed=k)
+    predicted = upcoming(envs, 12)
+    drawn: dict[int, None] = {}
+    for _ in range(12):
+        for env in envs:
+            drawn.setdefault(env.reset()[1]["scene_seed"], None)
+    assert predicted == list(drawn)
+    assert len(predicted) == 6  # twelve draws each from six seeds
+
+
+def test_a_scene_no_worker_can_make_is_made_by_the_caller():
+    from snakeplan.scenes.prefetch import ScenePrefetch
+
+    prefetch = ScenePrefetch([("no-such-family", 1), ("fuel-tank", 1_000_001)], 1).start()
+    try:
+        assert prefetch.take("no-such-family", 1) is None
+        made = prefetch.take("fuel-tank", 1_000_001)
+        assert prefetch.take("fuel-tank", 1_000_001) is None  # taken once
+    finally:
+        prefetch.close()
+    here = make_scene("fuel-tank", 1_000_001)
+    assert made.to_dict() == here.to_dict()
+
+
+def test_scenes_made_ahead_train_the_same_weights(tmp_path, monkeypatch):
+    """A run whose scenes workers make ahead learns exactly what a run making each scene itself learns."""
+    from dataclasses import replace
+
+    from snakeplan.rl import envs
+    from snakeplan.rl.train import DEFAULT_CONFIG, train
+
+    delivered = []
+
+    def counted(family, seed):
+        scene = made_ahead(family, seed)
+        delivered.append(scene is not None)
+        return scene
+
+    made_ahead = envs.made_ahead
+    monkeypatch.setattr(envs, "made_ahead", counted)
+    config = replace(DEFAULT_CONFIG, net_arch=(8, 8), batch_size=16, learning_starts=100, eval_every=100,
+                     eval_episodes=2, train_scenes=12, checkpoint_every=1000)
+    weights, curves = [], []
+    for workers in (0, 1):
+        envs.family_scene.cache_clear()
+        train("fuel-tank", "sac-her", 200, 0, tmp_path / str(workers), replace(config, scene_workers=workers),
+              progress=False)
+        with np.load(tmp_path / str(workers) / "last.npz") as last:
+            weights.append({k: last[k] for k in last.files if k != "meta"})
+        curves.append([{k: v for k, v in h.items() if k not in ("wall_s", "median_time_s")}
+                       for h in json.loads((tmp_path / str(workers) / "curve.json").read_text())])
+        if workers == 0:
+            assert not any(delivered)
+    assert sum(delivered) >= 4  # most of the second run's scenes came from the worker
+    assert curves[0] == curves[1]
+    for key in weights[0]:
+        np.testing.assert_array_equal(weights[0][key], weights[1][key], err_msg=key)

@@ -19,6 +19,7 @@ import socket
 import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import Executor, Future
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import TypeVar
@@ -26,6 +27,8 @@ from typing import TypeVar
 from snakeplan.interrupt import Interrupted, interruptible
 
 T = TypeVar("T")
+#: How often (s) a worker process checks that its parent is alive.
+ORPHAN_POLL_S = 0.5
 #: Niceness of the workers of a Ray instance started here. Ray's default, 15, keeps its daemons responsive on a
 #: cluster node, but on a busy workstation it starved time-limited planners (rrt-star 5-10x slower on two
 #: loaded cores, its time budget then binding); a joined cluster keeps its own setting.
@@ -83,11 +86,21 @@ def backend_from(workers: int | None, ray: str | None) -> Backend:
 
 
 def _pin_threads() -> None:
-    """Worker initialiser: one BLAS/OpenMP thread, and Ctrl-C left to the parent (which stops at a safe point)."""
+    """Worker initialiser: one BLAS/OpenMP thread, Ctrl-C left to the parent (which stops at a safe point), and an
+    end of the worker when the parent is gone (killed, it cannot shut its workers down)."""
     import signal
+    import threading
 
     os.environ.update(THREAD_ENV)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    threading.Thread(target=_exit_with_parent, args=(os.getppid(),), daemon=True).start()
+
+
+def _exit_with_parent(parent: int) -> None:
+    """End this process once ``parent`` is no longer its parent (polled every ``ORPHAN_POLL_S`` seconds)."""
+    while os.getppid() == parent:
+        time.sleep(ORPHAN_POLL_S)
+    os._exit(1)
 
 
 @contextmanager
@@ -118,6 +131,18 @@ def execute(work: Callable[..., T], tasks: Sequence, backend: Backend, *args) ->
         yield from _execute_pool(work, tasks, backend.slots, args)
         return
     yield from _execute_ray(work, tasks, backend, args)
+
+
+def submit_all(work: Callable[[T], object], tasks: Sequence[T], workers: int) -> tuple[Executor, list[Future]]:
+    """``work(task)`` for every task, in task order, on ``workers`` spawned processes started as :func:`execute`'s
+    (one BLAS/OpenMP thread, Ctrl-C left to the parent), as futures. The caller takes results in any order, cancels
+    what it no longer needs and shuts the executor down."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    with _environment(THREAD_ENV):  # the workers start at the first submission and inherit it
+        pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"), initializer=_pin_threads)
+        return pool, [pool.submit(work, task) for task in tasks]
 
 
 class _Call:

@@ -18,6 +18,7 @@ from ``VALIDATION_SEED``; seeds below that (the test episodes are seeds 0-99) ar
 
 from __future__ import annotations
 
+import copy
 from functools import lru_cache
 from typing import Any, ClassVar
 
@@ -36,16 +37,17 @@ from snakeplan.planners.sac import (
     observation_dim,
 )
 from snakeplan.rl.rewards import (
+    GUIDE_WEIGHT,
     collide_reward,
     compute_reward,
     global_reward,
-    GUIDE_WEIGHT,
     guide_reward,
     in_view,
     local_reward,
 )
 from snakeplan.robots import Chain, get_robot
 from snakeplan.scenes import Scene, make_scene
+from snakeplan.scenes.prefetch import made_ahead
 from snakeplan.scenes.reach import RouteGuide
 from snakeplan.world import KnowledgeView, view_for
 
@@ -180,17 +182,37 @@ def families(scene: str) -> tuple[str, ...]:
     return tuple(scene.split("+"))
 
 
-def scene_of(scene: str, seed: int) -> Scene:
-    """The scene of ``seed`` in ``scene``'s families: the (seed mod n)-th family's (:func:`family_scene`)."""
+def family_of(scene: str, seed: int) -> str:
+    """The family of ``scene``'s families that ``seed`` draws from: the (seed mod n)-th."""
     names = families(scene)
-    return family_scene(names[seed % len(names)], int(seed))
+    return names[seed % len(names)]
+
+
+def scene_of(scene: str, seed: int) -> Scene:
+    """The scene of ``seed`` in ``scene``'s families (:func:`family_of`, :func:`family_scene`)."""
+    return family_scene(family_of(scene, seed), int(seed))
+
+
+def upcoming(envs, draws: int) -> list[int]:
+    """The scene seeds of the next ``draws`` episodes of each of ``envs``, in the order of their first draw (the
+    environments step together), each once. Each environment draws its episodes' seeds from its own generator
+    (:meth:`SnakeEnv.reset`), so copies of the generators draw the same seeds; the environments' own are not
+    touched."""
+    gens = [copy.deepcopy(env.np_random) for env in envs]
+    seeds: dict[int, None] = {}
+    for _ in range(draws):
+        for env, gen in zip(envs, gens):
+            seeds.setdefault(int(gen.integers(*env.seed_range)), None)
+    return list(seeds)
 
 
 @lru_cache(maxsize=SCENE_CACHE)
 def family_scene(family: str, seed: int) -> Scene:
     """A family's scene for ``seed``, generated once per process and shared by every environment in it (a vector
-    of environments meets the same training scenes)."""
-    return make_scene(family, seed)
+    of environments meets the same training scenes); made ahead by a worker while a training run prefetches
+    (:mod:`snakeplan.scenes.prefetch`)."""
+    scene = made_ahead(family, seed)
+    return make_scene(family, seed) if scene is None else scene
 
 
 @lru_cache(maxsize=SCENE_CACHE)

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -79,10 +79,13 @@ def run_jobs(jobs: Sequence[TrainJob], backend: Backend, progress: bool = True,
 def train_seeds(scene: str, algorithm: str, steps: int, seeds: Sequence[int], out_dir: str | Path, config=None,
                 backend: Backend = Backend(), progress: bool = True, threshold: float = CONVERGENCE_SUCCESS) -> dict:
     """Train ``algorithm`` on ``scene`` once per seed on ``backend`` (each run resumable in ``out_dir/seed<N>``);
-    write ``sweep.json``, ``sweep.md`` and ``curves.png`` there and return the summary (see the module doc)."""
+    write ``sweep.json``, ``sweep.md`` and ``curves.png`` there and return the summary (see the module doc). On a
+    parallel backend the trainings make their scenes when drawn, unless ``config.scene_workers`` says otherwise."""
     from snakeplan.rl.train import DEFAULT_CONFIG, plot_curves
 
     config = DEFAULT_CONFIG if config is None else config
+    if backend.kind != "serial" and config.scene_workers < 0:  # parallel trainings keep the cores busy already
+        config = replace(config, scene_workers=0)
     out = Path(out_dir)
     jobs = [TrainJob(scene, algorithm, steps, seed, str(out / f"seed{seed}"), asdict(config)) for seed in seeds]
     histories = run_jobs(jobs, backend, progress, f"train {scene} {algorithm}")

@@ -62,8 +62,14 @@ from snakeplan.checkpoints import (
 )
 from snakeplan.episode import run_episode
 from snakeplan.files import atomic_path, atomic_write
-from snakeplan.interrupt import Interrupted, StopRequest, interruptible, interruption, report
-from snakeplan.parallel import ProgressDisplay
+from snakeplan.interrupt import (
+    Interrupted,
+    StopRequest,
+    interruptible,
+    interruption,
+    report,
+)
+from snakeplan.parallel import ProgressDisplay, usable_cores
 from snakeplan.planners import Problem
 from snakeplan.planners.sac import (
     CAPTURE_STEPS,
@@ -78,16 +84,28 @@ from snakeplan.rl.agents import (
     EPSILON_START,
     EpsilonGreedySAC,
 )
-from snakeplan.rl.envs import TRAIN_SCENES, TRAIN_SEED, VALIDATION_SEED, SnakeEnv, families, scene_of
+from snakeplan.rl.envs import (
+    TRAIN_SCENES,
+    TRAIN_SEED,
+    VALIDATION_SEED,
+    SnakeEnv,
+    families,
+    family_of,
+    scene_of,
+    upcoming,
+)
 from snakeplan.rl.extractor import GoalRouteExtractor
 from snakeplan.rl.her import FastHerReplayBuffer
-from snakeplan.rl.rewards import GUIDE_WEIGHT
 from snakeplan.rl.per import ALPHA, BETA_START, PerSAC, PrioritizedDictReplayBuffer
 from snakeplan.rl.policy import from_sb3
+from snakeplan.rl.rewards import GUIDE_WEIGHT
 from snakeplan.robots import get_robot
 from snakeplan.scenes import make_scene, scene_names, scene_spec
+from snakeplan.scenes.prefetch import ScenePrefetch
 
 ALGORITHMS = ("sac-her", "sac-per", "sac")
+#: Shortest episode (steps) the scene prefetch plans for: enough draws whatever the episodes' lengths.
+PREFETCH_EPISODE_STEPS = 5
 #: Episodes in the rolling training success rate shown on the progress bar and the curve.
 ROLLING_EPISODES = 100
 
@@ -135,6 +153,9 @@ class TrainConfig:
     #: 0: :func:`snakeplan.checkpoints.checkpoint_interval` of the run's steps.
     checkpoint_every: int = 0
     torch_threads: int = 1
+    #: Processes that make the run's training scenes ahead of use (:mod:`snakeplan.scenes.prefetch`); -1: the usable
+    #: cores but one (torch trains on one thread), 0: none (each scene is made when first drawn).
+    scene_workers: int = -1
 
 
 #: The measured default (see the module doc and the closing note of the issue).
@@ -230,6 +251,7 @@ class _Monitor(BaseCallback):
 
     def _on_training_start(self) -> None:
         self.run.start_bar()
+        self.run.start_prefetch(self.model.num_timesteps)
 
     def _on_rollout_start(self) -> None:
         run, n = self.run, self.model.num_timesteps
@@ -269,6 +291,7 @@ class _Run:
         self.model = None
         self.graph: RoomGraph | None = None
         self._bar: ProgressDisplay | None = None
+        self._prefetch: ScenePrefetch | None = None
         self.seeds = range(VALIDATION_SEED, VALIDATION_SEED + config.eval_episodes)
 
     @property
@@ -360,6 +383,26 @@ class _Run:
         rolling = float(np.mean(self.episodes)) if self.episodes else 0.0
         self._bar.update(n, f"train {rolling:.0%}  val {last:.0%}  {n / max(self.wall, 1e-9):.0f} steps/s")
 
+    def start_prefetch(self, n: int) -> None:
+        """Make the scenes of the rest of the run ahead of use on ``config.scene_workers`` processes (the
+        environments have drawn their first scenes by now; the validation scenes follow the first few training
+        ones). Enough draws for episodes of ``PREFETCH_EPISODE_STEPS`` steps: a run's scenes repeat long before."""
+        workers = self.config.scene_workers
+        workers = usable_cores() - 1 if workers < 0 else workers
+        if workers == 0 or n >= self.steps:
+            return
+        envs = [env.unwrapped for env in self.model.env.envs]
+        draws = (self.steps - n) // (len(envs) * PREFETCH_EPISODE_STEPS) + 1
+        seeds = upcoming(envs, draws)
+        seeds = seeds[:len(self.seeds)] + list(self.seeds) + seeds[len(self.seeds):]
+        keys = [(family_of(self.scene, seed), seed) for seed in seeds]
+        self._prefetch = ScenePrefetch(keys, workers).start()
+
+    def stop_prefetch(self) -> None:
+        if self._prefetch is not None:
+            self._prefetch.close()
+            self._prefetch = None
+
     def stop_bar(self) -> None:
         if self._bar is not None:
             self._bar.close()
@@ -372,7 +415,7 @@ def _save_policy(policy: NumpyPolicy, path: Path) -> None:
 
 
 #: Configuration fields that may change when a run is resumed (they do not change what is learned).
-RESUMABLE_CHANGES = ("eval_every", "checkpoint_every", "torch_threads")
+RESUMABLE_CHANGES = ("eval_every", "checkpoint_every", "torch_threads", "scene_workers")
 
 
 #: Configuration fields added after checkpoints were first written: left out of a run's identity at their
@@ -394,7 +437,9 @@ def train(scene: str, algorithm: str, steps: int, seed: int, out_dir: str | Path
     """Train ``algorithm`` ("sac-her", "sac-per", "sac") on scene family ``scene`` for ``steps`` environment
     steps with ``seed``; files go to ``out_dir`` (see the module doc). With ``resume``, the checkpoint there is
     continued up to ``steps``; without, it is deleted first. SIGINT or SIGTERM saves a checkpoint and raises
-    :class:`snakeplan.interrupt.Interrupted`."""
+    :class:`snakeplan.interrupt.Interrupted`. With scene workers (``config.scene_workers``; by default on a machine
+    of more than one core) a script that calls this must start under ``if __name__ == "__main__":``, as for any
+    pool of spawned processes: each worker imports the script."""
     if algorithm not in ALGORITHMS:
         raise ValueError(f"algorithm: must be one of {ALGORITHMS}, got {algorithm!r}")
     if steps <= 0:
@@ -419,6 +464,9 @@ def train(scene: str, algorithm: str, steps: int, seed: int, out_dir: str | Path
     if config.observation != "guide" and (config.residual or config.guide_weight != DEFAULT_CONFIG.guide_weight):
         raise ValueError(f"--residual, --guide-weight: only the guide observation follows a route guide, not "
                          f"{config.observation}")
+    if config.scene_workers < -1:
+        raise ValueError(f"--scene-workers: must be -1 (the usable cores but one), 0 (none) or positive, "
+                         f"got {config.scene_workers}")
     if not (math.isfinite(config.guide_weight) and config.guide_weight >= 0.0):
         raise ValueError(f"--guide-weight: must be a finite number >= 0, got {config.guide_weight}")
     config = replace(config, robot=robot_for(scene, config))
@@ -450,13 +498,16 @@ def _train(run: _Run, stop: StopRequest, resume: bool) -> TrainResult:
         run.restore(generation)
     remaining = run.steps - run.model.num_timesteps
     try:
-        if remaining > 0:
-            run.model.learn(remaining, callback=_Monitor(run, stop), reset_num_timesteps=generation is None)
+        try:
+            if remaining > 0:
+                run.model.learn(remaining, callback=_Monitor(run, stop), reset_num_timesteps=generation is None)
+        finally:
+            run.stop_bar()
+        n = run.model.num_timesteps
+        if run.last_eval < n:
+            run.validate(n)
     finally:
-        run.stop_bar()
-    n = run.model.num_timesteps
-    if run.last_eval < n:
-        run.validate(n)
+        run.stop_prefetch()  # after the last validation, whose scenes it may be making
     _save_policy(run.export(n), run.out / "last.npz")
     if run.state.current is None or n > run.state.current.step:
         run.checkpoint(n)
