@@ -85,15 +85,16 @@ def backend_from(workers: int | None, ray: str | None) -> Backend:
     return Backend("processes", workers or 0)
 
 
-def _pin_threads() -> None:
+def _pin_threads(parent: int) -> None:
     """Worker initialiser: one BLAS/OpenMP thread, Ctrl-C left to the parent (which stops at a safe point), and an
-    end of the worker when the parent is gone (killed, it cannot shut its workers down)."""
+    end of the worker once the process ``parent`` (the pool's owner, which may die before this runs) is gone:
+    killed, it cannot shut its workers down, and they would wait for work forever."""
     import signal
     import threading
 
     os.environ.update(THREAD_ENV)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    threading.Thread(target=_exit_with_parent, args=(os.getppid(),), daemon=True).start()
+    threading.Thread(target=_exit_with_parent, args=(parent,), daemon=True).start()
 
 
 def _exit_with_parent(parent: int) -> None:
@@ -141,7 +142,8 @@ def submit_all(work: Callable[[T], object], tasks: Sequence[T], workers: int) ->
     from concurrent.futures import ProcessPoolExecutor
 
     with _environment(THREAD_ENV):  # the workers start at the first submission and inherit it
-        pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"), initializer=_pin_threads)
+        pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"), initializer=_pin_threads,
+                                   initargs=(os.getpid(),))
         return pool, [pool.submit(work, task) for task in tasks]
 
 
@@ -161,7 +163,8 @@ def _execute_pool(work, tasks, slots: int, args: tuple) -> Iterator:
     import multiprocessing
 
     with _environment(THREAD_ENV):
-        pool = multiprocessing.get_context("spawn").Pool(min(slots, len(tasks)), initializer=_pin_threads)
+        pool = multiprocessing.get_context("spawn").Pool(min(slots, len(tasks)), initializer=_pin_threads,
+                                                     initargs=(os.getpid(),))
     finished = False
     try:
         yield from pool.imap_unordered(_Call(work, args), tasks)
