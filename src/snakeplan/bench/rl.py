@@ -7,7 +7,10 @@ Each figure is the median of several timed blocks, with a baseline timed in the 
 - SAC-HER training steps (one environment step and one gradient update of batch 128 each, the default
   update-to-data ratio) with the default 128 x 128 networks, against paper 000's 512 x 512;
 - one deterministic action of the NumPy actor that planning uses, against SB3's ``model.predict``;
-- the levers of training speed: one SAC gradient update (128 x 128, torch, one thread) per batch size
+- the levers of training speed: the shared SAC update (:class:`snakeplan.rl.agents.EpsilonGreedySAC`, batch 128)
+  against SB3's ``SAC.train`` on the same model (alternating blocks, the median of paired ratios); training steps per second of the first ``PREFETCH_STEPS`` steps
+  of a fuel-tank SAC-HER run on fresh scenes, made ahead by a worker (:mod:`snakeplan.scenes.prefetch`) against made
+  when drawn; one SAC gradient update (128 x 128, torch, one thread) per batch size
   (``BATCH_SIZES``; updates and samples per second), against batch 128; training steps per second of the guide
   design with the default settings (one environment, batch 128, one update per step) against
   :data:`snakeplan.rl.train.FAST_CONFIG` (four environments, batch 512, one update per four steps: a quarter of
@@ -52,6 +55,11 @@ BUFFER_STEPS = 100_000
 CALL_BLOCK = 200
 #: Batch sizes of the update benchmark.
 BATCH_SIZES = (128, 256, 512, 1024)
+#: Alternating blocks, and updates per block, of the shared update against SB3's.
+PAIRED_BLOCKS = 10
+PAIRED_UPDATES = 100
+#: Training steps of the scene prefetch benchmark (one run each way, on the same fresh scenes).
+PREFETCH_STEPS = 2000
 #: Updates per timed block of the update benchmark, and updates fused into one SBX call.
 UPDATE_BLOCK = 20
 FUSED_UPDATES = 50
@@ -116,6 +124,47 @@ def _update_rates(model, repeats: int) -> dict[int, float]:
     return rates
 
 
+def _sb3_update_rates(model, repeats: int) -> dict:
+    """Gradient updates per second (batch 128) of ``model``'s own update and of SB3's ``SAC.train`` on it, in
+    ``PAIRED_BLOCKS`` alternating pairs of ``PAIRED_UPDATES`` each (medians; the ratio is the median of the pairs'
+    ratios, which a machine's load swings cancel out of)."""
+    import time
+
+    from stable_baselines3 import SAC
+
+    batch = DEFAULT_CONFIG.batch_size
+    ours, sb3 = [], []
+    for _ in range(max(repeats, PAIRED_BLOCKS)):
+        for rates, step in ((ours, model.train), (sb3, lambda n, b: SAC.train(model, n, b))):
+            t0 = time.perf_counter()
+            step(PAIRED_UPDATES, batch)
+            rates.append(PAIRED_UPDATES / (time.perf_counter() - t0))
+    return {"ours": float(np.median(ours)), "sb3": float(np.median(sb3)),
+            "ratio": float(np.median(np.divide(ours, sb3)))}
+
+
+def _prefetch_rates(seed: int) -> dict:
+    """Training steps per second of the first ``PREFETCH_STEPS`` steps of the default fuel-tank SAC-HER run, with
+    its scenes made ahead by one worker and made when drawn; each run starts with no scene made."""
+    import tempfile
+    import time
+
+    from snakeplan.rl.envs import family_scene
+    from snakeplan.rl.train import train
+
+    config = replace(DEFAULT_CONFIG, eval_every=10 * PREFETCH_STEPS, eval_episodes=1,
+                     checkpoint_every=10 * PREFETCH_STEPS)
+    rates = {}
+    for name, workers in (("made_when_drawn", 0), ("made_ahead", 1)):
+        family_scene.cache_clear()
+        with tempfile.TemporaryDirectory() as out:
+            t0 = time.perf_counter()
+            train("fuel-tank", "sac-her", PREFETCH_STEPS, seed, out, replace(config, scene_workers=workers),
+                  progress=False)
+            rates[name] = PREFETCH_STEPS / (time.perf_counter() - t0)
+    return {**rates, "ratio": rates["made_ahead"] / rates["made_when_drawn"]}
+
+
 def _sbx_rates(repeats: int, seed: int) -> dict | None:
     """SBX's SAC update (same widths and batch 128, flat inputs of the guide design's width) one call at a time and
     fused, against SB3's on the same inputs: updates per second; None when SBX is not installed."""
@@ -171,6 +220,8 @@ def run_rl_bench(repeats: int = 5, seed: int = 0) -> dict:
         paper, _, _ = _train_rate(PAPER_CONFIG, repeats, seed)
         numpy_rate, sb3_rate = _call_rates(model, graph, repeats, seed)
         updates = _update_rates(model, repeats)
+        update_vs_sb3 = _sb3_update_rates(model, repeats)
+        prefetch = _prefetch_rates(seed)
         guide = replace(DEFAULT_CONFIG, observation="guide", knowledge="sensed")
         guide_default, _, _ = _train_rate(guide, repeats, seed)
         guide_fast, _, _ = _train_rate(replace(FAST_CONFIG, observation="guide", knowledge="sensed"), repeats, seed)
@@ -182,9 +233,12 @@ def run_rl_bench(repeats: int = 5, seed: int = 0) -> dict:
         "train_steps_per_s": {"default_128x128": ours, "paper_512x512": paper, "ratio": ours / paper},
         "policy_calls_per_s": {"numpy_actor": numpy_rate, "sb3_predict": sb3_rate, "ratio": numpy_rate / sb3_rate},
         "updates_per_s": {str(b): r for b, r in updates.items()},
+        "update_vs_sb3_per_s": update_vs_sb3,
+        "prefetch_train_steps_per_s": prefetch,
         "guide_train_steps_per_s": {"default": guide_default, "fast": guide_fast, "ratio": guide_fast / guide_default},
         "sbx_updates_per_s": sbx_rates,
         "settings": {"repeats": repeats, "seed": seed, "env_block": ENV_BLOCK, "train_block": TRAIN_BLOCK,
+                     "prefetch_steps": PREFETCH_STEPS,
                      "batch_size": DEFAULT_CONFIG.batch_size, "torch_threads": DEFAULT_CONFIG.torch_threads,
                      "fast": {"n_envs": FAST_CONFIG.n_envs, "batch_size": FAST_CONFIG.batch_size,
                               "gradient_steps": FAST_CONFIG.gradient_steps, "train_freq": FAST_CONFIG.train_freq}},
@@ -203,6 +257,12 @@ def rl_markdown(r: dict) -> str:
     c = r["policy_calls_per_s"]
     rows.append(f"| actor calls, NumPy | {c['numpy_actor']:,.0f} | SB3 predict | {c['sb3_predict']:,.0f} | "
                 f"{c['ratio']:.1f}x |")
+    v = r["update_vs_sb3_per_s"]
+    rows.append(f"| SAC updates, batch 128, shared update | {v['ours']:,.1f} | SB3 SAC.train | {v['sb3']:,.1f} | "
+                f"{v['ratio']:.2f}x |")
+    f = r["prefetch_train_steps_per_s"]
+    rows.append(f"| first {r['settings']['prefetch_steps']:,} training steps, fresh scenes made ahead | "
+                f"{f['made_ahead']:,.1f} | made when drawn | {f['made_when_drawn']:,.1f} | {f['ratio']:.2f}x |")
     u = r["updates_per_s"]
     for batch, rate in u.items():
         rows.append(f"| SAC updates, batch {batch} (samples/s {rate * int(batch):,.0f}) | {rate:,.1f} | batch 128 | "
