@@ -246,6 +246,15 @@ def test_bench_rl_rejects_bad_repeats(capsys):
     assert code == 2 and "--repeats" in err
 
 
+def test_train_rl_rejects_bad_scene_workers_and_writes_nothing(capsys, tmp_path):
+    out = tmp_path / "run"
+    code, stdout, err = run(capsys, "train", "rl", "fuel-tank", "sac-her", "--steps", "10", "--out", str(out),
+                            "--scene-workers", "-3")
+    assert code == 2 and stdout == ""
+    assert err.count("\n") == 1 and "--scene-workers" in err and "-3" in err
+    assert not out.exists()
+
+
 def test_bench_speed_saves_each_row_and_a_rerun_measures_only_the_rest(capsys, tmp_path, monkeypatch):
     import os
     import signal

@@ -385,9 +385,10 @@ class _Run:
         self._bar.update(n, f"train {rolling:.0%}  val {last:.0%}  {n / max(self.wall, 1e-9):.0f} steps/s")
 
     def start_prefetch(self, n: int) -> None:
-        """Make the scenes of the rest of the run ahead of use on ``config.scene_workers`` processes (the
-        environments have drawn their first scenes by now; the validation scenes follow the first few training
-        ones). Enough draws for episodes of ``PREFETCH_EPISODE_STEPS`` steps: a run's scenes repeat long before."""
+        """Make the scenes of the rest of the run, from step ``n``, ahead of use on ``config.scene_workers``
+        processes (the environments have drawn their first scenes by now). Enough draws for episodes of
+        ``PREFETCH_EPISODE_STEPS`` steps (a run's scenes repeat long before); the validation scenes come after as
+        many training scenes as there are validation episodes (the first validation is thousands of steps away)."""
         workers = self.config.scene_workers
         workers = usable_cores() - 1 if workers < 0 else workers
         if workers == 0 or n >= self.steps:
