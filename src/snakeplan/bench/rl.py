@@ -7,19 +7,24 @@ Each figure is the median of several timed blocks, with a baseline timed in the 
 - SAC-HER training steps (one environment step and one gradient update of batch 128 each, the default
   update-to-data ratio) with the default 128 x 128 networks, against paper 000's 512 x 512;
 - one deterministic action of the NumPy actor that planning uses, against SB3's ``model.predict``;
-- the levers of training speed: the shared SAC update (:class:`snakeplan.rl.agents.EpsilonGreedySAC`, batch 128)
-  against SB3's ``SAC.train`` on the same model (alternating blocks, the median of paired ratios); training steps per second of the first ``PREFETCH_STEPS`` steps
-  of a fuel-tank SAC-HER run on fresh scenes, made ahead by a worker (:mod:`snakeplan.scenes.prefetch`) against made
-  when drawn; one SAC gradient update (128 x 128, torch, one thread) per batch size
-  (``BATCH_SIZES``; updates and samples per second), against batch 128; training steps per second of the guide
-  design with the default settings (one environment, batch 128, one update per step) against
-  :data:`snakeplan.rl.train.FAST_CONFIG` (four environments, batch 512, one update per four steps: a quarter of
-  the update-to-data ratio at four times the samples per update, so as many samples per step); and, when SBX (JAX) is installed, the same update in
-  SBX one call at a time and ``FUSED_UPDATES`` fused into one call, against torch.
+- the levers of training speed:
+  - the shared SAC update (:class:`snakeplan.rl.agents.EpsilonGreedySAC`, batch 128) against SB3's ``SAC.train``
+    on the same model, and its fused Adam against the unfused one (alternating blocks, the median of paired
+    ratios);
+  - training steps per second of the first ``PREFETCH_STEPS`` steps of a fuel-tank SAC-HER run on fresh scenes,
+    made ahead by a worker (:mod:`snakeplan.scenes.prefetch`) against made when drawn;
+  - one SAC gradient update (128 x 128, torch, one thread) per batch size (``BATCH_SIZES``; updates and samples
+    per second), against batch 128;
+  - training steps per second of the guide design with the default settings (one environment, batch 128, one
+    update per step) against :data:`snakeplan.rl.train.FAST_CONFIG` (four environments, batch 512, one update per
+    four steps: a quarter of the update-to-data ratio at four times the samples per update, so as many samples per
+    step);
+  - when SBX (JAX) is installed, the same update in SBX one call at a time and ``FUSED_UPDATES`` fused into one
+    call, against torch.
 
-Torch runs on one thread, as training does. Episodes draw from ``BENCH_SCENES`` scenes generated before timing,
-so the figures are the per-step costs, not scene generation (a fuel-tank scene takes tens of milliseconds to
-generate; training meets each of its scenes once before the cache serves it).
+Torch runs on one thread, as training does. Apart from the prefetch runs, episodes draw from ``BENCH_SCENES``
+scenes generated before timing, so the figures are the per-step costs, not scene generation (a fuel-tank scene
+takes about 90 ms to generate; training meets each of its scenes once before the cache serves it).
 """
 
 from __future__ import annotations
@@ -124,23 +129,36 @@ def _update_rates(model, repeats: int) -> dict[int, float]:
     return rates
 
 
-def _sb3_update_rates(model, repeats: int) -> dict:
-    """Gradient updates per second (batch 128) of ``model``'s own update and of SB3's ``SAC.train`` on it, in
-    ``PAIRED_BLOCKS`` alternating pairs of ``PAIRED_UPDATES`` each (medians; the ratio is the median of the pairs'
-    ratios, which a machine's load swings cancel out of)."""
+def _paired_update_rates(ours: Callable[[int, int], None], baseline: Callable[[int, int], None],
+                         repeats: int) -> dict:
+    """Gradient updates per second (batch 128) of ``ours`` and ``baseline`` (each called as ``f(updates,
+    batch)``), in ``PAIRED_BLOCKS`` alternating pairs of ``PAIRED_UPDATES`` each (medians; the ratio is the median
+    of the pairs' ratios, which a machine's load swings cancel out of)."""
     import time
+
+    rates: tuple[list[float], list[float]] = ([], [])
+    for _ in range(max(repeats, PAIRED_BLOCKS)):
+        for out, step in zip(rates, (ours, baseline)):
+            t0 = time.perf_counter()
+            step(PAIRED_UPDATES, DEFAULT_CONFIG.batch_size)
+            out.append(PAIRED_UPDATES / (time.perf_counter() - t0))
+    return {"ours": float(np.median(rates[0])), "baseline": float(np.median(rates[1])),
+            "ratio": float(np.median(np.divide(*rates)))}
+
+
+def _update_levers(model, repeats: int) -> dict:
+    """The shared update (:class:`snakeplan.rl.agents.EpsilonGreedySAC`) against SB3's ``SAC.train`` on the same
+    model; fused Adam (training's optimiser) against the same model's copy with the unfused one."""
+    import copy
 
     from stable_baselines3 import SAC
 
-    batch = DEFAULT_CONFIG.batch_size
-    ours, sb3 = [], []
-    for _ in range(max(repeats, PAIRED_BLOCKS)):
-        for rates, step in ((ours, model.train), (sb3, lambda n, b: SAC.train(model, n, b))):
-            t0 = time.perf_counter()
-            step(PAIRED_UPDATES, batch)
-            rates.append(PAIRED_UPDATES / (time.perf_counter() - t0))
-    return {"ours": float(np.median(ours)), "sb3": float(np.median(sb3)),
-            "ratio": float(np.median(np.divide(ours, sb3)))}
+    unfused = copy.deepcopy(model)
+    for optimizer in (unfused.actor.optimizer, unfused.critic.optimizer):
+        for group in optimizer.param_groups:
+            group["fused"] = False
+    return {"shared_vs_sb3": _paired_update_rates(model.train, lambda n, b: SAC.train(model, n, b), repeats),
+            "fused_vs_unfused": _paired_update_rates(model.train, unfused.train, repeats)}
 
 
 def _prefetch_rates(seed: int) -> dict:
@@ -220,7 +238,7 @@ def run_rl_bench(repeats: int = 5, seed: int = 0) -> dict:
         paper, _, _ = _train_rate(PAPER_CONFIG, repeats, seed)
         numpy_rate, sb3_rate = _call_rates(model, graph, repeats, seed)
         updates = _update_rates(model, repeats)
-        update_vs_sb3 = _sb3_update_rates(model, repeats)
+        levers = _update_levers(model, repeats)
         prefetch = _prefetch_rates(seed)
         guide = replace(DEFAULT_CONFIG, observation="guide", knowledge="sensed")
         guide_default, _, _ = _train_rate(guide, repeats, seed)
@@ -233,7 +251,7 @@ def run_rl_bench(repeats: int = 5, seed: int = 0) -> dict:
         "train_steps_per_s": {"default_128x128": ours, "paper_512x512": paper, "ratio": ours / paper},
         "policy_calls_per_s": {"numpy_actor": numpy_rate, "sb3_predict": sb3_rate, "ratio": numpy_rate / sb3_rate},
         "updates_per_s": {str(b): r for b, r in updates.items()},
-        "update_vs_sb3_per_s": update_vs_sb3,
+        "update_levers_per_s": levers,
         "prefetch_train_steps_per_s": prefetch,
         "guide_train_steps_per_s": {"default": guide_default, "fast": guide_fast, "ratio": guide_fast / guide_default},
         "sbx_updates_per_s": sbx_rates,
@@ -257,9 +275,11 @@ def rl_markdown(r: dict) -> str:
     c = r["policy_calls_per_s"]
     rows.append(f"| actor calls, NumPy | {c['numpy_actor']:,.0f} | SB3 predict | {c['sb3_predict']:,.0f} | "
                 f"{c['ratio']:.1f}x |")
-    v = r["update_vs_sb3_per_s"]
-    rows.append(f"| SAC updates, batch 128, shared update | {v['ours']:,.1f} | SB3 SAC.train | {v['sb3']:,.1f} | "
-                f"{v['ratio']:.2f}x |")
+    for key, ours, baseline in (("shared_vs_sb3", "shared update", "SB3 SAC.train"),
+                                ("fused_vs_unfused", "fused Adam", "unfused Adam")):
+        v = r["update_levers_per_s"][key]
+        rows.append(f"| SAC updates, batch 128, {ours} | {v['ours']:,.1f} | {baseline} | {v['baseline']:,.1f} | "
+                    f"{v['ratio']:.2f}x |")
     f = r["prefetch_train_steps_per_s"]
     rows.append(f"| first {r['settings']['prefetch_steps']:,} training steps, fresh scenes made ahead | "
                 f"{f['made_ahead']:,.1f} | made when drawn | {f['made_when_drawn']:,.1f} | {f['ratio']:.2f}x |")
