@@ -12,7 +12,8 @@ Each figure is the median of several timed blocks, with a baseline timed in the 
     on the same model, and its fused Adam against the unfused one (alternating blocks, the median of paired
     ratios);
   - training steps per second of the first ``PREFETCH_STEPS`` steps of a fuel-tank SAC-HER run on fresh scenes,
-    made ahead by a worker (:mod:`snakeplan.scenes.prefetch`) against made when drawn;
+    made ahead by a worker (:mod:`snakeplan.scenes.prefetch`) against made when drawn, with the seconds the
+    trainer spent on scenes in each;
   - one SAC gradient update (128 x 128, torch, one thread) per batch size (``BATCH_SIZES``; updates and samples
     per second), against batch 128;
   - training steps per second of the guide design with the default settings (one environment, batch 128, one
@@ -64,7 +65,7 @@ BATCH_SIZES = (128, 256, 512, 1024)
 PAIRED_BLOCKS = 10
 PAIRED_UPDATES = 100
 #: Training steps of the scene prefetch benchmark (one run each way, on the same fresh scenes).
-PREFETCH_STEPS = 2000
+PREFETCH_STEPS = 3000
 #: Updates per timed block of the update benchmark, and updates fused into one SBX call.
 UPDATE_BLOCK = 20
 FUSED_UPDATES = 50
@@ -162,25 +163,46 @@ def _update_levers(model, repeats: int) -> dict:
 
 
 def _prefetch_rates(seed: int) -> dict:
-    """Training steps per second of the first ``PREFETCH_STEPS`` steps of the default fuel-tank SAC-HER run, with
-    its scenes made ahead by one worker and made when drawn; each run starts with no scene made."""
+    """The first ``PREFETCH_STEPS`` steps of the default fuel-tank SAC-HER run with its scenes made ahead by one
+    worker and made when drawn, each starting with no scene made: training steps per second, and the seconds the
+    trainer spent making scenes or waiting for them (what the worker takes off it; the steps per second swing with
+    the machine's load as much as this changes them)."""
     import tempfile
     import time
 
-    from snakeplan.rl.envs import family_scene
+    from snakeplan.rl import envs
     from snakeplan.rl.train import train
 
     config = replace(DEFAULT_CONFIG, eval_every=10 * PREFETCH_STEPS, eval_episodes=1,
                      checkpoint_every=10 * PREFETCH_STEPS)
-    rates = {}
-    for name, workers in (("made_when_drawn", 0), ("made_ahead", 1)):
-        family_scene.cache_clear()
-        with tempfile.TemporaryDirectory() as out:
+    spent = [0.0]
+
+    def timed(f: Callable) -> Callable:
+        def call(*args):
             t0 = time.perf_counter()
-            train("fuel-tank", "sac-her", PREFETCH_STEPS, seed, out, replace(config, scene_workers=workers),
-                  progress=False)
-            rates[name] = PREFETCH_STEPS / (time.perf_counter() - t0)
-    return {**rates, "ratio": rates["made_ahead"] / rates["made_when_drawn"]}
+            try:
+                return f(*args)
+            finally:
+                spent[0] += time.perf_counter() - t0
+        return call
+
+    out: dict = {}
+    make_scene, made_ahead = envs.make_scene, envs.made_ahead
+    envs.make_scene, envs.made_ahead = timed(make_scene), timed(made_ahead)
+    try:
+        for name, workers in (("made_when_drawn", 0), ("made_ahead", 1)):
+            envs.family_scene.cache_clear()
+            spent[0] = 0.0
+            with tempfile.TemporaryDirectory() as folder:
+                t0 = time.perf_counter()
+                train("fuel-tank", "sac-her", PREFETCH_STEPS, seed, folder, replace(config, scene_workers=workers),
+                      progress=False)
+                out[name] = {"steps_per_s": PREFETCH_STEPS / (time.perf_counter() - t0), "scene_s": spent[0]}
+    finally:
+        envs.make_scene, envs.made_ahead = make_scene, made_ahead
+        envs.family_scene.cache_clear()
+    out["ratio"] = out["made_ahead"]["steps_per_s"] / out["made_when_drawn"]["steps_per_s"]
+    return out
 
 
 def _sbx_rates(repeats: int, seed: int) -> dict | None:
@@ -281,8 +303,10 @@ def rl_markdown(r: dict) -> str:
         rows.append(f"| SAC updates, batch 128, {ours} | {v['ours']:,.1f} | {baseline} | {v['baseline']:,.1f} | "
                     f"{v['ratio']:.2f}x |")
     f = r["prefetch_train_steps_per_s"]
-    rows.append(f"| first {r['settings']['prefetch_steps']:,} training steps, fresh scenes made ahead | "
-                f"{f['made_ahead']:,.1f} | made when drawn | {f['made_when_drawn']:,.1f} | {f['ratio']:.2f}x |")
+    ahead, drawn = f["made_ahead"], f["made_when_drawn"]
+    rows.append(f"| first {r['settings']['prefetch_steps']:,} training steps, fresh scenes made ahead (trainer's "
+                f"scene time {ahead['scene_s']:.1f} s) | {ahead['steps_per_s']:,.1f} | made when drawn "
+                f"({drawn['scene_s']:.1f} s) | {drawn['steps_per_s']:,.1f} | {f['ratio']:.2f}x |")
     u = r["updates_per_s"]
     for batch, rate in u.items():
         rows.append(f"| SAC updates, batch {batch} (samples/s {rate * int(batch):,.0f}) | {rate:,.1f} | batch 128 | "
