@@ -220,7 +220,7 @@ def test_per_sac_updates_priorities_and_learns_a_few_steps():
     assert 0.0 < model.epsilon < 1.0
 
 
-def _her_model(seed: int = 0):
+def _her_model(seed: int = 0, **kwargs):
     from stable_baselines3.common.vec_env import DummyVecEnv
 
     from snakeplan.rl.agents import EpsilonGreedySAC
@@ -231,31 +231,42 @@ def _her_model(seed: int = 0):
     graph = RoomGraph.from_scene(venv.envs[0].scene)
     return EpsilonGreedySAC("MultiInputPolicy", venv, replay_buffer_class=FastHerReplayBuffer,
                             replay_buffer_kwargs={"n_sampled_goal": 4, "goal_selection_strategy": "future"},
-                            learning_starts=300, batch_size=32, seed=seed, device="cpu",
+                            learning_starts=300, batch_size=32, seed=seed, device="cpu", **kwargs,
                             policy_kwargs={"net_arch": [32, 32], "features_extractor_class": GoalRouteExtractor,
                                            "features_extractor_kwargs": {"mode": "local", "graph": graph.arrays()}})
 
 
-def test_sac_update_gives_sb3s_weights():
+@pytest.mark.parametrize("settings", [{}, {"ent_coef": 0.1, "target_update_interval": 2}])
+def test_sac_update_gives_sb3s_weights(settings):
     """The shared update (features once per mini-batch, fused target update) is SB3's SAC update: the same
-    weights after the same updates on the same draws."""
+    weights and logged losses after the same updates on the same draws (a learned entropy coefficient updating the
+    targets every step, and a fixed one every second step)."""
     import copy
 
     from stable_baselines3 import SAC
 
-    model = _her_model()
+    model = _her_model(**settings)
     model.learn(300)  # fills the buffer; learning starts after it
     reference = copy.deepcopy(model)
-    for train in (model.train, lambda n, b: SAC.train(reference, n, b)):
+    logged = []
+    for m, train in ((model, model.train), (reference, lambda n, b: SAC.train(reference, n, b))):
         np.random.seed(3)  # the buffer's draws
         th.manual_seed(3)  # the actor's samples
         train(25, 32)
+        logged.append(dict(m.logger.name_to_value))
     ours, theirs = model.policy.state_dict(), reference.policy.state_dict()
     assert ours.keys() == theirs.keys()
     for key in ours:
         assert th.equal(ours[key], theirs[key]), key
-    assert th.equal(model.log_ent_coef, reference.log_ent_coef)
-    assert not th.equal(ours["actor.mu.weight"], _her_model().policy.state_dict()["actor.mu.weight"])
+    assert (model.log_ent_coef is None) == ("ent_coef" in settings)
+    if model.log_ent_coef is not None:
+        assert th.equal(model.log_ent_coef, reference.log_ent_coef)
+    keys = {k for k in logged[1] if k.startswith("train/") and k != "train/n_updates"}
+    assert keys == {k for k in logged[0] if k.startswith("train/") and k != "train/n_updates"}
+    assert ("train/ent_coef_loss" in keys) == ("ent_coef" not in settings)
+    for key in keys:
+        assert logged[0][key] == pytest.approx(logged[1][key], rel=1e-6), key
+    assert not th.equal(ours["actor.mu.weight"], _her_model(**settings).policy.state_dict()["actor.mu.weight"])
 
 
 def test_sac_refuses_an_extractor_with_weights():
@@ -465,18 +476,29 @@ def test_upcoming_scene_seeds_are_the_environments_own_draws():
     assert len(predicted) == 6  # twelve draws each from six seeds
 
 
-def test_a_scene_no_worker_can_make_is_made_by_the_caller():
-    from snakeplan.scenes.prefetch import ScenePrefetch
+def test_prefetch_keeps_a_window_and_leaves_to_the_caller_what_a_worker_cannot_make(monkeypatch, capsys):
+    from concurrent.futures import wait
 
-    prefetch = ScenePrefetch([("no-such-family", 1), ("fuel-tank", 1_000_001)], 1).start()
+    from snakeplan.scenes import prefetch
+
+    monkeypatch.setattr(prefetch, "WINDOW", 2)
+    keys = [("no-such-family", 1)] + [("fuel-tank", 1_000_000 + k) for k in range(3)]
+    ahead = prefetch.ScenePrefetch(keys, 1).start()
+    made = []
     try:
-        assert prefetch.take("no-such-family", 1) is None
-        made = prefetch.take("fuel-tank", 1_000_001)
-        assert prefetch.take("fuel-tank", 1_000_001) is None  # taken once
+        assert len(ahead._futures) == 2  # the window, not every key
+        wait(list(ahead._futures.values()))
+        assert ahead.take("no-such-family", 1) is None  # its worker failed: the caller makes it, and is told once
+        assert capsys.readouterr().err.count("could not make no-such-family 1") == 1
+        for family, seed in keys[1:]:
+            assert len(ahead._futures) <= 2
+            wait(list(ahead._futures.values()))
+            made.append(ahead.take(family, seed))
+        assert ahead.take("fuel-tank", 1_000_000) is None  # taken once
     finally:
-        prefetch.close()
-    here = make_scene("fuel-tank", 1_000_001)
-    assert made.to_dict() == here.to_dict()
+        ahead.close()
+    assert prefetch.made_ahead("fuel-tank", 1_000_001) is None  # closed: nothing is made ahead
+    assert [m.to_dict() for m in made] == [make_scene(f, s).to_dict() for f, s in keys[1:]]
 
 
 def test_scenes_made_ahead_train_the_same_weights(tmp_path, monkeypatch):

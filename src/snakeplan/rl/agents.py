@@ -9,10 +9,12 @@ feature extractors have no weights, so every call gives the same features), each
 for both Q networks, and the target networks move towards the critics in one fused call. With the same seeds it
 gives the same weights as SB3's ``SAC.train`` (tests/test_rl.py checks it), in about 80 % of the time with 128 x 128
 networks on the 2-core CPU (``snakeplan bench rl``). SAC-PER changes only the critic loss
-(:meth:`EpsilonGreedySAC._critic_loss`).
+(:meth:`EpsilonGreedySAC._critic_loss`) and anneals its importance exponent.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 import torch as th
@@ -45,6 +47,9 @@ class EpsilonGreedySAC(SAC):
             if any(True for _ in extractor.parameters()):
                 raise ValueError("features_extractor_class: must have no weights (each mini-batch's features are "
                                  "computed once and shared by the actor and the critics)")
+        if self.batch_norm_stats:
+            raise ValueError("policy: normalisation layers are not supported (their running statistics would "
+                             "need copying to the target critics)")
 
     @property
     def epsilon(self) -> float:
@@ -80,8 +85,9 @@ class EpsilonGreedySAC(SAC):
                            for step in range(gradient_steps)])
         self._n_updates += gradient_steps
         self.logger.record("train/n_updates", self._n_updates, exclude="tensorboard")
-        for key, value in zip(("ent_coef", "critic_loss", "actor_loss"), losses.mean(axis=0)):
-            self.logger.record(f"train/{key}", float(value))
+        for key, value in zip(("ent_coef", "critic_loss", "actor_loss", "ent_coef_loss"), losses.mean(axis=0)):
+            if key != "ent_coef_loss" or self.ent_coef_optimizer is not None:
+                self.logger.record(f"train/{key}", float(value))
 
     def _policy(self, features: th.Tensor) -> tuple[th.Tensor, th.Tensor]:
         """The actor's squashed Gaussian sample and its log-probability, from ready features."""
@@ -90,9 +96,10 @@ class EpsilonGreedySAC(SAC):
         mean, log_std = actor.mu(latent), actor.log_std(latent)
         return actor.action_dist.log_prob_from_params(mean, th.clamp(log_std, LOG_STD_MIN, LOG_STD_MAX))
 
-    def _update(self, data: ReplayBufferSamples, step: int) -> tuple[float, float, float]:
+    def _update(self, data: ReplayBufferSamples, step: int) -> tuple[float, float, float, float]:
         """One SAC update on ``data``: entropy coefficient, critics, actor, then the target critics (every
-        ``target_update_interval`` steps). Returns (entropy coefficient, critic loss, actor loss)."""
+        ``target_update_interval`` steps). Returns (entropy coefficient, critic loss, actor loss, entropy
+        coefficient loss: NaN when the coefficient is fixed)."""
         actor, critic = self.actor, self.critic
         features = actor.extract_features(data.observations, actor.features_extractor)
         next_features = actor.extract_features(data.next_observations, actor.features_extractor)
@@ -104,8 +111,9 @@ class EpsilonGreedySAC(SAC):
             self.ent_coef_optimizer.zero_grad()
             ent_loss.backward()
             self.ent_coef_optimizer.step()
+            ent_loss_value = ent_loss.item()
         else:
-            ent_coef = self.ent_coef_tensor
+            ent_coef, ent_loss_value = self.ent_coef_tensor, math.nan
         with th.no_grad():
             next_actions, next_log_prob = self._policy(next_features)
             next_q = _q_min(self.critic_target.q_networks, th.cat([next_features, next_actions], dim=1))
@@ -125,7 +133,7 @@ class EpsilonGreedySAC(SAC):
                 targets = list(self.critic_target.parameters())
                 th._foreach_mul_(targets, 1.0 - self.tau)
                 th._foreach_add_(targets, list(critic.parameters()), alpha=self.tau)
-        return float(ent_coef), critic_loss.item(), actor_loss.item()
+        return float(ent_coef), critic_loss.item(), actor_loss.item(), ent_loss_value
 
     def _critic_loss(self, data: ReplayBufferSamples, current: list[th.Tensor], target: th.Tensor) -> th.Tensor:
         """SAC's critic loss: half the summed mean squared TD errors of the Q networks."""

@@ -60,10 +60,14 @@ def _train_one(job: TrainJob) -> tuple[TrainJob, list[dict]]:
 def run_jobs(jobs: Sequence[TrainJob], backend: Backend, progress: bool = True,
              name: str = "train") -> list[list[dict]]:
     """Every job's evaluation history (in the jobs' order), trained on ``backend``; SIGINT/SIGTERM stop every
-    training (each saves a checkpoint; :class:`~snakeplan.interrupt.Interrupted`); rerunning resumes them."""
+    training (each saves a checkpoint; :class:`~snakeplan.interrupt.Interrupted`); rerunning resumes them. On a
+    parallel backend a job's ``scene_workers`` of -1 (the command line's default) becomes 0."""
     where = {job.folder: i for i, job in enumerate(jobs)}
     if len(where) != len(jobs):
         raise ValueError("jobs: two trainings share a folder")
+    if backend.kind != "serial":  # parallel trainings keep the cores busy: each makes its own scenes by default
+        jobs = [replace(job, config={**job.config, "scene_workers": 0}) if job.config.get("scene_workers") == -1
+                else job for job in jobs]
     histories: dict[int, list[dict]] = {}
     def stopped() -> str:
         return (f"interrupted: {len(histories)} of {len(jobs)} trainings finished, the others saved where they "
@@ -79,13 +83,10 @@ def run_jobs(jobs: Sequence[TrainJob], backend: Backend, progress: bool = True,
 def train_seeds(scene: str, algorithm: str, steps: int, seeds: Sequence[int], out_dir: str | Path, config=None,
                 backend: Backend = Backend(), progress: bool = True, threshold: float = CONVERGENCE_SUCCESS) -> dict:
     """Train ``algorithm`` on ``scene`` once per seed on ``backend`` (each run resumable in ``out_dir/seed<N>``);
-    write ``sweep.json``, ``sweep.md`` and ``curves.png`` there and return the summary (see the module doc). On a
-    parallel backend the trainings make their scenes when drawn, unless ``config.scene_workers`` says otherwise."""
+    write ``sweep.json``, ``sweep.md`` and ``curves.png`` there and return the summary (see the module doc)."""
     from snakeplan.rl.train import DEFAULT_CONFIG, plot_curves
 
     config = DEFAULT_CONFIG if config is None else config
-    if backend.kind != "serial" and config.scene_workers < 0:  # parallel trainings keep the cores busy already
-        config = replace(config, scene_workers=0)
     out = Path(out_dir)
     jobs = [TrainJob(scene, algorithm, steps, seed, str(out / f"seed{seed}"), asdict(config)) for seed in seeds]
     histories = run_jobs(jobs, backend, progress, f"train {scene} {algorithm}")

@@ -40,6 +40,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import multiprocessing
 import shlex
 import signal
 import sys
@@ -155,9 +156,10 @@ class TrainConfig:
     #: 0: :func:`snakeplan.checkpoints.checkpoint_interval` of the run's steps.
     checkpoint_every: int = 0
     torch_threads: int = 1
-    #: Processes that make the run's training scenes ahead of use (:mod:`snakeplan.scenes.prefetch`); -1: the usable
-    #: cores but one (torch trains on one thread), 0: none (each scene is made when first drawn).
-    scene_workers: int = -1
+    #: Processes that make the run's training scenes ahead of use (:mod:`snakeplan.scenes.prefetch`); 0: none (each
+    #: scene is made when first drawn; the default of :func:`train`, which a script may call unguarded); -1: one
+    #: when this process may use another core (the default of the command line).
+    scene_workers: int = 0
 
 
 #: The measured default (see the module doc and the closing note of the issue).
@@ -392,8 +394,8 @@ class _Run:
         ``PREFETCH_EPISODE_STEPS`` steps (a run's scenes repeat long before); the validation scenes come after as
         many training scenes as there are validation episodes (the first validation is thousands of steps away)."""
         workers = self.config.scene_workers
-        workers = usable_cores() - 1 if workers < 0 else workers
-        if workers == 0 or n >= self.steps:
+        workers = min(1, usable_cores() - 1) if workers < 0 else workers
+        if workers == 0 or n >= self.steps or multiprocessing.current_process().daemon:  # a pool's worker: no pool
             return
         envs = [env.unwrapped for env in self.model.env.envs]
         draws = (self.steps - n) // (len(envs) * PREFETCH_EPISODE_STEPS) + 1
@@ -441,9 +443,9 @@ def train(scene: str, algorithm: str, steps: int, seed: int, out_dir: str | Path
     """Train ``algorithm`` ("sac-her", "sac-per", "sac") on scene family ``scene`` for ``steps`` environment
     steps with ``seed``; files go to ``out_dir`` (see the module doc). With ``resume``, the checkpoint there is
     continued up to ``steps``; without, it is deleted first. SIGINT or SIGTERM saves a checkpoint and raises
-    :class:`snakeplan.interrupt.Interrupted`. With scene workers (``config.scene_workers``; by default on a machine
-    of more than one core) a script that calls this must start under ``if __name__ == "__main__":``, as for any
-    pool of spawned processes: each worker imports the script."""
+    :class:`snakeplan.interrupt.Interrupted`. With scene workers (``config.scene_workers``, none by default here)
+    a script that calls this must start under ``if __name__ == "__main__":``, as for any pool of spawned
+    processes: each worker imports the script. A process that is itself a pool's worker makes its own scenes."""
     if algorithm not in ALGORITHMS:
         raise ValueError(f"algorithm: must be one of {ALGORITHMS}, got {algorithm!r}")
     if steps <= 0:
@@ -526,7 +528,7 @@ def _command(scene: str, algorithm: str, steps: int, seed: int, out: Path, confi
             "--out", str(out)]
     base = asdict(DEFAULT_CONFIG)
     for key, value in asdict(config).items():
-        if value != base[key]:
+        if value != base[key] and key != "scene_workers":  # how scenes are made, not what is learned
             flag = "--" + key.replace("_", "-")
             args += [flag, *map(str, value)] if isinstance(value, tuple) else [flag, str(value).lower()]
     return shlex.join(args)
@@ -588,7 +590,9 @@ def _add_config_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _config(args: argparse.Namespace) -> TrainConfig:
-    config = PAPER_CONFIG if args.paper else DEFAULT_CONFIG
+    """The options' configuration; from the command line, scenes are made ahead by default (``--scene-workers -1``:
+    its entry points are guarded)."""
+    config = replace(PAPER_CONFIG if args.paper else DEFAULT_CONFIG, scene_workers=-1)
     changes = {k: (tuple(v) if isinstance(v, list) else v) for k in DEFAULT_CONFIG.__dataclass_fields__
                if (v := getattr(args, k)) is not None}
     return replace(config, **changes)

@@ -4,17 +4,22 @@ A training run generates each of its scenes once (:func:`snakeplan.rl.envs.famil
 takes about 90 ms, as long as seven training steps, and early in a run nearly every episode meets a new scene,
 while torch trains on one thread and the other cores idle. The draws are known in advance
 (:func:`snakeplan.rl.envs.upcoming`). :class:`ScenePrefetch` makes the scenes of given ``(family, seed)`` keys in
-worker processes, in the order given; :func:`made_ahead` hands one over (waiting if a worker is on it). A scene no
-worker has started, or one a worker could not make (a family registered in this process alone), is made by the
-caller. The scenes are the same either way (the same generator and seed).
+worker processes, in the order given, at most ``WINDOW`` ahead of those taken (so memory stays bounded);
+:func:`made_ahead` hands one over, waiting if it is queued for a worker or being made. A scene no worker has
+started, or one a worker could not make (a family registered in this process alone: a warning says so once), is
+made by the caller. The scenes are the same either way (the same generator and seed).
 """
 
 from __future__ import annotations
 
-from concurrent.futures import Executor, Future
+import sys
+from concurrent.futures import Future
 
 from snakeplan.scenes.registry import make_scene
 from snakeplan.scenes.scene import Scene
+
+#: Most scenes submitted and not yet taken (about 20 s of a worker's time for fuel-tank scenes).
+WINDOW = 256
 
 _active: ScenePrefetch | None = None
 
@@ -29,9 +34,12 @@ class ScenePrefetch:
     def __init__(self, keys: list[tuple[str, int]], workers: int):
         from snakeplan.parallel import submit_all
 
-        pool, futures = submit_all(_make, keys, workers)
-        self._pool: Executor = pool
-        self._futures: dict[tuple[str, int], Future] = dict(zip(keys, futures))
+        self._keys = list(dict.fromkeys(keys))
+        self._next = min(WINDOW, len(self._keys))
+        self._pool, futures = submit_all(_make, self._keys[:self._next], workers)
+        self._futures: dict[tuple[str, int], Future] = dict(zip(self._keys, futures))
+        self._taken: set[tuple[str, int]] = set()
+        self._warned = False
 
     def start(self) -> ScenePrefetch:
         global _active
@@ -39,15 +47,30 @@ class ScenePrefetch:
         return self
 
     def take(self, family: str, seed: int) -> Scene | None:
-        """The scene, once a worker has made it (waiting if one is making it); None if no worker started it
-        (it will not) or its worker failed."""
-        future = self._futures.pop((family, seed), None)
+        """The scene, once a worker has made it (waiting if it is queued for a worker or being made); None if no
+        worker started it (none will) or its worker failed."""
+        key = (family, seed)
+        self._taken.add(key)
+        future = self._futures.pop(key, None)
+        self._top_up()
         if future is None or future.cancel():
             return None
         try:
             return future.result()
-        except Exception:  # noqa: BLE001  (the caller makes it itself and meets the real error, if any)
+        except Exception as exc:  # noqa: BLE001  (the caller makes it itself and meets the real error, if any)
+            if not self._warned:
+                self._warned = True
+                sys.stderr.write(f"snakeplan: warning: the scene worker could not make {family} {seed} ({exc!r}); "
+                                 f"scenes it cannot make are made here\n")
             return None
+
+    def _top_up(self) -> None:
+        """Submit the next keys not yet taken, up to ``WINDOW`` in flight."""
+        while len(self._futures) < WINDOW and self._next < len(self._keys):
+            key = self._keys[self._next]
+            self._next += 1
+            if key not in self._taken:
+                self._futures[key] = self._pool.submit(_make, key)
 
     def close(self) -> None:
         """Stop: pending scenes are dropped and the workers end."""
