@@ -471,7 +471,7 @@ def train(scene: str, algorithm: str, steps: int, seed: int, out_dir: str | Path
         raise ValueError(f"--residual, --guide-weight: only the guide observation follows a route guide, not "
                          f"{config.observation}")
     if config.scene_workers < -1:
-        raise ValueError(f"--scene-workers: must be -1 (the usable cores but one), 0 (none) or positive, "
+        raise ValueError(f"--scene-workers: must be -1 (one when another core is free), 0 (none) or positive, "
                          f"got {config.scene_workers}")
     if not (math.isfinite(config.guide_weight) and config.guide_weight >= 0.0):
         raise ValueError(f"--guide-weight: must be a finite number >= 0, got {config.guide_weight}")
