@@ -228,7 +228,7 @@ def build_model(scene: str, algorithm: str, config: TrainConfig, seed: int, env,
     policy_kwargs = {"net_arch": list(config.net_arch), "features_extractor_class": GoalRouteExtractor,
                      "features_extractor_kwargs": {"mode": config.observation,
                                                    "graph": graph.arrays() if graph else None},
-                     "optimizer_kwargs": {"fused": True}}  # Adam in one kernel per step: 0.87x the update's time
+                     "optimizer_kwargs": {"fused": True}}  # Adam in one kernel per step (bench rl: 1.05-1.15x)
     common = {"policy": "MultiInputPolicy", "env": env, "learning_rate": config.learning_rate, "tau": config.tau,
               "gamma": config.gamma, "batch_size": config.batch_size,
               "buffer_size": min(config.buffer_size, steps), "gradient_steps": config.gradient_steps,
