@@ -140,16 +140,13 @@ def test_arc_distance_is_the_tangent_arc_within_the_limit_and_a_detour_beyond():
     # From the origin heading +x: a point on the tangent circle of radius 200 mm, 0.8 rad round it, is 160 mm of
     # arc away; a point 50 mm to the side needs curvature 1/25 mm, beyond a limit of 1/100 mm, so its distance is
     # the chord plus the turn radius times the 90 degrees off the heading.
-    P, T = np.zeros((2, 3)), np.array([[1.0, 0, 0], [1.0, 0, 0]])
+    p, t = np.zeros(3), np.array([1.0, 0, 0])
     on_circle = np.array([200.0 * math.sin(0.8), 200.0 * (1 - math.cos(0.8)), 0.0])
-    d = arc_distance(P, T, on_circle, 1 / 100.0, 100.0)
-    assert np.allclose(d, 160.0)
-    assert np.isclose(arc_distance(P[:1], T[:1], np.array([0.0, 50.0, 0.0]), 1 / 100.0, 100.0)[0],
-                      50.0 + 100.0 * math.pi / 2)
-    assert np.isclose(arc_distance(P[:1], T[:1], np.array([70.0, 0.0, 0.0]), 1 / 100.0, 100.0)[0], 70.0)
+    assert np.isclose(arc_distance(p, t, on_circle, 1 / 100.0, 100.0), 160.0)
+    assert np.isclose(arc_distance(p, t, np.array([0.0, 50.0, 0.0]), 1 / 100.0, 100.0), 50.0 + 100.0 * math.pi / 2)
+    assert np.isclose(arc_distance(p, t, np.array([70.0, 0.0, 0.0]), 1 / 100.0, 100.0), 70.0)
     # dead behind no tangent circle reaches: a half turn's detour
-    assert np.isclose(arc_distance(P[:1], T[:1], np.array([-5.0, 0.0, 0.0]), 1 / 100.0, 100.0)[0],
-                      5.0 + 100.0 * math.pi)
+    assert np.isclose(arc_distance(p, t, np.array([-5.0, 0.0, 0.0]), 1 / 100.0, 100.0), 5.0 + 100.0 * math.pi)
 
 
 def test_arc_points_lie_on_the_circle_and_end_tangent():

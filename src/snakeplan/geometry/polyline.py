@@ -40,13 +40,13 @@ def _check_step(step: float, name: str = "step") -> float:
 
 def cumulative_length(path: ArrayLike) -> np.ndarray:
     """Arc length (mm) from the first point to each point, shape ``(m,)``, starting at 0."""
-    return _cumulative(validate_path(path))
+    return cumulative_unchecked(validate_path(path))
 
 
 @njit(cache=True)
-def _cumulative(p):
-    """Cumulative arc length (mm) of an already validated path ``(m, 3)`` (compiled: crawl checks in planners'
-    own loops use it)."""
+def cumulative_unchecked(p):
+    """:func:`cumulative_length` of an already validated path ``(m, 3)``, compiled (crawl checks inside compiled
+    loops use it)."""
     out = np.zeros(p.shape[0])
     for k in range(1, p.shape[0]):
         out[k] = out[k - 1] + math.sqrt((p[k, 0] - p[k - 1, 0]) ** 2 + (p[k, 1] - p[k - 1, 1]) ** 2
@@ -56,7 +56,7 @@ def _cumulative(p):
 
 def path_length(path: ArrayLike) -> float:
     """Total arc length (mm) of the path (the last entry of :func:`cumulative_length`)."""
-    return float(_cumulative(validate_path(path))[-1])
+    return float(cumulative_unchecked(validate_path(path))[-1])
 
 
 def drop_duplicates(path: ArrayLike, tol: float = DUPLICATE_TOL) -> np.ndarray:
@@ -91,7 +91,7 @@ def point_at(path: ArrayLike, s: ArrayLike) -> np.ndarray:
     ``s`` may have any shape; the result has shape ``s.shape + (3,)``.
     """
     p = validate_path(path)
-    cum = _cumulative(p)
+    cum = cumulative_unchecked(p)
     s_arr = np.asarray(s, dtype=np.float64)
     if not np.all(np.isfinite(s_arr)):
         raise ValueError("s must be finite")
@@ -110,11 +110,11 @@ def arclength_grid(length: float, step: float) -> np.ndarray:
     length = float(length)
     if not np.isfinite(length) or length < 0.0:
         raise ValueError(f"length must be a non-negative finite number of mm, got {length}")
-    return _grid(length, h)
+    return grid_unchecked(length, h)
 
 
 @njit(cache=True)
-def _grid(length, h):
+def grid_unchecked(length, h):
     """:func:`arclength_grid` of a checked length and step (compiled: crawl checks and resampling use it)."""
     if length == 0.0:
         return np.zeros(2)
@@ -154,8 +154,8 @@ def _resample(p, h):
     q = np.empty((count, 3))
     for k in range(count):
         q[k] = p[keep[k]]
-    cum = _cumulative(q)
-    s = _grid(cum[count - 1], h)
+    cum = cumulative_unchecked(q)
+    s = grid_unchecked(cum[count - 1], h)
     out = np.empty((s.shape[0], 3))
     i = 0
     for j in range(s.shape[0]):

@@ -34,9 +34,7 @@ would grow branches whose body already collides, which the judge would reject. A
 whole (no partial arcs).
 
 Compiled. An extension (nearest node, steer, arc, twin test, sweep, crawl, new node) is one numba call on the
-tree's arrays; the random draws, landings and sensing stay in Python. Per extension, NumPy's small-array calls had
-cost twice the crawl itself. The same seed gives the same tree as the NumPy form it replaced, up to round-off
-(the sines of an arc's points differ in the last bit), which can turn a near tie the other way.
+tree's arrays; the random draws, landings and sensing stay in Python.
 
 Landing. A new node within ``LANDING_RADIUS_MM`` of its stage's target tries to end exactly on it, at most
 ``LANDING_SECTIONS`` section lengths further and turning at most ``MAX_LANDING_TURN_RAD`` in all:
@@ -125,6 +123,8 @@ INITIAL_CAPACITY = 1024
 CLOCK_EVERY = 8
 
 _EPS = 1e-12
+#: The counters of :func:`_extend`'s codes -2, -3, -4 (and of :func:`_check`'s 1 and 2).
+_REJECTS = ("twins", "sweep_rejects", "body_rejects")
 
 
 @njit(cache=True)
@@ -182,8 +182,9 @@ def steer(p, t, q, kappa_max, length):
 
 
 @njit(cache=True)
-def _arc_distance(p, t, q, kappa_max, turn_radius):
-    """:func:`arc_distance` from one pose (p, t)."""
+def arc_distance(p, t, q, kappa_max, turn_radius):
+    """Arc-length metric (mm) from the pose (p, t) to q: the tangent circle's arc within the curvature limit, else
+    the chord plus the turn radius times the angle off the heading (a half turn for a point dead behind)."""
     d0, d1, d2 = q[0] - p[0], q[1] - p[1], q[2] - p[2]
     c = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
     along = d0 * t[0] + d1 * t[1] + d2 * t[2]
@@ -195,16 +196,6 @@ def _arc_distance(p, t, q, kappa_max, turn_radius):
     if 2.0 * s / max(c * c, _EPS) <= kappa_max:
         return (a / max(sin_a, 1e-9) if sin_a > 1e-9 else 1.0) * c
     return c + turn_radius * a
-
-
-@njit(cache=True)
-def arc_distance(P, T, q, kappa_max, turn_radius):
-    """Arc-length metric (mm) from poses (P, T) ``(m, 3)`` to q: the tangent circle's arc within the curvature
-    limit, else (and for a point dead behind) the chord plus the turn radius times the angle off the heading."""
-    out = np.empty(P.shape[0])
-    for i in range(P.shape[0]):
-        out[i] = _arc_distance(P[i], T[i], q, kappa_max, turn_radius)
-    return out
 
 
 @njit(cache=True)
@@ -373,12 +364,12 @@ def _check(P, depth, parent, arcs, i, pts, tip_radius, spec, W, stats):
 def _extend(P, T, depth, parent, stage, arcs, tried, n, eligible, to_goal, q, k, kappa_max, turn_radius, step,
             total_length, count, tip_radius, spec, W, stats):
     """One extension of stage k toward q from the nearest eligible node (of the first n): the new node's index
-    n, or -1 (too short), -2 (a twin), -3 (the sweep fails), -4 (the crawl fails). Marks the node tried when
+    n, or -1 (no eligible node, or too short), -2 (a twin), -3 (the sweep fails), -4 (the crawl fails). Marks the node tried when
     ``to_goal``."""
     i, best = -1, math.inf
     for j in range(n):
         if eligible[j]:
-            d = _arc_distance(P[j], T[j], q, kappa_max, turn_radius)
+            d = arc_distance(P[j], T[j], q, kappa_max, turn_radius)
             if d < best:
                 i, best = j, d
     if i < 0:
@@ -585,9 +576,6 @@ class _Search:
         if self.world.sense(self.tree.P[k]):
             self.blocked = not bool(self.model.tip_free(self.goals).all())
 
-
-#: The counters of :func:`_extend`'s codes -2, -3, -4 (and of :func:`_check`'s 1 and 2).
-_REJECTS = ("twins", "sweep_rejects", "body_rejects")
 
 
 @register_planner

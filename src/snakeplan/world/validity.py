@@ -30,11 +30,21 @@ from numba import njit
 
 from snakeplan import ftl
 from snakeplan.geometry.distance import ObstacleSet, chain_hit, workspace
-from snakeplan.geometry.polyline import _cumulative, _grid, cumulative_length, validate_path
+from snakeplan.geometry.polyline import (
+    cumulative_length,
+    cumulative_unchecked,
+    grid_unchecked,
+    validate_path,
+)
 from snakeplan.jit import leaf
 from snakeplan.robots import Chain
 from snakeplan.world.knowledge import KnowledgeView
-from snakeplan.world.tolerances import BEND_TOLERANCE_RAD, PLANNING, REACH_TOLERANCE_MM, Tolerances
+from snakeplan.world.tolerances import (
+    BEND_TOLERANCE_RAD,
+    PLANNING,
+    REACH_TOLERANCE_MM,
+    Tolerances,
+)
 
 FailureKind = Literal["collision", "bend_limit", "insertion", "out_of_bounds"]
 #: Failure kinds in the order that breaks a tie at one depth.
@@ -117,7 +127,7 @@ class CrawlSpec(NamedTuple):
 def crawl_depths(start, stop, step, total_length):
     """The profile's depths (mm) in (start, stop], and 0 when start is 0: the grid 0, h, 2h, ... of the crawl to
     ``stop``, never past where insertion must fail (one step beyond the arm's length)."""
-    full = _grid(min(stop, total_length + step), step)
+    full = grid_unchecked(min(stop, total_length + step), step)
     return full[full > start] if start > 0.0 else full
 
 
@@ -145,7 +155,7 @@ def crawl_free(p, start, spec, W, stats):
     included when start is 0) against the packed obstacles ``W``: :meth:`ValidityChecker.first_failure` is None,
     compiled so that planners call it from their own compiled loops. Unchecked, unlike ``first_failure``: ``p``
     is a C-contiguous float64 array of at least two finite points starting at the entrance."""
-    cum = _cumulative(p)
+    cum = cumulative_unchecked(p)
     stop = cum[-1]
     start = min(max(start, 0.0), stop)
     if first_out_vertex(p, cum, start, stop, spec.lo, spec.hi) >= 0:
@@ -273,7 +283,7 @@ class ValidityChecker:
         r = self.tip_radius if radius is None else float(radius)
         obstacles = self.obstacles
         W, stats = obstacles.packed, obstacles.evaluations
-        lo, hi = self.world.scene.bounds_min.astype(float), self.world.scene.bounds_max.astype(float)
+        lo, hi = self.spec.lo, self.spec.hi
         joints, radii, work = np.empty((2, 3)), np.empty(1), workspace(W)
 
         def check(ax: float, ay: float, az: float, bx: float, by: float, bz: float) -> bool:
@@ -282,7 +292,7 @@ class ValidityChecker:
         return check
 
     # --- crawls -------------------------------------------------------------------------------------------------
-    def _grid(self, start: float, stop: float) -> np.ndarray:
+    def _depths(self, start: float, stop: float) -> np.ndarray:
         """:func:`crawl_depths` under this profile."""
         return crawl_depths(float(start), float(stop), self.spec.step_mm, self.spec.total_length)
 
@@ -294,7 +304,7 @@ class ValidityChecker:
         if i == 0:
             return Failure(0.0, "out_of_bounds", 0)
         a, d = p[i - 1], p[i] - p[i - 1]
-        lo, hi = self.world.scene.bounds_min, self.world.scene.bounds_max
+        lo, hi = self.spec.lo, self.spec.hi
         with np.errstate(divide="ignore", invalid="ignore"):
             t = np.where(d > 0, (hi - a) / d, np.where(d < 0, (lo - a) / d, np.inf))
         depth = float(cum[i - 1] + min(float(t.min()), 1.0) * (cum[i] - cum[i - 1]))
@@ -308,7 +318,7 @@ class ValidityChecker:
         stop = float(cum[-1]) if to_depth is None else min(max(float(to_depth), 0.0), float(cum[-1]))
         start = min(max(float(from_depth), 0.0), stop)
         out = self._bounds_failure(p, cum, start, stop)
-        depths = self._grid(start, stop if out is None else out.depth_mm)
+        depths = self._depths(start, stop if out is None else out.depth_mm)
         if depths.size == 0:
             return out
         i, code, link = self._scan(p, cum, depths)
@@ -325,7 +335,7 @@ class ValidityChecker:
         stop = float(cum[-1])
         if self._bounds_failure(p, cum, 0.0, stop) is not None:
             return False
-        depths = self._grid(0.0, stop)
+        depths = self._depths(0.0, stop)
         return self._scan(p, cum, depths[coarse_to_fine(depths.size)])[0] < 0
 
     def _scan(self, p: np.ndarray, cum: np.ndarray, depths: np.ndarray) -> tuple[int, int, int]:
@@ -339,7 +349,7 @@ class ValidityChecker:
         exact clearances: what the judge reports."""
         p = validate_path(path)
         cum = cumulative_length(p)
-        depths = self._grid(0.0, float(cum[-1]))
+        depths = self._depths(0.0, float(cum[-1]))
         states = ftl.fit_states(p, self.lengths, depths, self.direction)
         # the least clearance alone (each state's search cut off at the least so far: 3-4x cheaper than every
         # state's own), and collisions by the collision test, which agrees with clearance < -CONTACT_RESOLUTION_MM
