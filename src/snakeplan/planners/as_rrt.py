@@ -344,10 +344,12 @@ def _branch(P, parent, arcs, i, tail):
 
 
 @njit(cache=True)
-def _check(P, depth, parent, arcs, i, pts, tip_radius, spec, W, stats):
+def _check(P, depth, parent, arcs, i, pts, spec, W, stats):
     """Whether the tip can sweep ``pts`` from node i (0), else 1, and then whether the body can crawl there (0),
-    else 2: the sweep of each chord (:func:`motion_free`), then the crawl of the new depths (:func:`crawl_free`)."""
+    else 2: the sweep of each chord (:func:`motion_free`, the tip's radius under the profile), then the crawl of
+    the new depths (:func:`crawl_free`)."""
     joints, radii, work = np.empty((2, 3)), np.empty(1), workspace(W)
+    tip_radius = spec.radii[-1]
     a = P[i]
     for j in range(pts.shape[0]):
         b = pts[j]
@@ -361,11 +363,11 @@ def _check(P, depth, parent, arcs, i, pts, tip_radius, spec, W, stats):
 
 
 @njit(cache=True)
-def _extend(P, T, depth, parent, stage, arcs, tried, n, eligible, to_goal, q, k, kappa_max, turn_radius, step,
-            total_length, count, tip_radius, spec, W, stats):
+def _extend(P, T, depth, parent, stage, arcs, tried, n, eligible, to_goal, q, k, kappa_max, turn_radius, step, spec,
+            W, stats):
     """One extension of stage k toward q from the nearest eligible node (of the first n): the new node's index
-    n, or -1 (no eligible node, or too short), -2 (a twin), -3 (the sweep fails), -4 (the crawl fails). Marks the node tried when
-    ``to_goal``."""
+    n, or -1 (no eligible node, or too short), -2 (a twin), -3 (the sweep fails), -4 (the crawl fails). Marks the
+    node tried when ``to_goal``. The arc has as many points as the tree keeps per node."""
     i, best = -1, math.inf
     for j in range(n):
         if eligible[j]:
@@ -376,13 +378,13 @@ def _extend(P, T, depth, parent, stage, arcs, tried, n, eligible, to_goal, q, k,
         return -1
     tried[i] |= to_goal
     kappa, normal, length = steer(P[i], T[i], q, kappa_max, step)
-    length = min(length, total_length - depth[i])
+    length = min(length, spec.total_length - depth[i])
     if length < MIN_ARC_MM:
         return -1
-    pts, heading = arc(P[i], T[i], normal, kappa, length, count)
+    pts, heading = arc(P[i], T[i], normal, kappa, length, arcs.shape[1])
     if _has_twin(P, T, stage, n, pts[-1], heading, k):
         return -2
-    code = _check(P, depth, parent, arcs, i, pts, tip_radius, spec, W, stats)
+    code = _check(P, depth, parent, arcs, i, pts, spec, W, stats)
     if code:
         return -2 - code
     _add_node(P, T, depth, parent, stage, arcs, n, i, pts, heading, k)
@@ -510,8 +512,8 @@ class _Search:
         tree.reserve(1)
         obstacles = self.model.obstacles
         k = _extend(tree.P, tree.T, tree.depth, tree.parent, tree.stage, tree.arcs, tree.tried, tree.n, live, to_goal,
-                    q, stage, self.kappa_max, self.model.turn_radius, self.step, self.model.total_length, ARC_POINTS,
-                    self.model.tip_radius, self.model.spec, obstacles.packed, obstacles.evaluations)
+                    q, stage, self.kappa_max, self.model.turn_radius, self.step, self.model.spec, obstacles.packed,
+                    obstacles.evaluations)
         if k < 0:
             if k < -1:
                 self.counts[_REJECTS[-k - 2]] += 1
@@ -558,8 +560,8 @@ class _Search:
     def _valid(self, i: int, pts: np.ndarray) -> bool:
         """Whether the tip can sweep ``pts`` from node i and the body can crawl there (known obstacles)."""
         tree, obstacles = self.tree, self.model.obstacles
-        code = _check(tree.P, tree.depth, tree.parent, tree.arcs, i, np.ascontiguousarray(pts),
-                      self.model.tip_radius, self.model.spec, obstacles.packed, obstacles.evaluations)
+        code = _check(tree.P, tree.depth, tree.parent, tree.arcs, i, np.ascontiguousarray(pts), self.model.spec,
+                      obstacles.packed, obstacles.evaluations)
         if code:
             self.counts[_REJECTS[code]] += 1
         return not code
