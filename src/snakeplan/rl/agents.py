@@ -4,11 +4,12 @@ With probability epsilon an action from the policy is replaced by a uniform rand
 ``EPSILON_START`` and is multiplied by ``EPSILON_DECAY`` every environment step down to ``EPSILON_MIN``.
 
 Its gradient step is SB3's SAC update, computed with fewer calls: the features of a mini-batch's observations and of
-its next observations are computed once each (SB3 computes them five times per update, once per network call; the
-feature extractors have no weights, so every call gives the same features), each critic input is concatenated once
-for both Q networks, and the target networks move towards the critics in one fused call. With the same seeds it
-gives the same weights as SB3's ``SAC.train`` (tests/test_rl.py checks it), in about 80 % of the time with 128 x 128
-networks on the 2-core CPU (``snakeplan bench rl``). SAC-PER changes only the critic loss
+its next observations are computed once, in one call (SB3 computes them five times per update, once per network
+call; the feature extractors have no weights, so every call gives the same features), each critic input is
+concatenated once for both Q networks, the actor's loss is differentiated through the critics without their weight
+gradients (which SB3 computes and then discards), and the target networks move towards the critics in one fused
+call. With the same seeds it gives the same weights as SB3's ``SAC.train`` (tests/test_rl.py checks it), in about
+70 % of the time with 128 x 128 networks on the 2-core CPU (``snakeplan bench rl``). SAC-PER changes only the critic loss
 (:meth:`EpsilonGreedySAC._critic_loss`) and anneals its importance exponent.
 """
 
@@ -101,8 +102,8 @@ class EpsilonGreedySAC(SAC):
         ``target_update_interval`` steps). Returns (entropy coefficient, critic loss, actor loss, entropy
         coefficient loss: NaN when the coefficient is fixed)."""
         actor, critic = self.actor, self.critic
-        features = actor.extract_features(data.observations, actor.features_extractor)
-        next_features = actor.extract_features(data.next_observations, actor.features_extractor)
+        features, next_features = actor.extract_features(_stacked(data.observations, data.next_observations),
+                                                         actor.features_extractor).chunk(2)
         actions_pi, log_prob = self._policy(features)
         log_prob = log_prob.reshape(-1, 1)
         if self.ent_coef_optimizer is not None:
@@ -124,7 +125,9 @@ class EpsilonGreedySAC(SAC):
         critic.optimizer.zero_grad()
         critic_loss.backward()
         critic.optimizer.step()
+        critic.requires_grad_(False)  # the actor's loss needs the critics' input gradients, not their weights'
         actor_loss = (ent_coef * log_prob - _q_min(critic.q_networks, th.cat([features, actions_pi], dim=1))).mean()
+        critic.requires_grad_(True)
         actor.optimizer.zero_grad()
         actor_loss.backward()
         actor.optimizer.step()
@@ -138,6 +141,13 @@ class EpsilonGreedySAC(SAC):
     def _critic_loss(self, data: ReplayBufferSamples, current: list[th.Tensor], target: th.Tensor) -> th.Tensor:
         """SAC's critic loss: half the summed mean squared TD errors of the Q networks."""
         return 0.5 * sum(F.mse_loss(q, target) for q in current)
+
+
+def _stacked(first, second):
+    """Two mini-batches of observations (tensors, or dicts of them) as one, ``first`` on top."""
+    if isinstance(first, dict):
+        return {key: th.cat([obs, second[key]]) for key, obs in first.items()}
+    return th.cat([first, second])
 
 
 def _q_min(networks, inputs: th.Tensor) -> th.Tensor:
