@@ -29,8 +29,8 @@ against 13.9 ms at 256 and 29.8 ms at §4.1's 512), one update per environment s
 fuel-tank SAC-HER reached 0.9 validation success in 40,000 steps (13 min); oil-tank SAC-PER, with the
 look-ahead and a 130 mm turning radius (215 mm plateaued at 0.82-0.86), reached 0.98 in 10,000 steps (3-5 min;
 seeds 0 and 1). The shared update (:mod:`snakeplan.rl.agents`), fused Adam and scenes made ahead on the spare
-cores (``scene_workers``) later brought the same fuel-tank command to 556 s for 40,000 steps (0.94 validation
-success there).
+cores (``scene_workers``) later brought the same fuel-tank command to 289-556 s for 40,000 steps, depending on the
+machine's load (0.94 validation success there; README).
 Run as ``snakeplan train rl SCENE ALGORITHM --steps N --seed S --out DIR [--robot NAME ...]`` (or
 ``python -m snakeplan.rl.train``, the same options); SCENE is any registered scene family with targets.
 """
