@@ -124,8 +124,9 @@ def _environment(values: dict[str, str]) -> Iterator[None]:
 def execute(work: Callable[..., T], tasks: Sequence, backend: Backend, *args) -> Iterator[T]:
     """``work(task, *args)`` for every task on ``backend``; yields each result in this process as it finishes
     (in task order on ``serial``, in finishing order otherwise). ``work`` must be a module-level function (the
-    workers import it). Closing the generator stops the backend: a process pool finishes the tasks it has
-    started and drops the rest; Ray is shut down."""
+    workers import it). Closing the generator stops the backend: a process pool's workers are terminated at once
+    (results not yet yielded are lost: callers that resume, like the benchmark runner, run those tasks again);
+    Ray is shut down."""
     if backend.kind == "serial" or not tasks:
         for task in tasks:
             yield work(task, *args)
