@@ -109,9 +109,10 @@ ADVANCE_BIAS = 0.7
 #: Samples drawn, extended and collision-checked together per iteration.
 BATCH = 16
 #: Grid cell (mm) of the geodesic field: a fuel-tank hole (110 mm free radius once inflated) spans four cells. The
-#: field's lazy Theta* is half of a fuel-tank plan at 40 mm; at 50 mm the plan takes half the time, with the same
+#: field's lazy Theta* is half of a fuel-tank plan at 40 mm; at 50 mm the plan takes about half the time, with the same
 #: judged success over 100 seeds of fuel-tank and oil-tank and 30 of pipework, vessel and engine (confined: 58 of 60
-#: against 59, on a seed that times out at the 30 s budget in half of its planner seeds either way).
+#: against 59; the difference is a seed that needs 8-29 s with either size and, over four planner seeds, timed out
+#: at the 30 s budget once with 40 mm cells and twice with 50 mm).
 FIELD_CELL_MM = 50.0
 #: Depth of the field's source on the feed axis inside the entrance, in first-section lengths.
 FIELD_SOURCE_SECTIONS = 1.0

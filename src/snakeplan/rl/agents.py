@@ -9,8 +9,8 @@ call; the feature extractors have no weights, so every call gives the same featu
 concatenated once for both Q networks, the actor's loss is differentiated through the critics without their weight
 gradients (which SB3 computes and then discards), and the target networks move towards the critics in one fused
 call. With the same seeds it gives the same weights as SB3's ``SAC.train`` (tests/test_rl.py checks it), in about
-70 % of the time with 128 x 128 networks on the 2-core CPU (``snakeplan bench rl``). SAC-PER changes only the critic loss
-(:meth:`EpsilonGreedySAC._critic_loss`) and anneals its importance exponent.
+70 % of the time with 128 x 128 networks on the 2-core CPU (``snakeplan bench rl``). SAC-PER changes only the
+critic loss (:meth:`EpsilonGreedySAC._critic_loss`) and anneals its importance exponent.
 """
 
 from __future__ import annotations
