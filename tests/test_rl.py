@@ -238,9 +238,10 @@ def _her_model(seed: int = 0, **kwargs):
 
 @pytest.mark.parametrize("settings", [{}, {"ent_coef": 0.1, "target_update_interval": 2}])
 def test_sac_update_gives_sb3s_weights(settings):
-    """The shared update (features once per mini-batch, fused target update) is SB3's SAC update: the same
-    weights and logged losses after the same updates on the same draws (a learned entropy coefficient updating the
-    targets every step, and a fixed one every second step)."""
+    """The shared update (features in one call per mini-batch, the actor's loss without the critics' weight
+    gradients, fused target update) is SB3's SAC update: the same weights and logged losses after the same updates
+    on the same draws (a learned entropy coefficient updating the targets every step, and a fixed one every second
+    step)."""
     import copy
 
     from stable_baselines3 import SAC

@@ -579,7 +579,6 @@ class _Search:
             self.blocked = not bool(self.model.tip_free(self.goals).all())
 
 
-
 @register_planner
 class AsRRT(Planner):
     """Arc-segment RRT (Deng et al. 2022): a tree of tangent constant-curvature arcs from the entrance; plans with
