@@ -246,12 +246,13 @@ def test_bench_rl_rejects_bad_repeats(capsys):
     assert code == 2 and "--repeats" in err
 
 
-def test_train_rl_rejects_bad_scene_workers_and_writes_nothing(capsys, tmp_path):
+@pytest.mark.parametrize(("option", "value"), [("--scene-workers", "-3"), ("--autodiff", "tensorflow")])
+def test_train_rl_rejects_a_bad_option_and_writes_nothing(capsys, tmp_path, option, value):
     out = tmp_path / "run"
     code, stdout, err = run(capsys, "train", "rl", "fuel-tank", "sac-her", "--steps", "10", "--out", str(out),
-                            "--scene-workers", "-3")
+                            option, value)
     assert code == 2 and stdout == ""
-    assert err.count("\n") == 1 and "--scene-workers" in err and "-3" in err
+    assert err.count("\n") == 1 and option in err and value in err
     assert not out.exists()
 
 

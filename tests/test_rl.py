@@ -31,7 +31,7 @@ from snakeplan.planners.sac import (
 )
 from snakeplan.rl import rewards
 from snakeplan.rl.envs import ENV_IDS, SnakeEnv
-from snakeplan.rl.per import PrioritizedDictReplayBuffer, SumTree
+from snakeplan.rl.per import PrioritizedDictReplayBuffer, PrioritizedSamples, SumTree
 from snakeplan.robots import get_robot
 from snakeplan.scenes import make_scene
 from snakeplan.world import view_for
@@ -203,7 +203,8 @@ def test_importance_weights_follow_eq_16():
     assert buf.max_priority == pytest.approx(4.0 + buf.eps)
 
 
-def test_per_sac_updates_priorities_and_learns_a_few_steps():
+@pytest.mark.parametrize("autodiff", ["torch", "jax"])
+def test_per_sac_updates_priorities_and_learns_a_few_steps(autodiff):
     from stable_baselines3.common.vec_env import DummyVecEnv
 
     from snakeplan.rl.per import PerSAC
@@ -211,7 +212,7 @@ def test_per_sac_updates_priorities_and_learns_a_few_steps():
     venv = DummyVecEnv([lambda: SnakeEnv("oil-tank", seeds=FEW_SEEDS)])
     model = PerSAC("MultiInputPolicy", venv, replay_buffer_class=PrioritizedDictReplayBuffer,
                    replay_buffer_kwargs={"seed": 0}, learning_starts=50, batch_size=16, seed=0,
-                   policy_kwargs={"net_arch": [16, 16]}, device="cpu")
+                   policy_kwargs={"net_arch": [16, 16]}, device="cpu", autodiff=autodiff)
     model.learn(120)
     buf = model.replay_buffer
     leaves = buf.tree[np.arange(buf.size())]
@@ -268,6 +269,130 @@ def test_sac_update_gives_sb3s_weights(settings):
     for key in keys:
         assert logged[0][key] == pytest.approx(logged[1][key], rel=1e-6), key
     assert not th.equal(ours["actor.mu.weight"], _her_model(**settings).policy.state_dict()["actor.mu.weight"])
+
+
+def _one_sample(batches):
+    """SB3 samples joined into one as the JAX updates split a sample: row ``r`` from batch ``r % len(batches)``."""
+    def cat(values):
+        if values[0] is None:
+            return None
+        if isinstance(values[0], dict):
+            return {key: cat([v[key] for v in values]) for key in values[0]}
+        return th.stack(values, dim=1).reshape(-1, *values[0].shape[1:])
+
+    return type(batches[0])(*[cat(list(values)) for values in zip(*batches)])
+
+
+@pytest.mark.parametrize("settings", [{}, {"ent_coef": 0.1, "target_update_interval": 2}])
+def test_jax_update_gives_the_torch_updates_weights(settings):
+    """The JAX updates, 25 in one compiled call, on the same mini-batches with the same Gaussian noise,
+    give the torch update's (SB3's) weights, Adam moments, entropy coefficient and logged losses to float32
+    rounding; copied back into the torch model they are what a checkpoint saves."""
+    import copy
+
+    from snakeplan.rl.agents import _stacked
+    from snakeplan.rl.jax_update import JaxSAC, _arrays
+
+    model = _her_model(**settings)
+    model.learn(300)
+    reference = copy.deepcopy(model)
+    count, size = 25, 32
+    noise = np.random.default_rng(0).standard_normal((2, count, size, *model.action_space.shape))
+    noise = noise.astype(np.float32)
+    queue = [th.from_numpy(noise[j, i]) for i in range(count) for j in range(2)]  # actions, next actions
+
+    def rsample(self, sample_shape=th.Size()):
+        return self.loc + self.scale * queue.pop(0)
+
+    np.random.seed(3)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(th.distributions.Normal, "rsample", rsample)
+        model.train(count, size)
+    assert not queue
+    np.random.seed(3)
+    data = _one_sample([reference.replay_buffer.sample(size) for _ in range(count)])
+    with th.no_grad():
+        features = reference.actor.extract_features(_stacked(data.observations, data.next_observations),
+                                                    reference.actor.features_extractor)
+    jax_sac = JaxSAC.from_model(reference)
+    losses, td = jax_sac.run(_arrays(data, features, count, reference.gamma), noise, model.learning_rate)
+    jax_sac.write(reference)
+    before = _her_model(**settings).policy.state_dict()
+    ours, theirs = reference.policy.state_dict(), model.policy.state_dict()
+    for key, value in theirs.items():
+        np.testing.assert_allclose(ours[key].numpy(), value.numpy(), atol=2e-6, rtol=0, err_msg=key)
+        if key.endswith("weight"):
+            assert not th.equal(value, before[key]), key  # the updates moved every layer
+    for mine, torch_opt in ((reference.critic.optimizer, model.critic.optimizer),
+                            (reference.actor.optimizer, model.actor.optimizer)):
+        for (_, a), (_, b) in zip(mine.state.items(), torch_opt.state.items(), strict=True):
+            assert float(a["step"]) == float(b["step"]) == count
+            for key in ("exp_avg", "exp_avg_sq"):  # float32 rounding of the gradients, relative to their scale
+                np.testing.assert_allclose(a[key].numpy(), b[key].numpy(), rtol=0,
+                                           atol=1e-4 * float(b[key].abs().max()), err_msg=key)
+    if "ent_coef" not in settings:
+        assert float(reference.log_ent_coef.detach()) == pytest.approx(float(model.log_ent_coef.detach()), abs=1e-6)
+    logged = model.logger.name_to_value
+    assert losses.shape == (count, 4) and td.shape == (count * size,)
+    for column, key in enumerate(("ent_coef", "critic_loss", "actor_loss")):
+        assert losses[:, column].mean() == pytest.approx(logged[f"train/{key}"], rel=1e-5, abs=1e-5), key
+
+
+def test_each_jax_mini_batch_mixes_the_sample_as_its_own_draw_would():
+    """A HER sample lists its real transitions before its relabelled ones; each of the mini-batches one sample is
+    split into holds its share of both, and a PER mini-batch's weights are normalised by its own largest."""
+    from stable_baselines3.common.type_aliases import ReplayBufferSamples
+
+    from snakeplan.rl.jax_update import _arrays
+
+    count, size = 8, 16
+    n = count * size
+    part = th.arange(n, dtype=th.float32).reshape(-1, 1) >= n // 4  # a quarter real, then relabelled
+    data = ReplayBufferSamples(th.zeros(n, 3), th.zeros(n, 2), th.zeros(n, 3), th.zeros(n, 1), part.float(), None)
+    features = th.zeros(2 * n, 3)
+    _, _, actions, rewards, not_done, weights = _arrays(data, features, count, 0.99)
+    assert actions.shape == (count, size, 2) and rewards.shape == not_done.shape == weights.shape == (count, size)
+    np.testing.assert_array_equal(rewards.sum(axis=1), np.full(count, 0.75 * size))
+    np.testing.assert_allclose(not_done, 0.99)
+    assert np.all(weights == 1.0)
+    samples = PrioritizedSamples(*data, weights=th.linspace(0.1, 1.0, n).reshape(-1, 1), indices=np.arange(n))
+    _, _, _, _, _, weights = _arrays(samples, features, count, 0.99)
+    np.testing.assert_allclose(weights.max(axis=1), 1.0)
+    assert np.ptp(weights.min(axis=1)) > 0  # each normalised by its own largest, not one shared factor
+
+
+def test_importing_the_jax_updates_leaves_numpys_global_draws_alone():
+    """Importing JAX draws from NumPy's global generator, which the replay buffers sample with; a resumed run
+    imports the JAX updates after its saved generator states are restored, so the import must not move them."""
+    import subprocess
+    import sys
+
+    code = ("import numpy as np; np.random.seed(0); state = np.random.get_state()[1].copy(); "
+            "import snakeplan.rl.jax_update; print(np.array_equal(state, np.random.get_state()[1]))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "True"
+
+
+def test_the_jax_updates_resume_from_a_saved_model_bit_for_bit(tmp_path):
+    """Weights and Adam states go into SB3's files at a save and come back at a load, and the noise follows the
+    count of updates: the loaded copy's next updates are the running model's, bit for bit."""
+    from snakeplan.rl.agents import EpsilonGreedySAC
+
+    model = _her_model(autodiff="jax")
+    model.learn(400)  # 100 updates
+    model.save(tmp_path / "model.zip")
+    model.save_replay_buffer(tmp_path / "replay.pkl")
+    copy = EpsilonGreedySAC.load(tmp_path / "model.zip", env=model.env, device="cpu")
+    copy.load_replay_buffer(tmp_path / "replay.pkl", truncate_last_traj=False)
+    copy.set_logger(model.logger)
+    assert copy.autodiff == "jax" and copy._n_updates == model._n_updates == 100
+    for m in (model, copy):
+        np.random.seed(5)
+        m.train(20, 32)
+        m.save(tmp_path / "after.zip")  # copies every JAX weight into the torch modules
+    ours, theirs = model.policy.state_dict(), copy.policy.state_dict()
+    for key in ours:
+        assert th.equal(ours[key], theirs[key]), key
 
 
 def test_sac_refuses_an_extractor_with_weights():

@@ -208,10 +208,11 @@ class _Job:
     """``snakeplan train rl fuel-tank sac-her`` (the tiny run) in a subprocess, its progress lines read as they
     come: each names the environment step reached; one comes every ``every`` steps (1 % of the run)."""
 
-    def __init__(self, out: Path, steps: int = STEPS):
+    def __init__(self, out: Path, steps: int = STEPS, options: tuple[str, ...] = ()):
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "snakeplan.cli", "train", "rl", "fuel-tank", "sac-her", "--steps", str(steps),
-             "--out", str(out), *TINY], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV)
+             "--out", str(out), *TINY, *options], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+            env=ENV)
         self.t0 = time.monotonic()
         self.every = max(1, steps // 100)
         self.steps: list[int] = []
@@ -280,17 +281,17 @@ def _result(out: Path) -> dict:
             "curve": [{k: v for k, v in h.items() if k not in ("wall_s", "median_time_s")} for h in history]}
 
 
-_BASELINES: dict[int, dict] = {}
+_BASELINES: dict[tuple, dict] = {}
 
 
-def _baseline(tmp_path_factory, steps: int) -> dict:
-    """The uninterrupted run of the same command (once per module and length)."""
-    if steps not in _BASELINES:
+def _baseline(tmp_path_factory, steps: int, options: tuple[str, ...] = ()) -> dict:
+    """The uninterrupted run of the same command (once per module, length and options)."""
+    if (steps, options) not in _BASELINES:
         out = tmp_path_factory.mktemp(f"baseline{steps}")
-        rc, err = _Job(out, steps).finish()
+        rc, err = _Job(out, steps, options).finish()
         assert rc == 0, err
-        _BASELINES[steps] = {"out": out, **_result(out)}
-    return _BASELINES[steps]
+        _BASELINES[steps, options] = {"out": out, **_result(out)}
+    return _BASELINES[steps, options]
 
 
 def _same_as(result: dict, baseline: dict) -> None:
@@ -302,7 +303,7 @@ def _same_as(result: dict, baseline: dict) -> None:
     assert json.dumps(result["curve"]) == json.dumps(baseline["curve"])
 
 
-def _kill_and_resume(out: Path, kills: int, steps: int, seed: int) -> list[dict]:
+def _kill_and_resume(out: Path, kills: int, steps: int, seed: int, options: tuple[str, ...] = ()) -> list[dict]:
     """Kill the run with SIGKILL ``kills`` times at random moments (any time after the start, a random step of
     training, or while a checkpoint is being written), rerunning the same command after each; then let it
     finish. Returns one record per kill: the last step the killed run reported (``reached``) and the step the
@@ -312,7 +313,7 @@ def _kill_and_resume(out: Path, kills: int, steps: int, seed: int) -> list[dict]
     records, resumed_from = [], 0
     for i in range(kills):
         since = time.time_ns()
-        job = _Job(out, steps)
+        job = _Job(out, steps, options)
         mode = ("anytime", "training", "checkpoint")[i % 3]
         if mode == "anytime":  # start-up, restoring, training, evaluating, saving: wherever it falls
             job.wait_until(lambda: False, rng.uniform(3.0, 9.0))
@@ -339,7 +340,7 @@ def _kill_and_resume(out: Path, kills: int, steps: int, seed: int) -> list[dict]
         assert saved >= resumed_from  # a kill never undoes a saved checkpoint
         assert reached - saved <= INTERVAL, records[-1]  # at most one checkpoint interval lost
         resumed_from = saved
-    job = _Job(out, steps)
+    job = _Job(out, steps, options)
     rc, err = job.finish()
     assert rc == 0, err
     if resumed_from < steps:
@@ -347,13 +348,18 @@ def _kill_and_resume(out: Path, kills: int, steps: int, seed: int) -> list[dict]
     return records
 
 
-def test_sigkill_at_3_random_moments_resumes_to_the_uninterrupted_result(tmp_path, tmp_path_factory):
-    baseline = _baseline(tmp_path_factory, STEPS)
-    records = _kill_and_resume(tmp_path, kills=3, steps=STEPS, seed=3)
+@pytest.mark.parametrize(("steps", "options"), [
+    (STEPS, ()),
+    # JAX: ten steps, then ten updates in one call; twice the steps, so that checkpoints are left for the third kill
+    # to fall in after the first two (with 240, one run ended before the third kill caught one)
+    (2 * STEPS, ("--autodiff", "jax", "--train-freq", "10", "--gradient-steps", "10"))], ids=["torch", "jax-fused"])
+def test_sigkill_at_3_random_moments_resumes_to_the_uninterrupted_result(tmp_path, tmp_path_factory, steps, options):
+    baseline = _baseline(tmp_path_factory, steps, options)
+    records = _kill_and_resume(tmp_path, kills=3, steps=steps, seed=3, options=options)
     print(json.dumps(records))
     assert records[2]["mid_checkpoint"]  # the third kill fell while a checkpoint was being written
     _same_as(_result(tmp_path), baseline)
-    assert _verified_step(tmp_path) == STEPS
+    assert _verified_step(tmp_path) == steps
 
 
 @pytest.mark.slow

@@ -20,6 +20,10 @@ Each figure is the median of several timed blocks, with a baseline timed in the 
     update per step) against :data:`snakeplan.rl.train.FAST_CONFIG` (four environments, batch 512, one update per
     four steps: a quarter of the update-to-data ratio at four times the samples per update, so as many samples per
     step);
+  - the JAX updates (:mod:`snakeplan.rl.jax_update`, the same update) against the torch ones on copies of the same
+    model, one update per call and ``JAX_CONFIG.gradient_steps`` per call (paired blocks), and the training steps
+    per second of :data:`snakeplan.rl.train.JAX_CONFIG` (ten environment steps, then twenty updates in one call)
+    against the default (one step, one update);
   - when SBX (JAX) is installed, the same update in SBX one call at a time and ``FUSED_UPDATES`` fused into one
     call, against torch.
 
@@ -44,6 +48,7 @@ from snakeplan.rl.policy import from_sb3
 from snakeplan.rl.train import (
     DEFAULT_CONFIG,
     FAST_CONFIG,
+    JAX_CONFIG,
     PAPER_CONFIG,
     build_model,
     make_env,
@@ -162,6 +167,31 @@ def _update_levers(model, repeats: int) -> dict:
             "fused_vs_unfused": _paired_update_rates(model.train, unfused.train, repeats)}
 
 
+def _jax_levers(model, repeats: int, seed: int) -> dict:
+    """The JAX updates (one per call, and ``JAX_CONFIG.gradient_steps`` per call) against the torch
+    ones on copies of ``model``, and the training steps per second of ``JAX_CONFIG`` against the default."""
+    import copy
+
+    jax_model = copy.deepcopy(model)
+    jax_model.autodiff = "jax"
+    fused = JAX_CONFIG.gradient_steps
+
+    def calls(per_call: int) -> Callable[[int, int], None]:
+        def step(n: int, batch: int) -> None:
+            for _ in range(n // per_call):
+                jax_model.train(per_call, batch)
+        return step
+
+    for per_call in (1, fused):  # compiles each
+        jax_model.train(per_call, DEFAULT_CONFIG.batch_size)
+    one = _paired_update_rates(calls(1), model.train, repeats)
+    many = _paired_update_rates(calls(fused), model.train, repeats)
+    default, _, _ = _train_rate(DEFAULT_CONFIG, repeats, seed)
+    jax_rate, _, _ = _train_rate(JAX_CONFIG, repeats, seed)
+    return {"one_per_call": one, "fused": many, "train_steps_per_s": {"jax_config": jax_rate, "default": default,
+                                                                       "ratio": jax_rate / default}}
+
+
 def _prefetch_rates(seed: int) -> dict:
     """The first ``PREFETCH_STEPS`` steps of the default fuel-tank SAC-HER run with its scenes made ahead by one
     worker and made when drawn, each starting with no scene made: training steps per second, and the seconds the
@@ -266,6 +296,7 @@ def run_rl_bench(repeats: int = 5, seed: int = 0) -> dict:
         guide_default, _, _ = _train_rate(guide, repeats, seed)
         guide_fast, _, _ = _train_rate(replace(FAST_CONFIG, observation="guide", knowledge="sensed"), repeats, seed)
         sbx_rates = _sbx_rates(repeats, seed)
+        jax_levers = _jax_levers(model, repeats, seed)
     finally:
         th.set_num_threads(threads)
     return {
@@ -277,11 +308,13 @@ def run_rl_bench(repeats: int = 5, seed: int = 0) -> dict:
         "prefetch_train_steps_per_s": prefetch,
         "guide_train_steps_per_s": {"default": guide_default, "fast": guide_fast, "ratio": guide_fast / guide_default},
         "sbx_updates_per_s": sbx_rates,
+        "jax_autodiff_per_s": jax_levers,
         "settings": {"repeats": repeats, "seed": seed, "env_block": ENV_BLOCK, "train_block": TRAIN_BLOCK,
                      "prefetch_steps": PREFETCH_STEPS,
                      "batch_size": DEFAULT_CONFIG.batch_size, "torch_threads": DEFAULT_CONFIG.torch_threads,
                      "fast": {"n_envs": FAST_CONFIG.n_envs, "batch_size": FAST_CONFIG.batch_size,
-                              "gradient_steps": FAST_CONFIG.gradient_steps, "train_freq": FAST_CONFIG.train_freq}},
+                              "gradient_steps": FAST_CONFIG.gradient_steps, "train_freq": FAST_CONFIG.train_freq},
+                     "jax": {"train_freq": JAX_CONFIG.train_freq, "gradient_steps": JAX_CONFIG.gradient_steps}},
     }
 
 
@@ -316,6 +349,15 @@ def rl_markdown(r: dict) -> str:
     rows.append(f"| guide design training steps, {fast['n_envs']} envs, batch {fast['batch_size']}, "
                 f"{fast['gradient_steps']} update per {fast['n_envs'] * fast['train_freq']} steps | {g['fast']:,.1f} | "
                 f"1 env, batch 128, 1 update per step | {g['default']:,.1f} | {g['ratio']:.2f}x |")
+    j, jax = r["jax_autodiff_per_s"], r["settings"]["jax"]
+    for key, what in (("one_per_call", "one per call"), ("fused", f"{jax['gradient_steps']} per call")):
+        v = j[key]
+        rows.append(f"| SAC updates, batch 128, JAX, {what} | {v['ours']:,.1f} | torch, one per "
+                    f"call | {v['baseline']:,.1f} | {v['ratio']:.2f}x |")
+    t = j["train_steps_per_s"]
+    rows.append(f"| SAC-HER training steps, JAX, {jax['train_freq']} steps then {jax['gradient_steps']} updates | "
+                f"{t['jax_config']:,.1f} | "
+                f"torch, 1 step then 1 update | {t['default']:,.1f} | {t['ratio']:.2f}x |")
     x = r["sbx_updates_per_s"]
     if x is None:
         rows.append("| SBX (JAX) updates | not installed | | | |")

@@ -10,7 +10,8 @@ concatenated once for both Q networks, the actor's loss is differentiated throug
 gradients (which SB3 computes and then discards), and the target networks move towards the critics in one fused
 call. With the same seeds it gives the same weights as SB3's ``SAC.train`` (tests/test_rl.py checks it), in about
 70 % of the time with 128 x 128 networks on the 2-core CPU (``snakeplan bench rl``). SAC-PER changes only the
-critic loss (:meth:`EpsilonGreedySAC._critic_loss`) and anneals its importance exponent.
+critic loss (:meth:`EpsilonGreedySAC._critic_loss`) and anneals its importance exponent. With ``autodiff="jax"``
+the same update runs in JAX (:mod:`snakeplan.rl.jax_update`), all of a call's updates in one compiled call.
 """
 
 from __future__ import annotations
@@ -28,20 +29,27 @@ from torch.nn import functional as F
 EPSILON_START = 1.0
 EPSILON_MIN = 0.01
 EPSILON_DECAY = 0.999
+#: The library that runs the gradient updates: torch (this module), or JAX (:mod:`snakeplan.rl.jax_update`, the same
+#: update compiled by XLA).
+AUTODIFF = ("torch", "jax")
 
 
 class EpsilonGreedySAC(SAC):
     """SAC whose exploratory actions are replaced by uniform ones with a decaying probability."""
 
     def __init__(self, *args, epsilon_start: float = EPSILON_START, epsilon_min: float = EPSILON_MIN,
-                 epsilon_decay: float = EPSILON_DECAY, **kwargs):
+                 epsilon_decay: float = EPSILON_DECAY, autodiff: str = "torch", **kwargs):
         self.epsilon_start = epsilon_start
         self.epsilon_min = epsilon_min
         self.epsilon_decay = epsilon_decay
+        self.autodiff = autodiff
         super().__init__(*args, **kwargs)
 
     def _setup_model(self) -> None:
+        if self.autodiff not in AUTODIFF:
+            raise ValueError(f"autodiff: must be one of {AUTODIFF}, got {self.autodiff!r}")
         super()._setup_model()
+        self._jax = None
         if self.use_sde:
             raise ValueError("use_sde: the epsilon-greedy SAC explores by uniform replacement, not by gSDE")
         for extractor in (self.actor.features_extractor, self.critic.features_extractor):
@@ -82,13 +90,47 @@ class EpsilonGreedySAC(SAC):
         if self.ent_coef_optimizer is not None:
             optimizers.append(self.ent_coef_optimizer)
         self._update_learning_rate(optimizers)
-        losses = np.array([self._update(self.replay_buffer.sample(batch_size, env=self._vec_normalize_env), step)
-                           for step in range(gradient_steps)])
+        if self.autodiff == "jax":
+            losses = self._train_jax(gradient_steps, batch_size)
+        else:
+            losses = np.array([self._update(self.replay_buffer.sample(batch_size, env=self._vec_normalize_env),
+                                            step) for step in range(gradient_steps)])
         self._n_updates += gradient_steps
         self.logger.record("train/n_updates", self._n_updates, exclude="tensorboard")
         for key, value in zip(("ent_coef", "critic_loss", "actor_loss", "ent_coef_loss"), losses.mean(axis=0)):
             if key != "ent_coef_loss" or self.ent_coef_optimizer is not None:
                 self.logger.record(f"train/{key}", float(value))
+
+    def _train_jax(self, gradient_steps: int, batch_size: int) -> np.ndarray:
+        """The same updates by :class:`snakeplan.rl.jax_update.JaxSAC`, in one compiled call, on mini-batches drawn
+        as one sample (independent uniform draws either way, in one call instead of ``gradient_steps``); the
+        actor's new weights are copied back for the roll-outs."""
+        from snakeplan.rl.jax_update import JaxSAC
+
+        if self._jax is None:
+            self._jax = JaxSAC.from_model(self)
+        data = self.replay_buffer.sample(batch_size * gradient_steps, env=self._vec_normalize_env)
+        with th.no_grad():
+            features = self.actor.extract_features(_stacked(data.observations, data.next_observations),
+                                                   self.actor.features_extractor)
+        losses, td = self._jax.train(data, features, gradient_steps, self._n_updates,
+                                     self.actor.optimizer.param_groups[0]["lr"])
+        self._jax.write(self, actor_only=True)
+        self._sampled(data, td)
+        return losses
+
+    def _sampled(self, data: ReplayBufferSamples, td_errors: np.ndarray) -> None:
+        """What the JAX updates report of a call's samples after its updates: their mean absolute TD errors
+        (SAC-PER's priorities; plain SAC keeps none)."""
+
+    def save(self, *args, **kwargs) -> None:
+        """SB3's save, with the JAX updates' weights and Adam states copied into the torch model first."""
+        if self._jax is not None:
+            self._jax.write(self)
+        super().save(*args, **kwargs)
+
+    def _excluded_save_params(self) -> list[str]:
+        return [*super()._excluded_save_params(), "_jax"]
 
     def _policy(self, features: th.Tensor) -> tuple[th.Tensor, th.Tensor]:
         """The actor's squashed Gaussian sample and its log-probability, from ready features."""

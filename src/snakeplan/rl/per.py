@@ -172,6 +172,9 @@ class PerSAC(EpsilonGreedySAC):
         super().train(gradient_steps, batch_size)
         self.logger.record("train/beta", buffer.beta)
 
+    def _sampled(self, data: PrioritizedSamples, td_errors: np.ndarray) -> None:
+        self.replay_buffer.update_priorities(data.indices, td_errors)
+
     def _critic_loss(self, data: PrioritizedSamples, current: list[th.Tensor], target: th.Tensor) -> th.Tensor:
         """The importance-weighted critic loss (eq. 16); sets the sampled transitions' priorities to their mean
         absolute TD error over the Q networks (eqs. 17-19)."""

@@ -30,7 +30,9 @@ fuel-tank SAC-HER reached 0.9 validation success in 40,000 steps (13 min); oil-t
 look-ahead and a 130 mm turning radius (215 mm plateaued at 0.82-0.86), reached 0.98 in 10,000 steps (3-5 min;
 seeds 0 and 1). The shared update (:mod:`snakeplan.rl.agents`), fused Adam and scenes made ahead on the spare
 cores (``scene_workers``) later brought the same fuel-tank command to 289-556 s for 40,000 steps, depending on the
-machine's load (0.94 validation success there; README).
+machine's load (0.94 validation success there; README). The same update in JAX (``--autodiff jax``), ten steps
+then the updates of ten in one compiled call, takes about 40 % of the torch update's wall time per step
+(:data:`JAX_CONFIG`; README).
 Run as ``snakeplan train rl SCENE ALGORITHM --steps N --seed S --out DIR [--robot NAME ...]`` (or
 ``python -m snakeplan.rl.train``, the same options); SCENE is any registered scene family with targets.
 """
@@ -38,6 +40,7 @@ Run as ``snakeplan train rl SCENE ALGORITHM --steps N --seed S --out DIR [--robo
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import math
 import multiprocessing
@@ -82,6 +85,7 @@ from snakeplan.planners.sac import (
     SacPlanner,
 )
 from snakeplan.rl.agents import (
+    AUTODIFF,
     EPSILON_DECAY,
     EPSILON_MIN,
     EPSILON_START,
@@ -156,6 +160,9 @@ class TrainConfig:
     #: 0: :func:`snakeplan.checkpoints.checkpoint_interval` of the run's steps.
     checkpoint_every: int = 0
     torch_threads: int = 1
+    #: The library that runs the gradient updates: "torch", or "jax" (the same update compiled by XLA;
+    #: :mod:`snakeplan.rl.jax_update`).
+    autodiff: str = "torch"
     #: Processes that make the run's training scenes ahead of use (:mod:`snakeplan.scenes.prefetch`); 0: none (each
     #: scene is made when first drawn; the default of :func:`train`, which a script may call unguarded); -1: one
     #: when this process may use another core (the default of the command line).
@@ -167,6 +174,9 @@ DEFAULT_CONFIG = TrainConfig()
 #: The measured faster setting (``snakeplan bench rl``): four environments stepped together, batch 512, one update
 #: per four environment steps: a quarter of the default's updates per step, each on four times the samples.
 FAST_CONFIG = replace(DEFAULT_CONFIG, n_envs=4, batch_size=512)
+#: The measured faster update (``snakeplan bench rl``): the same update in JAX, ten environment steps then twenty
+#: updates in one compiled call: twice the default's updates per step, at less wall time per step (README).
+JAX_CONFIG = replace(DEFAULT_CONFIG, autodiff="jax", train_freq=10, gradient_steps=20)
 #: Paper 000 §4.1: 512 x 512 networks, tau 1e-3, lr 2e-4, batch 128, buffer 1e6.
 PAPER_CONFIG = TrainConfig(net_arch=(512, 512), learning_rate=2e-4, tau=1e-3)
 
@@ -234,7 +244,8 @@ def build_model(scene: str, algorithm: str, config: TrainConfig, seed: int, env,
               "buffer_size": min(config.buffer_size, steps), "gradient_steps": config.gradient_steps,
               "train_freq": config.train_freq, "learning_starts": config.learning_starts,
               "policy_kwargs": policy_kwargs, "seed": seed, "verbose": 0, "epsilon_start": config.epsilon_start,
-              "epsilon_min": config.epsilon_min, "epsilon_decay": config.epsilon_decay, "device": "cpu"}
+              "epsilon_min": config.epsilon_min, "epsilon_decay": config.epsilon_decay, "device": "cpu",
+              "autodiff": config.autodiff}
     if algorithm == "sac-her":
         return EpsilonGreedySAC(replay_buffer_class=FastHerReplayBuffer,
                                 replay_buffer_kwargs={"n_sampled_goal": config.her_goals,
@@ -426,7 +437,7 @@ RESUMABLE_CHANGES = ("eval_every", "checkpoint_every", "torch_threads", "scene_w
 
 #: Configuration fields added after checkpoints were first written: left out of a run's identity at their
 #: defaults, so that a state folder written before them still resumes.
-LATER_FIELDS = ("knowledge", "residual", "guide_weight")
+LATER_FIELDS = ("knowledge", "residual", "guide_weight", "autodiff")
 
 
 def run_identity(scene: str, algorithm: str, seed: int, config: TrainConfig) -> dict:
@@ -470,6 +481,10 @@ def train(scene: str, algorithm: str, steps: int, seed: int, out_dir: str | Path
     if config.observation != "guide" and (config.residual or config.guide_weight != DEFAULT_CONFIG.guide_weight):
         raise ValueError(f"--residual, --guide-weight: only the guide observation follows a route guide, not "
                          f"{config.observation}")
+    if config.autodiff not in AUTODIFF:
+        raise ValueError(f"--autodiff: must be one of {', '.join(AUTODIFF)}, got {config.autodiff!r}")
+    if config.autodiff == "jax" and not all(importlib.util.find_spec(m) for m in ("jax", "optax")):
+        raise ValueError("--autodiff: jax needs JAX and optax (pip install 'snakeplan[train]')")
     if config.scene_workers < -1:
         raise ValueError(f"--scene-workers: must be -1 (one when another core is free), 0 (none) or positive, "
                          f"got {config.scene_workers}")
