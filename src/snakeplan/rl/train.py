@@ -31,8 +31,8 @@ look-ahead and a 130 mm turning radius (215 mm plateaued at 0.82-0.86), reached 
 seeds 0 and 1). The shared update (:mod:`snakeplan.rl.agents`), fused Adam and scenes made ahead on the spare
 cores (``scene_workers``) later brought the same fuel-tank command to 289-556 s for 40,000 steps, depending on the
 machine's load (0.94 validation success there; README). The same update in JAX (``--autodiff jax``), ten steps
-then the updates of ten in one compiled call, takes about 40 % of the torch update's wall time per step
-(:data:`JAX_CONFIG`; README).
+then their ten updates in one compiled call, took 46-57 % of that wall time per step; :data:`JAX_CONFIG` makes
+twenty updates per ten steps (README).
 Run as ``snakeplan train rl SCENE ALGORITHM --steps N --seed S --out DIR [--robot NAME ...]`` (or
 ``python -m snakeplan.rl.train``, the same options); SCENE is any registered scene family with targets.
 """
