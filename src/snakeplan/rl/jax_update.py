@@ -171,9 +171,9 @@ class JaxSAC:
 
     def train(self, data, features: th.Tensor, count: int, n_updates: int, lr: float
               ) -> tuple[np.ndarray, np.ndarray]:
-        """``count`` updates on the mini-batches of one SB3 sample ``data`` (rows in order) with ``features`` (its
-        observations' features above its next observations'); ``n_updates``, counted before this call, keys the
-        noise. Returns each update's losses and each row's TD error (see :func:`updates`)."""
+        """``count`` updates on the mini-batches of one SB3 sample ``data`` (split as :func:`_arrays` says) with
+        ``features`` (its observations' features above its next observations'); ``n_updates``, counted before this
+        call, keys the noise. Returns each update's losses and each row's TD error (see :func:`updates`)."""
         result = seeded_updates(self.hyper, self.params, self.opt, np.float32(lr),
                                 _arrays(data, features, count, self.gamma), self.seed, n_updates)
         return self._keep(result)
@@ -209,7 +209,8 @@ class JaxSAC:
 
 
 def _array(tensor: th.Tensor) -> jax.Array:
-    return jnp.asarray(tensor.detach().numpy(), jnp.float32)
+    """A copy: :meth:`JaxSAC.write` later writes into the tensor's memory, which a view would share."""
+    return jnp.array(tensor.detach().numpy(), jnp.float32, copy=True)
 
 
 def _tensors(layers) -> list[th.Tensor]:
