@@ -304,23 +304,26 @@ def _same_as(result: dict, baseline: dict) -> None:
 
 
 def _kill_and_resume(out: Path, kills: int, steps: int, seed: int, options: tuple[str, ...] = ()) -> list[dict]:
-    """Kill the run with SIGKILL ``kills`` times at random moments (any time after the start, a random step of
-    training, or while a checkpoint is being written), rerunning the same command after each; then let it
-    finish. Returns one record per kill: the last step the killed run reported (``reached``) and the step the
-    rerun resumes from. Checkpoint steps are multiples of the reporting period, so a kill mid-checkpoint reports
-    the checkpoint's own step."""
+    """Kill the run with SIGKILL ``kills`` times at random moments (any time in the first quarter of the run, a
+    random step of training, or while a checkpoint is being written), rerunning the same command after each; then
+    let it finish. The moments are bounded in steps as well as in seconds, so that a fast machine does not finish
+    the run before a kill. Returns one record per kill: the last step the killed run reported (``reached``) and
+    the step the rerun resumes from. Checkpoint steps are multiples of the reporting period, so a kill
+    mid-checkpoint reports the checkpoint's own step."""
     rng = random.Random(seed)
     records, resumed_from = [], 0
+    room = steps - 2 * INTERVAL  # the first two kills fall before this step, so that the third finds checkpoints left
     for i in range(kills):
         since = time.time_ns()
         job = _Job(out, steps, options)
         mode = ("anytime", "training", "checkpoint")[i % 3]
         if mode == "anytime":  # start-up, restoring, training, evaluating, saving: wherever it falls
-            job.wait_until(lambda: False, rng.uniform(3.0, 9.0))
-        elif mode == "training":  # a random step of the next two intervals, then a random moment
-            target = resumed_from + rng.randint(1, 2 * INTERVAL)
+            job.wait_until(lambda: job.reached() >= steps // 4, rng.uniform(3.0, 9.0))  # noqa: B023 (called at once)
+        elif mode == "training":  # a random step of the next two intervals, then a random moment before `room`
+            target = min(resumed_from + rng.randint(1, 2 * INTERVAL), room)
             job.wait_until(lambda: job.reached() >= target)  # noqa: B023 (called at once)
-            time.sleep(rng.uniform(0.0, 0.5))
+            job.wait_until(lambda: job.reached() >= room,  # noqa: B023 (called at once)
+                           time.monotonic() - job.t0 + rng.uniform(0.0, 0.5))
         else:  # while the first or the second checkpoint of this run is being written
             target = resumed_from + rng.choice([1, INTERVAL + 1])
             job.wait_until(lambda: job.reached() >= target and _mid_checkpoint(out, since))  # noqa: B023
