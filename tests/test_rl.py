@@ -508,11 +508,17 @@ def test_planner_without_policy_file_is_a_clear_error(tmp_path):
         SacPlanner(policy=tmp_path / "missing.npz").plan(problem)
 
 
-def test_train_writes_policy_curve_and_resumes(tmp_path):
+def test_train_writes_policy_curve_and_resumes_and_nothing_outside_its_folder(tmp_path, monkeypatch):
+    import tempfile
     from dataclasses import replace
 
     from snakeplan.rl.train import DEFAULT_CONFIG, train
 
+    scratch = tmp_path / "scratch"  # the temporary folder while training: SB3's default logger makes one there
+    scratch.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(scratch))
+    monkeypatch.delenv("SB3_LOGDIR", raising=False)
+    tmp_path = tmp_path / "run"
     config = replace(DEFAULT_CONFIG, net_arch=(16, 16), learning_starts=60, eval_every=100, eval_episodes=2,
                      checkpoint_every=100, train_scenes=2, batch_size=16)
     first = train("oil-tank", "sac-per", 150, 0, tmp_path, config, progress=False)
@@ -526,6 +532,8 @@ def test_train_writes_policy_curve_and_resumes(tmp_path):
     steps = [h["env_steps"] for h in second.history]
     assert steps[: len(first.history)] == [h["env_steps"] for h in first.history]
     assert steps[-1] == 250
+    # torch's own compile cache (one per user, made by any Adam) is torch's; a training run adds nothing of its own
+    assert [p.name for p in scratch.iterdir() if not p.name.startswith("torchinductor_")] == []
 
 
 def test_convergence_and_variants():

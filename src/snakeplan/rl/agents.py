@@ -21,6 +21,7 @@ import math
 import numpy as np
 import torch as th
 from stable_baselines3 import SAC
+from stable_baselines3.common.logger import Logger
 from stable_baselines3.common.noise import ActionNoise
 from stable_baselines3.common.type_aliases import ReplayBufferSamples
 from stable_baselines3.sac.policies import LOG_STD_MAX, LOG_STD_MIN
@@ -44,6 +45,7 @@ class EpsilonGreedySAC(SAC):
         self.epsilon_decay = epsilon_decay
         self.autodiff = autodiff
         super().__init__(*args, **kwargs)
+        self.set_logger(Logger(None, []))  # SB3's default logger makes a folder in the temporary folder per run
 
     def _setup_model(self) -> None:
         if self.autodiff not in AUTODIFF:
