@@ -395,6 +395,65 @@ def test_the_jax_updates_resume_from_a_saved_model_bit_for_bit(tmp_path):
         assert th.equal(ours[key], theirs[key]), key
 
 
+def test_overlapped_roll_outs_act_one_call_behind_and_a_lagging_model_resumes_bit_for_bit(tmp_path):
+    """With ``overlap`` a call starts its updates and returns: the roll-outs after it act with the actor of the
+    call before, while the exported actor is the newest. A model saved while lagging loads lagging, and its next
+    calls give the running model's weights, bit for bit."""
+    import jax
+
+    from snakeplan.rl.agents import EpsilonGreedySAC
+    from snakeplan.rl.jax_update import torch_actor
+
+    def newest(m) -> list:
+        return jax.device_get(m._jax.params["actor"])
+
+    def same(a, b) -> bool:
+        return all(np.array_equal(x, y) for x, y in zip(jax.tree.leaves(a), jax.tree.leaves(b), strict=True))
+
+    model = _her_model(autodiff="jax", overlap=True, train_freq=5, gradient_steps=5)
+    model.learn(300)  # learning starts at 300: no update yet
+    before = torch_actor(model)
+    model.train(5, 32)
+    first = newest(model)
+    assert model._lagging and same(torch_actor(model), before) and not same(first, before)
+    model.train(5, 32)
+    second = newest(model)
+    assert same(torch_actor(model), first) and not same(second, first)  # one call behind
+    with model.newest_actor():
+        assert same(torch_actor(model), second)
+    assert same(torch_actor(model), first)
+    model.learn(60, reset_num_timesteps=False)  # roll-outs and calls in turn
+    rollout = torch_actor(model)
+    model.save(tmp_path / "model.zip")
+    model.save_replay_buffer(tmp_path / "replay.pkl")
+    assert same(torch_actor(model), rollout)  # the save leaves the roll-outs their actor
+    copy = EpsilonGreedySAC.load(tmp_path / "model.zip", env=model.env, device="cpu")
+    copy.load_replay_buffer(tmp_path / "replay.pkl", truncate_last_traj=False)
+    assert copy._lagging and copy.overlap and same(torch_actor(copy), rollout)
+    assert same(newest(copy), newest(model)) and not same(newest(model), rollout)
+    for m in (model, copy):
+        np.random.seed(5)
+        m.train(5, 32)
+        m.train(5, 32)
+        m.save(tmp_path / "after.zip")  # copies every JAX weight into the torch modules
+    ours, theirs = model.policy.state_dict(), copy.policy.state_dict()
+    for key in ours:
+        assert th.equal(ours[key], theirs[key]), key
+
+
+def test_overlap_needs_the_jax_updates_and_no_priorities():
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from snakeplan.rl.per import PerSAC
+
+    with pytest.raises(ValueError, match="^overlap: .*autodiff='jax'"):
+        _her_model(overlap=True)
+    venv = DummyVecEnv([lambda: SnakeEnv("oil-tank", seeds=FEW_SEEDS)])
+    with pytest.raises(ValueError, match="^overlap: SAC-PER"):
+        PerSAC("MultiInputPolicy", venv, replay_buffer_class=PrioritizedDictReplayBuffer,
+               replay_buffer_kwargs={"seed": 0}, device="cpu", autodiff="jax", overlap=True)
+
+
 def test_sac_refuses_an_extractor_with_weights():
     from stable_baselines3.common.torch_layers import FlattenExtractor
     from stable_baselines3.common.vec_env import DummyVecEnv

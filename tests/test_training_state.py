@@ -355,7 +355,10 @@ def _kill_and_resume(out: Path, kills: int, steps: int, seed: int, options: tupl
     (STEPS, ()),
     # JAX: ten steps, then ten updates in one call; twice the steps, so that checkpoints are left for the third kill
     # to fall in after the first two (with 240, one run ended before the third kill caught one)
-    (2 * STEPS, ("--autodiff", "jax", "--train-freq", "10", "--gradient-steps", "10"))], ids=["torch", "jax-fused"])
+    (2 * STEPS, ("--autodiff", "jax", "--train-freq", "10", "--gradient-steps", "10")),
+    # the same with the roll-outs overlapping the updates: killed while lagging a call behind, it resumes so
+    (2 * STEPS, ("--autodiff", "jax", "--train-freq", "10", "--gradient-steps", "10", "--overlap", "true"))],
+    ids=["torch", "jax-fused", "jax-overlap"])
 def test_sigkill_at_3_random_moments_resumes_to_the_uninterrupted_result(tmp_path, tmp_path_factory, steps, options):
     baseline = _baseline(tmp_path_factory, steps, options)
     records = _kill_and_resume(tmp_path, kills=3, steps=steps, seed=3, options=options)

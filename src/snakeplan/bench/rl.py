@@ -23,7 +23,8 @@ Each figure is the median of several timed blocks, with a baseline timed in the 
   - the JAX updates (:mod:`snakeplan.rl.jax_update`, the same update) against the torch ones on copies of the same
     model, one update per call and ``JAX_CONFIG.gradient_steps`` per call (paired blocks), and the training steps
     per second of :data:`snakeplan.rl.train.JAX_CONFIG` (ten environment steps, then twenty updates in one call)
-    against the default (one step, one update);
+    without overlap against the default (one step, one update), and with the roll-outs overlapping the updates
+    (``overlap``: XLA computes a call's updates on its own thread while the next ten steps run) against without;
   - when SBX (JAX) is installed, the same update in SBX one call at a time and ``FUSED_UPDATES`` fused into one
     call, against torch.
 
@@ -167,9 +168,10 @@ def _update_levers(model, repeats: int) -> dict:
             "fused_vs_unfused": _paired_update_rates(model.train, unfused.train, repeats)}
 
 
-def _jax_levers(model, repeats: int, seed: int) -> dict:
+def _jax_levers(model, default: float, repeats: int, seed: int) -> dict:
     """The JAX updates (one per call, and ``JAX_CONFIG.gradient_steps`` per call) against the torch
-    ones on copies of ``model``, and the training steps per second of ``JAX_CONFIG`` against the default."""
+    ones on copies of ``model``; the training steps per second of ``JAX_CONFIG`` against the default's
+    (``default``, measured by the caller), and with the roll-outs overlapping the updates against without."""
     import copy
 
     jax_model = copy.deepcopy(model)
@@ -186,10 +188,11 @@ def _jax_levers(model, repeats: int, seed: int) -> dict:
         jax_model.train(per_call, DEFAULT_CONFIG.batch_size)
     one = _paired_update_rates(calls(1), model.train, repeats)
     many = _paired_update_rates(calls(fused), model.train, repeats)
-    default, _, _ = _train_rate(DEFAULT_CONFIG, repeats, seed)
-    jax_rate, _, _ = _train_rate(JAX_CONFIG, repeats, seed)
-    return {"one_per_call": one, "fused": many, "train_steps_per_s": {"jax_config": jax_rate, "default": default,
-                                                                       "ratio": jax_rate / default}}
+    jax_rate, _, _ = _train_rate(replace(JAX_CONFIG, overlap=False), repeats, seed)
+    overlap, _, _ = _train_rate(replace(JAX_CONFIG, overlap=True), repeats, seed)
+    return {"one_per_call": one, "fused": many,
+            "train_steps_per_s": {"jax_config": jax_rate, "default": default, "ratio": jax_rate / default},
+            "overlap_train_steps_per_s": {"ours": overlap, "baseline": jax_rate, "ratio": overlap / jax_rate}}
 
 
 def _prefetch_rates(seed: int) -> dict:
@@ -296,7 +299,7 @@ def run_rl_bench(repeats: int = 5, seed: int = 0) -> dict:
         guide_default, _, _ = _train_rate(guide, repeats, seed)
         guide_fast, _, _ = _train_rate(replace(FAST_CONFIG, observation="guide", knowledge="sensed"), repeats, seed)
         sbx_rates = _sbx_rates(repeats, seed)
-        jax_levers = _jax_levers(model, repeats, seed)
+        jax_levers = _jax_levers(model, ours, repeats, seed)
     finally:
         th.set_num_threads(threads)
     return {
@@ -358,6 +361,9 @@ def rl_markdown(r: dict) -> str:
     rows.append(f"| SAC-HER training steps, JAX, {jax['train_freq']} steps then {jax['gradient_steps']} updates | "
                 f"{t['jax_config']:,.1f} | "
                 f"torch, 1 step then 1 update | {t['default']:,.1f} | {t['ratio']:.2f}x |")
+    o = j["overlap_train_steps_per_s"]
+    rows.append(f"| the same, roll-outs overlapping the updates (a call behind) | {o['ours']:,.1f} | not overlapping | "
+                f"{o['baseline']:,.1f} | {o['ratio']:.2f}x |")
     x = r["sbx_updates_per_s"]
     if x is None:
         rows.append("| SBX (JAX) updates | not installed | | | |")

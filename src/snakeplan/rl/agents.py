@@ -11,12 +11,16 @@ gradients (which SB3 computes and then discards), and the target networks move t
 call. With the same seeds it gives the same weights as SB3's ``SAC.train`` (tests/test_rl.py checks it), in about
 70 % of the time with 128 x 128 networks on the 2-core CPU (``snakeplan bench rl``). SAC-PER changes only the
 critic loss (:meth:`EpsilonGreedySAC._critic_loss`) and anneals its importance exponent. With ``autodiff="jax"``
-the same update runs in JAX (:mod:`snakeplan.rl.jax_update`), all of a call's updates in one compiled call.
+the same update runs in JAX (:mod:`snakeplan.rl.jax_update`), all of a call's updates in one compiled call; with
+``overlap`` as well, the roll-outs after a call run while XLA computes its updates, acting with the actor of the
+call before (:meth:`EpsilonGreedySAC._train_jax`).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 import numpy as np
 import torch as th
@@ -39,19 +43,28 @@ class EpsilonGreedySAC(SAC):
     """SAC whose exploratory actions are replaced by uniform ones with a decaying probability."""
 
     def __init__(self, *args, epsilon_start: float = EPSILON_START, epsilon_min: float = EPSILON_MIN,
-                 epsilon_decay: float = EPSILON_DECAY, autodiff: str = "torch", **kwargs):
+                 epsilon_decay: float = EPSILON_DECAY, autodiff: str = "torch", overlap: bool = False, **kwargs):
         self.epsilon_start = epsilon_start
         self.epsilon_min = epsilon_min
         self.epsilon_decay = epsilon_decay
         self.autodiff = autodiff
+        self.overlap = overlap
+        #: Whether the torch actor (the roll-outs') is a call of updates behind the JAX one (``overlap``).
+        self._lagging = False
+        #: The roll-outs' actor weights while the model is saved lagging (so a loaded model lags as it did).
+        self._rollout_actor = None
         super().__init__(*args, **kwargs)
         self.set_logger(Logger(None, []))  # SB3's default logger makes a folder in the temporary folder per run
 
     def _setup_model(self) -> None:
         if self.autodiff not in AUTODIFF:
             raise ValueError(f"autodiff: must be one of {AUTODIFF}, got {self.autodiff!r}")
+        if self.overlap and self.autodiff != "jax":
+            raise ValueError("overlap: the roll-outs overlap the updates only when JAX computes them "
+                             "(autodiff='jax')")
         super()._setup_model()
         self._jax = None
+        self._pending = None
         if self.use_sde:
             raise ValueError("use_sde: the epsilon-greedy SAC explores by uniform replacement, not by gSDE")
         for extractor in (self.actor.features_extractor, self.critic.features_extractor):
@@ -99,40 +112,98 @@ class EpsilonGreedySAC(SAC):
                                             step) for step in range(gradient_steps)])
         self._n_updates += gradient_steps
         self.logger.record("train/n_updates", self._n_updates, exclude="tensorboard")
+        if losses is None:
+            return
         for key, value in zip(("ent_coef", "critic_loss", "actor_loss", "ent_coef_loss"), losses.mean(axis=0)):
             if key != "ent_coef_loss" or self.ent_coef_optimizer is not None:
                 self.logger.record(f"train/{key}", float(value))
 
-    def _train_jax(self, gradient_steps: int, batch_size: int) -> np.ndarray:
+    def _train_jax(self, gradient_steps: int, batch_size: int) -> np.ndarray | None:
         """The same updates by :class:`snakeplan.rl.jax_update.JaxSAC`, in one compiled call, on mini-batches drawn
         as one sample (independent uniform draws either way, in one call instead of ``gradient_steps``); the
-        actor's new weights are copied back for the roll-outs."""
-        from snakeplan.rl.jax_update import JaxSAC
+        actor's new weights are copied back for the roll-outs. Returns the losses of each update.
+
+        With ``overlap`` the call starts its updates and returns at once: XLA computes them on its own thread
+        while the next roll-outs run, which act with the actor of the call before (one call behind: ``train_freq``
+        steps). The next call first takes that call's actor for its roll-outs, and returns that call's losses
+        (None when there are none: the first call, or the first after a load)."""
+        from snakeplan.rl.jax_update import JaxSAC, ready
 
         if self._jax is None:
             self._jax = JaxSAC.from_model(self)
+        losses = None
+        if self._lagging:  # the last call's updates are the roll-outs' actor from now on
+            self._jax.write(self, actor_only=True)
+            if self._pending is not None:
+                losses = ready(*self._pending)[0]
+            self._lagging, self._pending = False, None
         data = self.replay_buffer.sample(batch_size * gradient_steps, env=self._vec_normalize_env)
         with th.no_grad():
             features = self.actor.extract_features(_stacked(data.observations, data.next_observations),
                                                    self.actor.features_extractor)
-        losses, td = self._jax.train(data, features, gradient_steps, self._n_updates,
-                                     self.actor.optimizer.param_groups[0]["lr"])
+        lr = self.actor.optimizer.param_groups[0]["lr"]
+        if self.overlap:
+            self._pending = self._jax.dispatch(data, features, gradient_steps, self._n_updates, lr)
+            self._lagging = True
+            return losses
+        losses, td = self._jax.train(data, features, gradient_steps, self._n_updates, lr)
         self._jax.write(self, actor_only=True)
         self._sampled(data, td)
         return losses
+
+    @contextmanager
+    def newest_actor(self) -> Iterator[None]:
+        """Inside, the torch actor has the newest weights (with ``overlap`` the roll-outs' are a call behind);
+        the exported and validated policy is read there."""
+        if not self._lagging:
+            yield
+            return
+        from snakeplan.rl.jax_update import torch_actor, write_actor
+
+        rollout = torch_actor(self)
+        self._jax.write(self, actor_only=True)
+        try:
+            yield
+        finally:
+            write_actor(self, rollout)
 
     def _sampled(self, data: ReplayBufferSamples, td_errors: np.ndarray) -> None:
         """What the JAX updates report of a call's samples after its updates: their mean absolute TD errors
         (SAC-PER's priorities; plain SAC keeps none)."""
 
     def save(self, *args, **kwargs) -> None:
-        """SB3's save, with the JAX updates' weights and Adam states copied into the torch model first."""
-        if self._jax is not None:
-            self._jax.write(self)
-        super().save(*args, **kwargs)
+        """SB3's save, with the JAX updates' weights and Adam states copied into the torch model first (and, while
+        the roll-outs lag, their actor saved beside them: :meth:`load` puts it back)."""
+        if self._jax is None:
+            super().save(*args, **kwargs)
+            return
+        from snakeplan.rl.jax_update import torch_actor, write_actor
+
+        rollout = torch_actor(self) if self._lagging else None
+        self._jax.write(self)
+        self._rollout_actor = rollout
+        try:
+            super().save(*args, **kwargs)
+        finally:
+            self._rollout_actor = None
+            if rollout is not None:
+                write_actor(self, rollout)
+
+    @classmethod
+    def load(cls, *args, **kwargs):
+        """SB3's load; a model saved while its roll-outs lagged (``overlap``) gets its newest weights into JAX and
+        the roll-outs' actor back into torch, as it was."""
+        model = super().load(*args, **kwargs)
+        if model._rollout_actor is not None:
+            from snakeplan.rl.jax_update import JaxSAC, write_actor
+
+            model._jax = JaxSAC.from_model(model)
+            write_actor(model, model._rollout_actor)
+            model._rollout_actor = None
+        return model
 
     def _excluded_save_params(self) -> list[str]:
-        return [*super()._excluded_save_params(), "_jax"]
+        return [*super()._excluded_save_params(), "_jax", "_pending"]
 
     def _policy(self, features: th.Tensor) -> tuple[th.Tensor, th.Tensor]:
         """The actor's squashed Gaussian sample and its log-probability, from ready features."""

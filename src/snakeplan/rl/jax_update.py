@@ -9,7 +9,9 @@ SB3's and a resumed run continues the uninterrupted one. The Gaussian noise of u
 ``fold_in(PRNGKey(seed), n)``: it depends on the count of updates alone, which the checkpoint holds.
 
 The observations' features are computed by the torch extractor (it has no weights) and passed in; a call runs
-any number of updates in one compiled ``lax.scan``. XLA is held to one thread, as torch is while training.
+any number of updates in one compiled ``lax.scan``. XLA is held to one thread, as torch is while training. JAX
+returns from a call before XLA has computed it (:meth:`JaxSAC.dispatch`), which lets a trainer with ``overlap``
+run its next roll-outs meanwhile on the other core.
 """
 
 from __future__ import annotations
@@ -174,9 +176,16 @@ class JaxSAC:
         """``count`` updates on the mini-batches of one SB3 sample ``data`` (split as :func:`_arrays` says) with
         ``features`` (its observations' features above its next observations'); ``n_updates``, counted before this
         call, keys the noise. Returns each update's losses and each row's TD error (see :func:`updates`)."""
-        result = seeded_updates(self.hyper, self.params, self.opt, np.float32(lr),
-                                _arrays(data, features, count, self.gamma), self.seed, n_updates)
-        return self._keep(result)
+        return ready(*self.dispatch(data, features, count, n_updates, lr))
+
+    def dispatch(self, data, features: th.Tensor, count: int, n_updates: int, lr: float) -> tuple:
+        """:meth:`train`'s updates, started and not waited for: XLA computes them on its own thread while the
+        caller goes on (the roll-outs of :class:`snakeplan.rl.agents.EpsilonGreedySAC` with ``overlap``). The new
+        weights are kept at once (as arrays still being computed); returns the losses and TD errors likewise."""
+        self.params, self.opt, losses, td = seeded_updates(self.hyper, self.params, self.opt, np.float32(lr),
+                                                           _arrays(data, features, count, self.gamma), self.seed,
+                                                           n_updates)
+        return losses, td
 
     def run(self, arrays: tuple, noise: np.ndarray, lr: float) -> tuple[np.ndarray, np.ndarray]:
         """The updates on ready arrays (:func:`_arrays`) with given noise, ``(2, updates, batch, action)``."""
@@ -185,7 +194,7 @@ class JaxSAC:
     def _keep(self, result) -> tuple[np.ndarray, np.ndarray]:
         """Keep the new state; the losses per update, and the TD errors in the sample's row order."""
         self.params, self.opt, losses, td = result
-        return np.asarray(losses), np.asarray(td).T.reshape(-1)
+        return ready(losses, td)
 
     def write(self, model, actor_only: bool = False) -> None:
         """Copy the weights (and, unless ``actor_only``, the critics', targets', coefficient's and every Adam
@@ -194,10 +203,7 @@ class JaxSAC:
         keys = ("actor",) if actor_only else ("actor", "critic", "target")
         values = jax.device_get({key: self.params[key] for key in keys})
         for key in keys:
-            for net, pairs in zip(layers[key], values[key]):
-                for m, (w, b) in zip(net, pairs):
-                    m.weight.detach().numpy()[...] = w
-                    m.bias.detach().numpy()[...] = b
+            write_layers(layers[key], values[key])
         if actor_only:
             return
         if model.log_ent_coef is not None:
@@ -206,6 +212,30 @@ class JaxSAC:
         _write_adam(model.critic.optimizer, layers["critic"], self.opt["critic"])
         if model.ent_coef_optimizer is not None:
             _write_adam(model.ent_coef_optimizer, model.log_ent_coef, self.opt["alpha"])
+
+
+def ready(losses, td) -> tuple[np.ndarray, np.ndarray]:
+    """:meth:`JaxSAC.dispatch`'s losses per update and TD errors in the sample's row order, once computed."""
+    return np.asarray(losses), np.asarray(td).T.reshape(-1)
+
+
+def write_layers(nets: list, values: list) -> None:
+    """Weights ``values`` (per net, (weight, bias) pairs of arrays) into torch linear layers ``nets``."""
+    for net, pairs in zip(nets, values):
+        for m, (w, b) in zip(net, pairs):
+            m.weight.detach().numpy()[...] = w
+            m.bias.detach().numpy()[...] = b
+
+
+def torch_actor(model) -> list:
+    """A copy of the torch actor's weights, as :func:`write_actor` takes them."""
+    return [[(m.weight.detach().numpy().copy(), m.bias.detach().numpy().copy()) for m in net]
+            for net in _torch_layers(model)["actor"]]
+
+
+def write_actor(model, weights: list) -> None:
+    """:func:`torch_actor`'s weights back into the torch actor."""
+    write_layers(_torch_layers(model)["actor"], weights)
 
 
 def _array(tensor: th.Tensor) -> jax.Array:

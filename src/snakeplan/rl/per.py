@@ -166,6 +166,12 @@ class PerSAC(EpsilonGreedySAC):
         self.beta_start = beta_start
         super().__init__(*args, **kwargs)
 
+    def _setup_model(self) -> None:
+        if self.overlap:
+            raise ValueError("overlap: SAC-PER sets its priorities from each call's TD errors before the next "
+                             "sample; train it without overlap")
+        super()._setup_model()
+
     def train(self, gradient_steps: int, batch_size: int = 64) -> None:
         buffer = self.replay_buffer
         buffer.beta = self.beta_start + (1.0 - self.beta_start) * (1.0 - self._current_progress_remaining)

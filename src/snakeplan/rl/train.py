@@ -163,6 +163,9 @@ class TrainConfig:
     #: The library that runs the gradient updates: "torch", or "jax" (the same update compiled by XLA;
     #: :mod:`snakeplan.rl.jax_update`).
     autodiff: str = "torch"
+    #: JAX only: each call's updates run on XLA's thread while the next ``train_freq`` roll-out steps run, which
+    #: act with the actor of the call before (:meth:`snakeplan.rl.agents.EpsilonGreedySAC._train_jax`).
+    overlap: bool = False
     #: Processes that make the run's training scenes ahead of use (:mod:`snakeplan.scenes.prefetch`); 0: none (each
     #: scene is made when first drawn; the default of :func:`train`, which a script may call unguarded); -1: one
     #: when this process may use another core (the default of the command line).
@@ -245,7 +248,7 @@ def build_model(scene: str, algorithm: str, config: TrainConfig, seed: int, env,
               "train_freq": config.train_freq, "learning_starts": config.learning_starts,
               "policy_kwargs": policy_kwargs, "seed": seed, "verbose": 0, "epsilon_start": config.epsilon_start,
               "epsilon_min": config.epsilon_min, "epsilon_decay": config.epsilon_decay, "device": "cpu",
-              "autodiff": config.autodiff}
+              "autodiff": config.autodiff, "overlap": config.overlap}
     if algorithm == "sac-her":
         return EpsilonGreedySAC(replay_buffer_class=FastHerReplayBuffer,
                                 replay_buffer_kwargs={"n_sampled_goal": config.her_goals,
@@ -327,7 +330,8 @@ class _Run:
                 "config": {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self.config).items()}}
 
     def export(self, n: int) -> NumpyPolicy:
-        return from_sb3(self.model, self.meta(n), self.graph)
+        with self.model.newest_actor():
+            return from_sb3(self.model, self.meta(n), self.graph)
 
     def validate(self, n: int) -> None:
         policy = self.export(n)
@@ -437,7 +441,7 @@ RESUMABLE_CHANGES = ("eval_every", "checkpoint_every", "torch_threads", "scene_w
 
 #: Configuration fields added after checkpoints were first written: left out of a run's identity at their
 #: defaults, so that a state folder written before them still resumes.
-LATER_FIELDS = ("knowledge", "residual", "guide_weight", "autodiff")
+LATER_FIELDS = ("knowledge", "residual", "guide_weight", "autodiff", "overlap")
 
 
 def run_identity(scene: str, algorithm: str, seed: int, config: TrainConfig) -> dict:
@@ -485,6 +489,12 @@ def train(scene: str, algorithm: str, steps: int, seed: int, out_dir: str | Path
         raise ValueError(f"--autodiff: must be one of {', '.join(AUTODIFF)}, got {config.autodiff!r}")
     if config.autodiff == "jax" and not all(importlib.util.find_spec(m) for m in ("jax", "optax")):
         raise ValueError("--autodiff: jax needs JAX and optax (pip install 'snakeplan[train]')")
+    if config.overlap and config.autodiff != "jax":
+        raise ValueError("--overlap: the roll-outs overlap the updates only when JAX computes them; add "
+                         "--autodiff jax")
+    if config.overlap and algorithm == "sac-per":
+        raise ValueError("--overlap: SAC-PER sets its priorities from each call's TD errors before the next "
+                         "sample; train it without --overlap")
     if config.scene_workers < -1:
         raise ValueError(f"--scene-workers: must be -1 (one when another core is free), 0 (none) or positive, "
                          f"got {config.scene_workers}")
