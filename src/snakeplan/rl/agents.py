@@ -241,8 +241,11 @@ class EpsilonGreedySAC(SAC):
         critic_loss.backward()
         critic.optimizer.step()
         critic.requires_grad_(False)  # the actor's loss needs the critics' input gradients, not their weights'
-        actor_loss = (ent_coef * log_prob - _q_min(critic.q_networks, th.cat([features, actions_pi], dim=1))).mean()
-        critic.requires_grad_(True)
+        try:
+            actor_loss = (ent_coef * log_prob
+                          - _q_min(critic.q_networks, th.cat([features, actions_pi], dim=1))).mean()
+        finally:
+            critic.requires_grad_(True)
         actor.optimizer.zero_grad()
         actor_loss.backward()
         actor.optimizer.step()

@@ -32,7 +32,9 @@ seeds 0 and 1). The shared update (:mod:`snakeplan.rl.agents`), fused Adam and s
 cores (``scene_workers``) later brought the same fuel-tank command to 289-556 s for 40,000 steps, depending on the
 machine's load (0.94 validation success there; README). The same update in JAX (``--autodiff jax``), ten steps
 then their ten updates in one compiled call, took 46-57 % of that wall time per step; :data:`JAX_CONFIG` makes
-twenty updates per ten steps (README).
+twenty updates per ten steps (README). With ``--overlap true`` as well, the next ten steps run while XLA computes
+a call's updates, acting with the actor of the call before: 40,000 steps in 168-187 s, against 30,000 in 176-186 s
+without; not used by :data:`JAX_CONFIG`, as it learned no better per step on the seeds tried (README).
 Run as ``snakeplan train rl SCENE ALGORITHM --steps N --seed S --out DIR [--robot NAME ...]`` (or
 ``python -m snakeplan.rl.train``, the same options); SCENE is any registered scene family with targets.
 """
