@@ -441,10 +441,18 @@ def test_overlapped_roll_outs_act_one_call_behind_and_a_lagging_model_resumes_bi
         assert th.equal(ours[key], theirs[key]), key
 
 
-def test_overlap_needs_the_jax_updates_and_no_priorities():
+def test_overlap_needs_the_jax_updates_and_no_priorities(tmp_path):
+    from dataclasses import replace
+
     from stable_baselines3.common.vec_env import DummyVecEnv
 
     from snakeplan.rl.per import PerSAC
+    from snakeplan.rl.train import DEFAULT_CONFIG, train
+
+    config = replace(DEFAULT_CONFIG, autodiff="jax", overlap=True)
+    with pytest.raises(ValueError, match="^--overlap: SAC-PER"):
+        train("oil-tank", "sac-per", 10, 0, tmp_path / "run", config, progress=False)
+    assert not (tmp_path / "run").exists()
 
     with pytest.raises(ValueError, match="^overlap: .*autodiff='jax'"):
         _her_model(overlap=True)
