@@ -258,6 +258,28 @@ def test_train_rl_rejects_a_bad_option_and_writes_nothing(capsys, tmp_path, opti
     assert not out.exists()
 
 
+@pytest.mark.parametrize("options", [["--autodiff", "tensorflow"], ["--bogus", "3"], ["--paper", "--jax"]])
+def test_the_trainer_module_rejects_a_bad_option_in_one_line(tmp_path, options):
+    """``python -m snakeplan.rl.train``, the command every shipped policy records, answers a mistake as the
+    ``snakeplan`` command does."""
+    out = tmp_path / "run"
+    proc = subprocess.run([sys.executable, "-m", "snakeplan.rl.train", "fuel-tank", "sac-her", "--steps", "10",
+                           "--out", str(out), *options], capture_output=True, text=True)
+    assert proc.returncode == 2 and proc.stdout == ""
+    assert proc.stderr.count("\n") == 1 and proc.stderr.startswith("snakeplan: error: ") and options[0] in proc.stderr
+    assert not out.exists()
+
+
+def test_jax_option_starts_from_the_jax_configuration():
+    from dataclasses import replace
+
+    from snakeplan.rl.train import JAX_CONFIG, parse_config
+
+    assert parse_config(["--jax"]) == replace(JAX_CONFIG, scene_workers=-1)
+    assert parse_config(["--jax", "--learning-rate", "3e-4"]).learning_rate == 3e-4
+    assert JAX_CONFIG.autodiff == "jax" and JAX_CONFIG.overlap
+
+
 def test_bench_speed_saves_each_row_and_a_rerun_measures_only_the_rest(capsys, tmp_path, monkeypatch):
     import os
     import signal
