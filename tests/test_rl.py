@@ -435,10 +435,11 @@ def test_overlapped_roll_outs_act_one_call_behind_and_a_lagging_model_resumes_bi
         np.random.seed(5)
         m.train(5, 32)
         m.train(5, 32)
-        m.save(tmp_path / "after.zip")  # copies every JAX weight into the torch modules
+        m.save(tmp_path / "after.zip")  # copies the JAX weights into torch (the actor: the roll-outs' again after)
     ours, theirs = model.policy.state_dict(), copy.policy.state_dict()
     for key in ours:
         assert th.equal(ours[key], theirs[key]), key
+    assert same(newest(model), newest(copy)) and same(jax.device_get(model._jax.opt), jax.device_get(copy._jax.opt))
 
 
 def test_overlap_needs_the_jax_updates_and_no_priorities(tmp_path):

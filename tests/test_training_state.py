@@ -28,7 +28,8 @@ SRC = str(Path(__file__).resolve().parents[1] / "src")
 ENV = {**os.environ, "PYTHONPATH": SRC, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 #: A tiny SAC-HER run: 8 x 8 networks, a checkpoint every 30 steps, 2 validation episodes every 60.
 INTERVAL = 30
-TINY = ["--net-arch", "8", "8", "--batch-size", "16", "--learning-starts", "150", "--eval-every", "60",
+LEARNING_STARTS = 150
+TINY = ["--net-arch", "8", "8", "--batch-size", "16", "--learning-starts", str(LEARNING_STARTS), "--eval-every", "60",
         "--eval-episodes", "2", "--checkpoint-every", str(INTERVAL), "--train-scenes", "2", "--torch-threads", "1"]
 STEPS = 240
 LINE = re.compile(r"^snakeplan: interrupted at step (\d+); checkpoint saved in (.+); rerun the same command to "
@@ -319,8 +320,9 @@ def _kill_and_resume(out: Path, kills: int, steps: int, seed: int, options: tupl
         mode = ("anytime", "training", "checkpoint")[i % 3]
         if mode == "anytime":  # start-up, restoring, training, evaluating, saving: wherever it falls
             job.wait_until(lambda: job.reached() >= steps // 4, rng.uniform(3.0, 9.0))  # noqa: B023 (called at once)
-        elif mode == "training":  # a random step of the next two intervals, then a random moment before `room`
-            target = min(resumed_from + rng.randint(1, 2 * INTERVAL), room)
+        elif mode == "training":  # a random step of the next two intervals once updates have begun and a
+            # checkpoint has been taken since, then a random moment before `room`
+            target = min(max(resumed_from + rng.randint(1, 2 * INTERVAL), LEARNING_STARTS + 2 * INTERVAL), room)
             job.wait_until(lambda: job.reached() >= target)  # noqa: B023 (called at once)
             job.wait_until(lambda: job.reached() >= room,  # noqa: B023 (called at once)
                            time.monotonic() - job.t0 + rng.uniform(0.0, 0.5))
@@ -364,6 +366,8 @@ def test_sigkill_at_3_random_moments_resumes_to_the_uninterrupted_result(tmp_pat
     records = _kill_and_resume(tmp_path, kills=3, steps=steps, seed=3, options=options)
     print(json.dumps(records))
     assert records[2]["mid_checkpoint"]  # the third kill fell while a checkpoint was being written
+    if options:  # a rerun resumed from a checkpoint taken after updates began (with overlap: while lagging)
+        assert max(r["resumes_from"] for r in records) > LEARNING_STARTS, records
     _same_as(_result(tmp_path), baseline)
     assert _verified_step(tmp_path) == steps
 

@@ -54,7 +54,8 @@ class EpsilonGreedySAC(SAC):
         #: The roll-outs' actor weights while the model is saved lagging (so a loaded model lags as it did).
         self._rollout_actor = None
         super().__init__(*args, **kwargs)
-        self.set_logger(Logger(None, []))  # SB3's default logger makes a folder in the temporary folder per run
+        if self.tensorboard_log is None and self.verbose == 0:  # nothing to log: SB3's own logger would make a
+            self.set_logger(Logger(None, []))  # folder in the temporary folder per run all the same
 
     def _setup_model(self) -> None:
         if self.autodiff not in AUTODIFF:

@@ -498,7 +498,7 @@ def train(scene: str, algorithm: str, steps: int, seed: int, out_dir: str | Path
                          "--autodiff jax")
     if config.overlap and algorithm == "sac-per":
         raise ValueError("--overlap: SAC-PER sets its priorities from each call's TD errors before the next "
-                         "sample; train it without --overlap")
+                         "sample; train it with --overlap false")
     if config.scene_workers < -1:
         raise ValueError(f"--scene-workers: must be -1 (one when another core is free), 0 (none) or positive, "
                          f"got {config.scene_workers}")
