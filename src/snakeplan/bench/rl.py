@@ -98,8 +98,9 @@ def _env_rate(scene: str, observation: str, repeats: int, seed: int) -> float:
     return ENV_BLOCK / median_seconds(block, repeats)
 
 
-def _train_rate(config, repeats: int, seed: int):
-    """SAC-HER training steps per second with ``config``, and the trained model with its route graph."""
+def _learning_model(config, seed: int):
+    """A SAC-HER model with ``config`` on ``BENCH_SCENES`` fuel-tank scenes, past its random first
+    ``TRAIN_BLOCK`` steps, and its route graph."""
     config = replace(config, learning_starts=TRAIN_BLOCK, train_scenes=BENCH_SCENES)
     env = DummyVecEnv([make_env("fuel-tank", config)] * config.n_envs)
     for e in env.envs:
@@ -107,8 +108,23 @@ def _train_rate(config, repeats: int, seed: int):
     env.seed(seed)
     model, graph = build_model("fuel-tank", "sac-her", config, seed, env, BUFFER_STEPS)
     model.learn(TRAIN_BLOCK)
-    rate = TRAIN_BLOCK / median_seconds(lambda: model.learn(TRAIN_BLOCK, reset_num_timesteps=False), repeats)
-    return rate, model, graph
+    return model, graph
+
+
+def _block(model) -> Callable[[], None]:
+    """``TRAIN_BLOCK`` more training steps of ``model``, and the wait for the updates it still computes (with
+    ``overlap``), so that each block's work is timed in that block."""
+    def block() -> None:
+        model.learn(TRAIN_BLOCK, reset_num_timesteps=False)
+        with model.newest_actor():  # reading the newest weights waits for them
+            pass
+    return block
+
+
+def _train_rate(config, repeats: int, seed: int):
+    """SAC-HER training steps per second with ``config``, and the trained model with its route graph."""
+    model, graph = _learning_model(config, seed)
+    return TRAIN_BLOCK / median_seconds(_block(model), repeats), model, graph
 
 
 def _call_rates(model, graph, repeats: int, seed: int) -> tuple[float, float]:
@@ -141,14 +157,21 @@ def _paired_update_rates(ours: Callable[[int, int], None], baseline: Callable[[i
     """Gradient updates per second (batch 128) of ``ours`` and ``baseline`` (each called as ``f(updates,
     batch)``), in ``PAIRED_BLOCKS`` alternating pairs of ``PAIRED_UPDATES`` each (medians; the ratio is the median
     of the pairs' ratios, which a machine's load swings cancel out of)."""
+    return _paired_rates(lambda: ours(PAIRED_UPDATES, DEFAULT_CONFIG.batch_size),
+                         lambda: baseline(PAIRED_UPDATES, DEFAULT_CONFIG.batch_size), PAIRED_UPDATES, repeats)
+
+
+def _paired_rates(ours: Callable[[], None], baseline: Callable[[], None], units: int, repeats: int) -> dict:
+    """Units per second of ``ours`` and ``baseline`` (each call does ``units``), in ``PAIRED_BLOCKS`` (or
+    ``repeats``) alternating pairs: medians, and the median of the pairs' ratios."""
     import time
 
     rates: tuple[list[float], list[float]] = ([], [])
     for _ in range(max(repeats, PAIRED_BLOCKS)):
         for out, step in zip(rates, (ours, baseline)):
             t0 = time.perf_counter()
-            step(PAIRED_UPDATES, DEFAULT_CONFIG.batch_size)
-            out.append(PAIRED_UPDATES / (time.perf_counter() - t0))
+            step()
+            out.append(units / (time.perf_counter() - t0))
     return {"ours": float(np.median(rates[0])), "baseline": float(np.median(rates[1])),
             "ratio": float(np.median(np.divide(*rates)))}
 
@@ -188,11 +211,13 @@ def _jax_levers(model, default: float, repeats: int, seed: int) -> dict:
         jax_model.train(per_call, DEFAULT_CONFIG.batch_size)
     one = _paired_update_rates(calls(1), model.train, repeats)
     many = _paired_update_rates(calls(fused), model.train, repeats)
-    jax_rate, _, _ = _train_rate(replace(JAX_CONFIG, overlap=False), repeats, seed)
-    overlap, _, _ = _train_rate(replace(JAX_CONFIG, overlap=True), repeats, seed)
+    plain, _ = _learning_model(replace(JAX_CONFIG, overlap=False), seed)
+    overlapped, _ = _learning_model(replace(JAX_CONFIG, overlap=True), seed)
+    overlap = _paired_rates(_block(overlapped), _block(plain), TRAIN_BLOCK, repeats)
+    jax_rate = overlap["baseline"]
     return {"one_per_call": one, "fused": many,
             "train_steps_per_s": {"jax_config": jax_rate, "default": default, "ratio": jax_rate / default},
-            "overlap_train_steps_per_s": {"ours": overlap, "baseline": jax_rate, "ratio": overlap / jax_rate}}
+            "overlap_train_steps_per_s": overlap}
 
 
 def _prefetch_rates(seed: int) -> dict:
