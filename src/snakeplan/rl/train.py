@@ -606,7 +606,8 @@ class _OptionParser(argparse.ArgumentParser):
 
 
 def _add_config_arguments(p: argparse.ArgumentParser) -> None:
-    """``--paper`` and one ``--field-name`` flag per :class:`TrainConfig` field."""
+    """``--paper`` or ``--jax`` (the configuration to start from) and one ``--field-name`` flag per
+    :class:`TrainConfig` field."""
     p.add_argument("--paper", action="store_true", help="start from the paper's hyper-parameters (§4.1)")
     p.add_argument("--jax", action="store_true", help="start from JAX_CONFIG: JAX updates overlapping the roll-outs, "
                    "learning rate 1e-3 (fuel-tank to 0.9 in under three minutes on two cores)")
