@@ -304,13 +304,14 @@ def _same_as(result: dict, baseline: dict) -> None:
     assert json.dumps(result["curve"]) == json.dumps(baseline["curve"])
 
 
-def _kill_and_resume(out: Path, kills: int, steps: int, seed: int, options: tuple[str, ...] = ()) -> list[dict]:
+def _kill_and_resume(out: Path, kills: int, steps: int, seed: int, options: tuple[str, ...] = (),
+                     after: int = 0) -> list[dict]:
     """Kill the run with SIGKILL ``kills`` times at random moments (any time in the first quarter of the run, a
-    random step of training, or while a checkpoint is being written), rerunning the same command after each; then
-    let it finish. The moments are bounded in steps as well as in seconds, so that a fast machine does not finish
-    the run before a kill. Returns one record per kill: the last step the killed run reported (``reached``) and
-    the step the rerun resumes from. Checkpoint steps are multiples of the reporting period, so a kill
-    mid-checkpoint reports the checkpoint's own step."""
+    random step of training from step ``after``, or while a checkpoint is being written), rerunning the same
+    command after each; then let it finish. The moments are bounded in steps as well as in seconds, so that a fast
+    machine does not finish the run before a kill. Returns one record per kill: the last step the killed run
+    reported (``reached``) and the step the rerun resumes from. Checkpoint steps are multiples of the reporting
+    period, so a kill mid-checkpoint reports the checkpoint's own step."""
     rng = random.Random(seed)
     records, resumed_from = [], 0
     room = steps - 2 * INTERVAL  # the first two kills fall before this step, so that the third finds checkpoints left
@@ -320,9 +321,9 @@ def _kill_and_resume(out: Path, kills: int, steps: int, seed: int, options: tupl
         mode = ("anytime", "training", "checkpoint")[i % 3]
         if mode == "anytime":  # start-up, restoring, training, evaluating, saving: wherever it falls
             job.wait_until(lambda: job.reached() >= steps // 4, rng.uniform(3.0, 9.0))  # noqa: B023 (called at once)
-        elif mode == "training":  # a random step of the next two intervals once updates have begun and a
-            # checkpoint has been taken since, then a random moment before `room`
-            target = min(max(resumed_from + rng.randint(1, 2 * INTERVAL), LEARNING_STARTS + 2 * INTERVAL), room)
+        elif mode == "training":  # a random step of the next two intervals, not before step `after`, then a
+            # random moment before `room`
+            target = min(max(resumed_from + rng.randint(1, 2 * INTERVAL), after), room)
             job.wait_until(lambda: job.reached() >= target)  # noqa: B023 (called at once)
             job.wait_until(lambda: job.reached() >= room,  # noqa: B023 (called at once)
                            time.monotonic() - job.t0 + rng.uniform(0.0, 0.5))
@@ -363,7 +364,9 @@ def _kill_and_resume(out: Path, kills: int, steps: int, seed: int, options: tupl
     ids=["torch", "jax-fused", "jax-overlap"])
 def test_sigkill_at_3_random_moments_resumes_to_the_uninterrupted_result(tmp_path, tmp_path_factory, steps, options):
     baseline = _baseline(tmp_path_factory, steps, options)
-    records = _kill_and_resume(tmp_path, kills=3, steps=steps, seed=3, options=options)
+    # JAX: the second kill once updates have begun and a checkpoint has been taken since
+    after = LEARNING_STARTS + 2 * INTERVAL if options else 0
+    records = _kill_and_resume(tmp_path, kills=3, steps=steps, seed=3, options=options, after=after)
     print(json.dumps(records))
     assert records[2]["mid_checkpoint"]  # the third kill fell while a checkpoint was being written
     if options:  # a rerun resumed from a checkpoint taken after updates began (with overlap: while lagging)
