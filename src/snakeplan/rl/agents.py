@@ -153,18 +153,19 @@ class EpsilonGreedySAC(SAC):
         return losses
 
     @contextmanager
-    def newest_actor(self) -> Iterator[None]:
-        """Inside, the torch actor has the newest weights (with ``overlap`` the roll-outs' are a call behind);
-        the exported and validated policy is read there."""
+    def newest_actor(self) -> Iterator[list | None]:
+        """Inside, the torch actor has the newest weights (with ``overlap`` the roll-outs' are a call behind; the
+        exported and validated policy is read there, which waits for updates still computing); yields the
+        roll-outs' weights, put back on leaving, or None when they are the newest."""
         if not self._lagging:
-            yield
+            yield None
             return
         from snakeplan.rl.jax_update import torch_actor, write_actor
 
         rollout = torch_actor(self)
         self._jax.write(self, actor_only=True)
         try:
-            yield
+            yield rollout
         finally:
             write_actor(self, rollout)
 
@@ -178,17 +179,13 @@ class EpsilonGreedySAC(SAC):
         if self._jax is None:
             super().save(*args, **kwargs)
             return
-        from snakeplan.rl.jax_update import torch_actor, write_actor
-
-        rollout = torch_actor(self) if self._lagging else None
-        self._jax.write(self)
-        self._rollout_actor = rollout
-        try:
-            super().save(*args, **kwargs)
-        finally:
-            self._rollout_actor = None
-            if rollout is not None:
-                write_actor(self, rollout)
+        with self.newest_actor() as rollout:
+            self._jax.write(self)
+            self._rollout_actor = rollout
+            try:
+                super().save(*args, **kwargs)
+            finally:
+                self._rollout_actor = None
 
     @classmethod
     def load(cls, *args, **kwargs):

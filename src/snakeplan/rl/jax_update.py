@@ -203,7 +203,7 @@ class JaxSAC:
         keys = ("actor",) if actor_only else ("actor", "critic", "target")
         values = jax.device_get({key: self.params[key] for key in keys})
         for key in keys:
-            write_layers(layers[key], values[key])
+            _write_layers(layers[key], values[key])
         if actor_only:
             return
         if model.log_ent_coef is not None:
@@ -219,7 +219,7 @@ def ready(losses, td) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(losses), np.asarray(td).T.reshape(-1)
 
 
-def write_layers(nets: list, values: list) -> None:
+def _write_layers(nets: list, values: list) -> None:
     """Weights ``values`` (per net, (weight, bias) pairs of arrays) into torch linear layers ``nets``."""
     for net, pairs in zip(nets, values):
         for m, (w, b) in zip(net, pairs):
@@ -235,7 +235,7 @@ def torch_actor(model) -> list:
 
 def write_actor(model, weights: list) -> None:
     """:func:`torch_actor`'s weights back into the torch actor."""
-    write_layers(_torch_layers(model)["actor"], weights)
+    _write_layers(_torch_layers(model)["actor"], weights)
 
 
 def _array(tensor: th.Tensor) -> jax.Array:
