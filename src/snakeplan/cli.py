@@ -411,6 +411,22 @@ def cmd_plan(args: argparse.Namespace) -> int:
     return EXIT_OK if episode.success else EXIT_INFEASIBLE
 
 
+def cmd_compile(args: argparse.Namespace) -> int:
+    from snakeplan import precompile
+    from snakeplan.jit import compiled_dir
+
+    if args.remove:
+        found = precompile.remove()
+        sys.stdout.write(f"{'removed' if found else 'there was no'} compiled module in {compiled_dir()}\n")
+        return EXIT_OK
+    from snakeplan.scenes import scene_names
+
+    for name in args.scene or []:
+        if name not in scene_names():
+            raise UsageError(f"--scene: unknown scene family {name!r} (known: {', '.join(scene_names())})")
+    return precompile.main(args.scene)
+
+
 def cmd_trajectory(args: argparse.Namespace) -> int:
     from snakeplan.scenes import Scene, make_scene, spec_for
     from snakeplan.trajectory import read_plan
@@ -887,6 +903,16 @@ def build_parser() -> argparse.ArgumentParser:
     _view_args(p, "the plan (an inspection mission: the camera's flight and the map filling in)")
     p.add_argument("--trajectory", action="append", metavar="FILE", help=TRAJECTORY_HELP)
     p.set_defaults(func=cmd_plan)
+
+    p = sub.add_parser("compile", help="compile the kernels ahead of time, so that commands start without numba",
+                       description="Run each scene family's plan command (and every planner on fuel-tank) once, "
+                                   "recording the kernels they call, and compile those into one module in the "
+                                   "cache folder ($SNAKEPLAN_CACHE_DIR, else ~/.cache/snakeplan). Commands then "
+                                   "load it instead of numba while snakeplan's sources match it. Needs a C "
+                                   "compiler; takes a few minutes.")
+    p.add_argument("--scene", action="append", help="only this scene family's commands (may be repeated)")
+    p.add_argument("--remove", action="store_true", help="delete the compiled module")
+    p.set_defaults(func=cmd_compile)
 
     p = sub.add_parser("trajectory", help="turn a plan file into a trajectory a controller can run",
                        description="Judge a plan (snakeplan.plan/1, as plan --json writes) and write its "

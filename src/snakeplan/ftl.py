@@ -21,12 +21,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 from numpy.typing import ArrayLike
 
 from snakeplan.geometry.polyline import arclength_grid, cumulative_length, validate_path
 from snakeplan.geometry.transforms import normalize
-from snakeplan.jit import leaf
+from snakeplan.jit import kernel, leaf
 
 #: How far (mm) P[0] may be from a given entrance point.
 ENTRANCE_TOL = 1e-6
@@ -113,7 +112,7 @@ def fit_into(p, cum, lengths, u, s, joints, arc):
             arc[k] = -tr
 
 
-@njit(cache=True)
+@kernel
 def _fit_many(p, cum, lengths, u, s_values, joints, arc):
     """Fit every depth in ``s_values (B,)`` into ``joints (B, n+1, 3)`` and ``arc (B, n+1)``."""
     for b in range(s_values.shape[0]):
@@ -136,7 +135,7 @@ def bends_into(u, joints, bends):
         px, py, pz = ex, ey, ez
 
 
-@njit(cache=True)
+@kernel
 def _bends_and_deviation(p, cum, u, joints, arc, bends, dev):
     """Bend angles (rad) and link-to-path deviations (mm) for a batch of fitted configurations."""
     nb = joints.shape[0]

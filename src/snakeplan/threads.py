@@ -11,22 +11,27 @@ OpenMP pool through threadpoolctl for the duration of a plan and restores them a
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 
 from threadpoolctl import ThreadpoolController
 
-_CONTROLLER: list[ThreadpoolController] = []
+#: The pools found by a scan, by whether SciPy's BLAS was loaded then.
+_CONTROLLERS: dict[bool, ThreadpoolController] = {}
 
 
 def _controller() -> ThreadpoolController:
-    """The thread pools of NumPy's and SciPy's BLAS (found once; scanning the loaded libraries costs ~2 ms)."""
-    if not _CONTROLLER:
-        import numpy  # noqa: F401  (both BLAS libraries must be loaded before the scan)
-        import scipy.linalg  # noqa: F401
+    """The thread pools of the BLAS libraries loaded now: NumPy's, and SciPy's once ``scipy.linalg`` is imported
+    (scanned once each way: a scan costs ~2 ms). SciPy is not imported for this (0.1 s, more than a plan of the
+    planners that never use it); the modules that use it import it at module level, so its pool is loaded
+    before a plan that uses it begins."""
+    import numpy  # noqa: F401  (its BLAS must be loaded before the scan)
 
-        _CONTROLLER.append(ThreadpoolController())
-    return _CONTROLLER[0]
+    scipy_loaded = "scipy.linalg" in sys.modules
+    if scipy_loaded not in _CONTROLLERS:
+        _CONTROLLERS[scipy_loaded] = ThreadpoolController()
+    return _CONTROLLERS[scipy_loaded]
 
 
 @contextmanager

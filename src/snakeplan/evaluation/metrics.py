@@ -9,11 +9,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 from numpy.typing import ArrayLike
 
 from snakeplan.geometry import polyline
 from snakeplan.geometry.polyline import REMAINDER_TOL, resample_with_arclength
+from snakeplan.jit import kernel
 
 #: Turning angles (rad) below this are round-off on a straight stretch and count as zero, so a straight path
 #: gets curvature exactly 0 (and smoothness 1) instead of noise that the smoothness ratio would amplify.
@@ -44,7 +44,7 @@ def curvature_profile(path: ArrayLike, step: float) -> tuple[np.ndarray, np.ndar
     return s[1:-1], _turning(pts, s)
 
 
-@njit(cache=True)
+@kernel
 def _turning(pts, s):
     """Turning angle between consecutive chords of ``pts`` (zero below ``ANGLE_ZERO``) over the mean of their
     arc-length steps ``s``, at each interior point (compiled: a planner ranks every candidate by it)."""

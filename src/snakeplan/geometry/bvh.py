@@ -17,9 +17,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
-from snakeplan.jit import leaf
+from snakeplan.jit import kernel, leaf
 
 #: Most items in a leaf.
 LEAF_SIZE = 4
@@ -29,7 +28,7 @@ MAX_DEPTH = 60
 STACK_SIZE = MAX_DEPTH + 4
 
 
-@njit(cache=True)
+@kernel
 def _build(boxes: np.ndarray, leaf_size: int):
     n = boxes.shape[0]
     order = np.arange(n)

@@ -15,7 +15,6 @@ from collections import OrderedDict
 from collections.abc import Sequence
 
 import numpy as np
-from numba import njit
 
 from snakeplan.geometry import bvh
 from snakeplan.geometry.mesh_distance import (
@@ -37,7 +36,7 @@ from snakeplan.geometry.primitives import (
     Mesh,
     Obstacle,
 )
-from snakeplan.jit import inlined, leaf
+from snakeplan.jit import inlined, kernel, leaf
 
 #: Accuracy (mm) of the minimum clearance reported for a segment.
 CLEARANCE_TOLERANCE_MM = 0.05
@@ -170,7 +169,7 @@ def obstacle_distance(W, k, p, walk):
     return _sdf_row(W[0][k], W, p, walk)
 
 
-@njit(cache=True)
+@kernel
 def workspace(W):
     """Scratch arrays of the kernels for the packed set W: (candidates, interval stack, tree stacks, a point).
     The kernels below allocate nothing per call: an array temporary costs about 60 ns, several times a box
@@ -228,7 +227,7 @@ def _scene_sdf(W, p, walk, stats, cap=np.inf):
     return best
 
 
-@njit(cache=True)
+@kernel
 def _sdf_points(W, pts, cap, stats):
     walk = workspace(W)[2]
     out = np.empty(pts.shape[0])
@@ -237,7 +236,7 @@ def _sdf_points(W, pts, cap, stats):
     return out
 
 
-@njit(cache=True)
+@kernel
 def _grid_sdf(W, which, origin, spacing, nx, ny, k0, k1, cap, out, stats):
     """``out[i, j, k - k0]`` lowered to the signed distance at the centre of grid cell (i, j, k) to the obstacles
     ``which``, clamped to [-cap, cap], for k0 <= k < k1 (``out`` holds at most ``cap`` on entry), obstacle by
@@ -472,7 +471,7 @@ def _segment_hits(W, a, b, radius, work, stats):
     return False
 
 
-@njit(cache=True)
+@kernel
 def _midpoint_clearances(W, chain, radii, work, stats):
     """Each link's clearance at its midpoint: attained values, the first chain's link order and bounds."""
     out = np.empty(radii.shape[0])
@@ -482,7 +481,7 @@ def _midpoint_clearances(W, chain, radii, work, stats):
     return out
 
 
-@njit(cache=True)
+@kernel
 def _chains_clearance(W, joints, radii, tol, stats):
     """Each chain's clearance. Links are taken nearest first (in the order of their clearances in the previous
     chain; the first chain's by midpoint distance), and each link's search is cut off at the least found so far.
@@ -516,7 +515,7 @@ def _chains_clearance(W, joints, radii, tol, stats):
     return out
 
 
-@njit(cache=True)
+@kernel
 def _least_clearance(W, joints, radii, tol, stats):
     """(least clearance over chains ``(B, n+1, 3)``, its chain): each link's search is cut off at the least found
     so far, so chains and links farther than it cost a pruned search; the links of each chain are taken in the
@@ -548,7 +547,7 @@ def chain_hit(W, joints, radii, work, stats):
     return -1
 
 
-@njit(cache=True)
+@kernel
 def _chains_collide(W, joints, radii, stats):
     B = joints.shape[0]
     out = np.zeros(B, dtype=np.bool_)
@@ -558,7 +557,7 @@ def _chains_collide(W, joints, radii, stats):
     return out
 
 
-@njit(cache=True)
+@kernel
 def _first_hit(W, joints, radii, stats):
     """(chain, link) of the first chain in order that touches an obstacle, or (-1, -1): the crawl's early exit."""
     work = workspace(W)
@@ -569,7 +568,7 @@ def _first_hit(W, joints, radii, stats):
     return -1, -1
 
 
-@njit(cache=True)
+@kernel
 def _segments_clear(W, a, b, radius, stats):
     out = np.empty(a.shape[0], dtype=np.bool_)
     work = workspace(W)
@@ -578,7 +577,7 @@ def _segments_clear(W, a, b, radius, stats):
     return out
 
 
-@njit(cache=True)
+@kernel
 def _raycast(W, origins, dirs, max_dist, eps, stats):
     """First surface along each ray (:func:`ray_into` with every obstacle seen), as an array."""
     out = np.empty(origins.shape[0])

@@ -20,10 +20,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from snakeplan.geometry import bvh
-from snakeplan.jit import leaf
+from snakeplan.jit import kernel, leaf
 
 #: Thickness (mm) of the shell an open mesh stands for when its ``thickness`` is not given.
 DEFAULT_SHELL_MM = 1.0
@@ -113,7 +112,7 @@ def _pinched_corners(F: np.ndarray, partner: np.ndarray) -> np.ndarray:
                        int(F.max()) + 1)
 
 
-@njit(cache=True)
+@kernel
 def _root(parent, x):
     while parent[x] != x:
         parent[x] = parent[parent[x]]
@@ -121,7 +120,7 @@ def _root(parent, x):
     return x
 
 
-@njit(cache=True)
+@kernel
 def _fans_split(F, partner, nv):
     """Union-find over the corners (3 per face, a few bytes each: a 2-million-triangle mesh needs no more)."""
     T = F.shape[0]
@@ -294,7 +293,7 @@ def mesh_sdf(tris, normals, nodes, links, root, half_thickness, p, stack, reach=
     return -d if behind else d
 
 
-@njit(cache=True)
+@kernel
 def _solid_angle(p, a, b, c):
     """Signed solid angle of triangle abc seen from p (Van Oosterom and Strackee)."""
     ax, ay, az = a[0] - p[0], a[1] - p[1], a[2] - p[2]
@@ -309,7 +308,7 @@ def _solid_angle(p, a, b, c):
     return 2.0 * math.atan2(det, div)
 
 
-@njit(cache=True)
+@kernel
 def _reference(tris, pts, closed, half_thickness):
     out = np.empty(pts.shape[0])
     for i in range(pts.shape[0]):
@@ -337,7 +336,7 @@ def reference_sdf(vertices, faces, points, thickness: float | None = None) -> np
     return _reference(tris, pts, thickness is None, half)
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _segments_closest(ax, ay, az, bx, by, bz, px, py, pz, qx, qy, qz):
     """(squared distance, s, t) of the closest points a + s (b - a) and p + t (q - p) of two segments
     (Ericson, Real-Time Collision Detection, 5.1.9); scalar arithmetic only, so a call allocates nothing."""
@@ -374,7 +373,7 @@ def _segments_closest(ax, ay, az, bx, by, bz, px, py, pz, qx, qy, qz):
     return x * x + y * y + z * z, s, t
 
 
-@njit(cache=True, inline="always")
+@kernel(inline="always")
 def _left_of(px, py, pz, qx, qy, qz, x, y, z, nx, ny, nz):
     """Whether (x, y, z) lies on the inner side of the directed edge p -> q of a triangle of normal n."""
     ex, ey, ez = qx - px, qy - py, qz - pz
@@ -644,7 +643,7 @@ def mesh_segment(tris, normals, spheres, nodes, links, root, a, b, bound, stack,
     return math.sqrt(best), px * n[0] + py * n[1] + pz * n[2] >= 0.0
 
 
-@njit(cache=True)
+@kernel
 def _reference_segments(tris, a, b):
     out = np.empty(a.shape[0])
     for i in range(a.shape[0]):

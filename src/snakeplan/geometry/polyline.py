@@ -10,10 +10,10 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
-from numba import njit
 from numpy.typing import ArrayLike
 
 from snakeplan import inputs
+from snakeplan.jit import kernel
 
 #: Two consecutive points closer than this (mm) count as one point in :func:`drop_duplicates`.
 DUPLICATE_TOL = 1e-9
@@ -43,7 +43,7 @@ def cumulative_length(path: ArrayLike) -> np.ndarray:
     return cumulative_unchecked(validate_path(path))
 
 
-@njit(cache=True)
+@kernel
 def cumulative_unchecked(p):
     """:func:`cumulative_length` of an already validated path ``(m, 3)``, compiled (crawl checks inside compiled
     loops use it)."""
@@ -113,7 +113,7 @@ def arclength_grid(length: float, step: float) -> np.ndarray:
     return grid_unchecked(length, h)
 
 
-@njit(cache=True)
+@kernel
 def grid_unchecked(length, h):
     """:func:`arclength_grid` of a checked length and step (compiled: crawl checks and resampling use it)."""
     if length == 0.0:
@@ -131,7 +131,7 @@ def resample_with_arclength(path: ArrayLike, step: float) -> tuple[np.ndarray, n
     return _resample(validate_path(path), _check_step(step))
 
 
-@njit(cache=True)
+@kernel
 def _resample(p, h):
     """:func:`resample_with_arclength` of a validated path, compiled whole (it runs for every curvature a
     planner ranks): :func:`drop_duplicates`, the cumulative length, :func:`arclength_grid` and the points at it,
@@ -251,7 +251,7 @@ def gaussian_filter_nearest(values: np.ndarray, sigma: float, truncate: float = 
     return _gaussian_nearest(cols, w).T
 
 
-@njit(cache=True)
+@kernel
 def _gaussian_nearest(cols, w):
     """Each row of ``cols (k, n)`` filtered by the symmetric weights ``w`` (2r + 1), edges extended: every sample
     adds its weighted value to the outputs within r of it (a loop the compiler vectorises), then each output

@@ -22,9 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 import trimesh
-from numba import njit
 from numpy.typing import ArrayLike
 
+from snakeplan.jit import kernel
 from snakeplan.mapping.gp import vertex_normals
 
 #: Half-angle (rad) of the circular field of view.
@@ -129,7 +129,7 @@ class SurfaceCamera:
         return s.node, y, r
 
 
-@njit(cache=True)
+@kernel
 def _sightings(nodes, normals, c, v, d_min, d_max, cos_fov, cos_incidence):
     """(pose, node, distance) of every node within [d_min, d_max] of a pose, inside its field of view and
     facing it within the incidence limit, pose by pose and in node order: one pass, no (poses, nodes, 3)

@@ -17,9 +17,10 @@ Repeated measurements of one node are first merged (precisions add), which is ex
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 from numpy.typing import ArrayLike
 from scipy.linalg import lapack
+
+from snakeplan.jit import kernel
 
 
 def fuse_repeats(idx: ArrayLike, noise_var: ArrayLike, y: ArrayLike | None = None
@@ -137,7 +138,7 @@ def warm_up() -> None:
     ev.gain(np.array([0]), np.array([1.0]))
 
 
-@njit(cache=True)
+@kernel
 def _innovation(cov, nodes, r):
     """S = P[nodes, nodes] + diag(r), gathered in one pass (m x m)."""
     m = nodes.shape[0]
@@ -149,7 +150,7 @@ def _innovation(cov, nodes, r):
     return S
 
 
-@njit(cache=True)
+@kernel
 def _lower_dot(inv, Q, nodes):
     """sum(S^-1 * Q[nodes, nodes]) for symmetric S^-1 given by its lower triangle ``inv`` (potri) and symmetric
     Q: the diagonal once, each entry below it twice, without gathering the block."""

@@ -78,9 +78,9 @@ import math
 import time
 
 import numpy as np
-from numba import njit
 
 from snakeplan.geometry.distance import workspace
+from snakeplan.jit import kernel
 from snakeplan.planners.base import Planner, Problem, Status
 from snakeplan.planners.registry import register_planner
 from snakeplan.world import PLANNING, ValidityChecker
@@ -127,7 +127,7 @@ _EPS = 1e-12
 _REJECTS = ("twins", "sweep_rejects", "body_rejects")
 
 
-@njit(cache=True)
+@kernel
 def _any_normal(t):
     """A unit vector perpendicular to the unit vector t."""
     e = np.zeros(3)
@@ -136,7 +136,7 @@ def _any_normal(t):
     return v / np.linalg.norm(v)
 
 
-@njit(cache=True)
+@kernel
 def tangent_circle(p, t, q):
     """The circle tangent to unit heading t at p through q: ``(curvature 1/mm, unit normal toward its centre,
     arc length p -> q (mm), turn (rad))``; a straight line (curvature 0) when q is dead ahead, and an infinite
@@ -154,7 +154,7 @@ def tangent_circle(p, t, q):
     return 2.0 * s / (c * c), perp / s, a * c / math.sin(a), 2.0 * a
 
 
-@njit(cache=True)
+@kernel
 def arc(p, t, n, kappa, length, count):
     """``count`` points (after p, the last at arc length ``length``) of the arc of curvature ``kappa`` leaving p
     along t and bending toward n, and the unit heading at its end."""
@@ -171,7 +171,7 @@ def arc(p, t, n, kappa, length, count):
     return pts, end / np.linalg.norm(end)
 
 
-@njit(cache=True)
+@kernel
 def steer(p, t, q, kappa_max, length):
     """The extension from pose (p, t) toward q: ``(curvature, unit normal, arc length)``: the tangent circle
     through q with its curvature clamped to ``kappa_max``, ``length`` long or shorter if it reaches q first."""
@@ -181,7 +181,7 @@ def steer(p, t, q, kappa_max, length):
     return kappa_max, n, length
 
 
-@njit(cache=True)
+@kernel
 def arc_distance(p, t, q, kappa_max, turn_radius):
     """Arc-length metric (mm) from the pose (p, t) to q: the tangent circle's arc within the curvature limit, else
     the chord plus the turn radius times the angle off the heading (a half turn for a point dead behind)."""
@@ -198,7 +198,7 @@ def arc_distance(p, t, q, kappa_max, turn_radius):
     return c + turn_radius * a
 
 
-@njit(cache=True)
+@kernel
 def _landing_firsts(p, t, n, q, kappa_max, max_length, max_turn, keep):
     """The first arcs (curvatures, signed toward n, and lengths) of :func:`landings`' ways, gentlest first: the
     candidates of its grid that pass, ordered by peak curvature, then total length, then grid order."""
@@ -303,7 +303,7 @@ def biarc(p: np.ndarray, t: np.ndarray, q: np.ndarray, h: np.ndarray, kappa_max:
     return pieces
 
 
-@njit(cache=True)
+@kernel
 def _add_node(P, T, depth, parent, stage, arcs, n, i, pts, heading, k):
     """Write node ``n``: the end of arc ``pts`` from node i, arriving with ``heading``, of stage k."""
     P[n], T[n], arcs[n] = pts[-1], heading, pts
@@ -315,7 +315,7 @@ def _add_node(P, T, depth, parent, stage, arcs, n, i, pts, heading, k):
     parent[n], stage[n] = i, k
 
 
-@njit(cache=True)
+@kernel
 def _has_twin(P, T, stage, n, p, t, k):
     """Whether one of the first n nodes of stage k already has (nearly) the pose (p, t)."""
     for i in range(n):
@@ -325,7 +325,7 @@ def _has_twin(P, T, stage, n, p, t, k):
     return False
 
 
-@njit(cache=True)
+@kernel
 def _branch(P, parent, arcs, i, tail):
     """The tip path (mm) from the root to node i, then the points ``tail``."""
     count, k = 0, i
@@ -343,7 +343,7 @@ def _branch(P, parent, arcs, i, tail):
     return out
 
 
-@njit(cache=True)
+@kernel
 def _check(P, depth, parent, arcs, i, pts, spec, W, stats):
     """Whether the tip can sweep ``pts`` from node i (0), else 1, and then whether the body can crawl there (0),
     else 2: the sweep of each chord (:func:`motion_free`, the tip's radius under the profile), then the crawl of
@@ -362,7 +362,7 @@ def _check(P, depth, parent, arcs, i, pts, spec, W, stats):
     return 0
 
 
-@njit(cache=True)
+@kernel
 def _extend(P, T, depth, parent, stage, arcs, tried, n, eligible, to_goal, q, k, kappa_max, turn_radius, step, spec,
             W, stats):
     """One extension of stage k toward q from the nearest eligible node (of the first n): the new node's index

@@ -42,12 +42,12 @@ from typing import ClassVar
 
 import numpy as np
 import trimesh
-from numba import njit
 from numpy.typing import ArrayLike
 from scipy.spatial import cKDTree
 
 from snakeplan.geometry.distance import ObstacleSet
 from snakeplan.geometry.primitives import Mesh
+from snakeplan.jit import kernel
 from snakeplan.mapping import (
     CameraModel,
     GaussianMap,
@@ -196,7 +196,7 @@ class DistanceField:
         return -_unit(v[:, 1:].reshape(p.shape))
 
 
-@njit(cache=True)
+@kernel
 def _trilinear(values, lo, spacing, pts):
     """Trilinear interpolation of ``values (nx, ny, nz, c)`` on the grid ``lo + spacing * index`` at points
     ``(k, 3)`` inside it: ``(k, c)``."""

@@ -45,13 +45,13 @@ from importlib.resources import files
 from pathlib import Path
 
 import numpy as np
-from numba import njit
 
 from snakeplan import inputs
 from snakeplan.evaluation.metrics import path_smoothness
 from snakeplan.files import atomic_path
 from snakeplan.geometry import polyline
 from snakeplan.geometry.distance import workspace
+from snakeplan.jit import kernel
 from snakeplan.planners.base import Planner, Problem, Status
 from snakeplan.planners.registry import register_planner
 from snakeplan.planners.weights import read_npz, read_weights_file
@@ -127,7 +127,7 @@ PURSUIT_GAIN = 3.0
 
 
 
-@njit(cache=True)
+@kernel
 def _frame_into(d, out):
     """Rows (heading, side, up) of the tip frame of unit heading ``d`` into ``out (3, 3)``."""
     x, y, z = d[0], d[1], d[2]
@@ -284,7 +284,7 @@ class RoomGraph:
         return first, second, normal
 
 
-@njit(cache=True)
+@kernel
 def _room(p, lo, hi):
     best, arg = np.inf, 0
     for r in range(lo.shape[0]):
@@ -297,7 +297,7 @@ def _room(p, lo, hi):
     return arg
 
 
-@njit(cache=True)
+@kernel
 def _put_rel(frame, v, out, at):
     """``v`` (mm) in the tip frame as a unit direction and a scaled, clipped length, written at ``out[at:at+4]``."""
     lx = frame[0, 0] * v[0] + frame[0, 1] * v[1] + frame[0, 2] * v[2]
@@ -309,7 +309,7 @@ def _put_rel(frame, v, out, at):
     out[at + 3] = min(dist / FEATURE_SCALE_MM, FEATURE_CLIP)
 
 
-@njit(cache=True)
+@kernel
 def _local_features(obs, ag, dg, lo, hi, centre, normal, next_portal, after, has_graph, out):
     """:func:`policy_input` for ``local`` observations, row by row (see there)."""
     n_obs = obs.shape[1]
@@ -352,7 +352,7 @@ def _local_features(obs, ag, dg, lo, hi, centre, normal, next_portal, after, has
             out[i, n_obs + 12 + a] = frame[a, 0] * nrm[0] + frame[a, 1] * nrm[1] + frame[a, 2] * nrm[2]
 
 
-@njit(cache=True)
+@kernel
 def _point_at(points, arc, s, out):
     """The guide point at arc length ``s`` (clipped to the guide) into ``out (3,)``."""
     n = arc.shape[0]
@@ -368,7 +368,7 @@ def _point_at(points, arc, s, out):
         out[a] = points[k, a] + t * (points[k + 1, a] - points[k, a])
 
 
-@njit(cache=True)
+@kernel
 def _guide_into(frame, tip, points, arc, s, end, out):
     """:meth:`Crawler._guide_features` into ``out (GUIDE_DIM,)``."""
     p, q, v = np.empty(3), np.empty(3), np.empty(3)
@@ -387,7 +387,7 @@ def _guide_into(frame, tip, points, arc, s, end, out):
         out[8 + a] = frame[a, 0] * v[0] + frame[a, 1] * v[1] + frame[a, 2] * v[2]
 
 
-@njit(cache=True)
+@kernel
 def _goal_features(obs, ag, dg, out):
     """:func:`policy_input` for ``guide`` observations, row by row: the observation, then the goal in the tip
     frame."""
@@ -450,7 +450,7 @@ _PAPER, _GUIDE = OBSERVATIONS.index("paper"), OBSERVATIONS.index("guide")
 OUTCOMES = ("reached", "out_of_bounds", "insertion", "steps")
 
 
-@njit(cache=True)
+@kernel
 def _unit_into(v, out):
     """``v / |v|`` into ``out`` (3,)."""
     n = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
@@ -458,7 +458,7 @@ def _unit_into(v, out):
         out[a] = v[a] / n
 
 
-@njit(cache=True)
+@kernel
 def _observe(mode, lookahead, tip, frame, ranges, prev, fraction, tank_scale, targets, target, points, arc, s, end,
              out):
     """The ``observation`` vector of a crawl state into ``out`` (see :meth:`Crawler.observation`), rounded to float32
@@ -499,7 +499,7 @@ def _observe(mode, lookahead, tip, frame, ranges, prev, fraction, tank_scale, ta
         out[k] = np.float32(out[k])
 
 
-@njit(cache=True)
+@kernel
 def _actor_input(mode, obs, tip, goal, has_graph, lo, hi, centre, normal, next_portal, after, out):
     """:func:`policy_input` of one crawl state (its float32 observation, achieved and desired goals) into ``out``."""
     ag, dg = np.empty((1, 3)), np.empty((1, 3))
@@ -518,7 +518,7 @@ def _actor_input(mode, obs, tip, goal, has_graph, lo, hi, centre, normal, next_p
                         out.reshape((1, out.shape[0])))
 
 
-@njit(cache=True)
+@kernel
 def _actor(x, weights, biases, shapes, scratch, out):
     """The deterministic actor on one input ``x``: ReLU layers then tanh of the mean head, into ``out``.
     Layer i's matrix is ``weights[i]`` transposed (``shapes[i]`` = its rows and columns; zero padded), its bias
@@ -546,7 +546,7 @@ def _actor(x, weights, biases, shapes, scratch, out):
         src = dst
 
 
-@njit(cache=True)
+@kernel
 def _pursuit_into(frame, tip, points, arc, s, end, out):
     """The pursuit of the guide as an action (see :meth:`Crawler.pursuit`) into ``out[:2]`` (``out``: the
     guide's features as scratch, ``GUIDE_DIM`` long)."""
@@ -556,7 +556,7 @@ def _pursuit_into(frame, tip, points, arc, s, end, out):
     out[1] = min(max(PURSUIT_GAIN * up, -1.0), 1.0)
 
 
-@njit(cache=True)
+@kernel
 def _actor_rows(x, weights, biases, shapes, out):
     """:func:`_actor` on each row of ``x`` into the rows of ``out``."""
     scratch = np.empty((3, max(weights.shape[2], x.shape[1])))
@@ -564,7 +564,7 @@ def _actor_rows(x, weights, biases, shapes, out):
         _actor(x[i], weights, biases, shapes, scratch, out[i])
 
 
-@njit(cache=True)
+@kernel
 def _steer(mode, residual, step_mm, max_turn, capture_mm, tip, heading, frame, goal, action, points, arc, s, end,
            feats, new, turned, applied):
     """The geometry of one crawl step (see :meth:`Crawler.advance`): the applied action into ``applied``, the new
@@ -623,13 +623,13 @@ def _steer(mode, residual, step_mm, max_turn, capture_mm, tip, heading, frame, g
         new[a] = tip[a] + step_mm * turned[a]
 
 
-@njit(cache=True)
+@kernel
 def _guide_end(target_arc, target):
     """Arc length (mm) of the current target on the guide."""
     return target_arc[min(target, target_arc.shape[0] - 1)]
 
 
-@njit(cache=True)
+@kernel
 def _follow(points, arc, target_arc, target, s, step_mm, tip):
     """The tip's new place on the guide (see :meth:`Crawler.advance`): past every reached target, then the guide
     point nearest the tip from the last place to ``GUIDE_AHEAD_STEPS`` steps ahead (never past the target)."""
@@ -639,7 +639,7 @@ def _follow(points, arc, target_arc, target, s, step_mm, tip):
     return nearest_on_guide(points, arc, tip, s, ahead)
 
 
-@njit(cache=True)
+@kernel
 def _roll(mode, lookahead, residual, step_mm, max_turn, capture_mm, tank_scale, total_length, lo, hi, targets,
           direction, rays, points, arc, target_arc, has_graph, glo, ghi, gcentre, gnormal, gnext, gafter, weights,
           biases, shapes, W, known, sense_range, stats, noise, path):

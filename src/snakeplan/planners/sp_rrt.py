@@ -80,10 +80,10 @@ import math
 import time
 
 import numpy as np
-from numba import njit
 
 from snakeplan import ftl
 from snakeplan.geometry.polyline import cumulative_length
+from snakeplan.jit import kernel
 from snakeplan.planners.base import Planner, Problem, Status
 from snakeplan.planners.registry import register_planner
 from snakeplan.world import PLANNING, Failure, ValidityChecker
@@ -143,7 +143,7 @@ def _angle(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.arctan2(np.linalg.norm(np.cross(a, b)), np.dot(a, b)))
 
 
-@njit(cache=True)
+@kernel
 def _nearest_kernel(pts, stages, pos, out, has_out, stage, open_, cos_lim, n):
     """For each sample, the nearest open node of its stage whose bend cone (cosine ``cos_lim``) admits the
     direction to the sample; -1 where there is none."""
@@ -164,7 +164,7 @@ def _nearest_kernel(pts, stages, pos, out, has_out, stage, open_, cos_lim, n):
     return res
 
 
-@njit(cache=True)
+@kernel
 def _repeats_kernel(new, dirs, stages, pos, out, stage, n, gap, cos_min):
     """True for candidates within ``gap`` of a node (or an earlier candidate) of the same stage whose outgoing
     direction has a cosine of at least ``cos_min`` with theirs."""
@@ -189,7 +189,7 @@ def _repeats_kernel(new, dirs, stages, pos, out, stage, n, gap, cos_min):
     return res
 
 
-@njit(cache=True)
+@kernel
 def _informed_cells(geo, centres, target, limit):
     """The cells whose geodesic distance ``geo`` (mm, inf: unreached) plus straight distance to ``target`` is at
     most ``limit``: their centres and distances, by distance (ties in cell order)."""
@@ -205,7 +205,7 @@ def _informed_cells(geo, centres, target, limit):
     return centres[order], geo[order]
 
 
-@njit(cache=True)
+@kernel
 def _subtree_kernel(parent, root, n):
     """Mask of ``root`` and all its descendants among the first ``n`` nodes (children follow their parents)."""
     mask = np.zeros(n, dtype=np.bool_)

@@ -31,10 +31,9 @@ import math
 import time
 
 import numpy as np
-from numba import njit
 
 from snakeplan.geometry.distance import workspace
-from snakeplan.jit import leaf
+from snakeplan.jit import kernel, leaf
 from snakeplan.world import ValidityChecker
 from snakeplan.world.validity import motion_free
 
@@ -54,7 +53,7 @@ MAX_GRID_SIDE = 128
 _N, _ITER, _FOUND_AT, _BEST, _GOALS = 0, 1, 2, 3, 4
 
 
-@njit(cache=True)
+@kernel
 def seed_stream(seed):
     """Seed numba's random stream (process-wide, like OMPL's: plan from one thread at a time)."""
     np.random.seed(seed)
@@ -154,7 +153,7 @@ def _detach(child, sibling, parent_of, v):
     sibling[v] = -1
 
 
-@njit(cache=True)
+@kernel
 def grow(pos, parent, cost, inc, child, sibling, goals, state, head, nxt, dims, cell, goal, lo, hi, range_mm,
          goal_bias, k_rrt, improve, iterations, W, radius, stats):
     """Run up to ``iterations`` RRT* iterations on the tree (arrays with room for that many more vertices, and

@@ -24,10 +24,10 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numba import njit
 from numpy.typing import ArrayLike
 
 from snakeplan.geometry.transforms import normalize, rot_x, rot_y, rot_z
+from snakeplan.jit import kernel
 from snakeplan.robots.cables import CableRouting
 from snakeplan.robots.limits import DEFAULT_LIMITS, MotionLimits
 
@@ -227,7 +227,7 @@ class _UniversalSection:
     orthogonal: bool  # joint axes and section mutually perpendicular: bend = arccos(cos a cos b)
 
 
-@njit(cache=True)
+@kernel
 def _apply(T, kind, v):
     """Right-multiply the 4x4 ``T`` in place by elementary transform ``kind`` (0-2 rot x/y/z, 3-5 trans)."""
     if kind < 3:
@@ -246,7 +246,7 @@ def _apply(T, kind, v):
             T[r, 3] += v * T[r, a]
 
 
-@njit(cache=True)
+@kernel
 def _fk_kernel(kinds, values, qidx, marks, corr, base, Q, out):
     """Frames ``out (m, n+1, 4, 4)`` for joint vectors ``Q (m, dof)``."""
     m = Q.shape[0]
@@ -275,7 +275,7 @@ def _fk_kernel(kinds, values, qidx, marks, corr, base, Q, out):
             e += 1
 
 
-@njit(cache=True)
+@kernel
 def _jac_kernel(kinds, values, qidx, n_tip, base, Q, J, tip):
     """Geometric tip Jacobians ``J (m, 6, dof)`` (linear rows first) and tip positions ``tip (m, 3)``."""
     m = Q.shape[0]

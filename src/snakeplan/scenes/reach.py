@@ -18,10 +18,10 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
 from snakeplan.geometry.distance import ObstacleSet
 from snakeplan.geometry.polyline import densify
+from snakeplan.jit import kernel
 from snakeplan.scenes.scene import Entrance, Scene
 
 #: Grid cell edge (mm): small enough for the 120 mm half-height of a fuel-tank hole shrunk by the inflation.
@@ -324,7 +324,7 @@ def route_through(space: FreeSpace, entrance: Entrance, targets, inflate_mm: flo
 # --- numba kernels --------------------------------------------------------------------------------------------
 
 
-@njit(cache=True)
+@kernel
 def nearest_on_guide(points, arc, tip, s_from, s_to):
     """:meth:`RouteGuide.progress`: the arc length of the point nearest ``tip`` with arc in [s_from, s_to] (the
     first point at or after ``s_from`` at least)."""
@@ -338,7 +338,7 @@ def nearest_on_guide(points, arc, tip, s_from, s_to):
     return arc[arg]
 
 
-@njit(cache=True)
+@kernel
 def _los(free, shape, ax, ay, az, bx, by, bz):
     """True when every cell the segment a->b (grid units) passes through is free; ties step one axis at a time."""
     nx, ny, nz = shape[0], shape[1], shape[2]
@@ -392,7 +392,7 @@ def _los(free, shape, ax, ay, az, bx, by, bz):
     return free[(i * ny + j) * nz + k]
 
 
-@njit(cache=True)
+@kernel
 def _sift_up(heap, hpos, key, i):
     node = heap[i]
     while i > 0:
@@ -406,7 +406,7 @@ def _sift_up(heap, hpos, key, i):
     hpos[node] = i
 
 
-@njit(cache=True)
+@kernel
 def _sift_down(heap, hpos, key, i, size):
     node = heap[i]
     while True:
@@ -424,7 +424,7 @@ def _sift_down(heap, hpos, key, i, size):
     hpos[node] = i
 
 
-@njit(cache=True)
+@kernel
 def _lazy_theta(free, shape, origin, spacing, src, start, offsets, goal):
     """Single-source lazy Theta* over the free cells; returns (distance mm, parent flat index). With a ``goal``
     cell (flat index; -1: none) it is A*-ordered by the straight distance to the goal's centre and stops once the
@@ -522,7 +522,7 @@ def _lazy_theta(free, shape, origin, spacing, src, start, offsets, goal):
     return g, parent
 
 
-@njit(cache=True)
+@kernel
 def _anchor(dist, shape, origin, spacing, q):
     """Cell that anchors point q: (its own cell, True) if reached, else (best reached neighbour, False).
 
@@ -556,7 +556,7 @@ def _anchor(dist, shape, origin, spacing, q):
     return bk, False
 
 
-@njit(cache=True)
+@kernel
 def _dist_to_centre(k, shape, origin, spacing, q):
     ny, nz = shape[1], shape[2]
     x = origin[0] + (k // (ny * nz) + 0.5) * spacing[0]
@@ -565,7 +565,7 @@ def _dist_to_centre(k, shape, origin, spacing, q):
     return math.sqrt((x - q[0]) ** 2 + (y - q[1]) ** 2 + (z - q[2]) ** 2)
 
 
-@njit(cache=True)
+@kernel
 def _distance_at(dist, parent, shape, origin, spacing, src, pts):
     out = np.full(pts.shape[0], np.inf)
     for n in range(pts.shape[0]):

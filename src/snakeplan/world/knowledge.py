@@ -23,7 +23,6 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 
 from snakeplan.geometry.bvh import box_distance
 from snakeplan.geometry.distance import (
@@ -33,7 +32,7 @@ from snakeplan.geometry.distance import (
     workspace,
 )
 from snakeplan.geometry.primitives import Obstacle
-from snakeplan.jit import leaf
+from snakeplan.jit import kernel, leaf
 from snakeplan.scenes import Scene
 
 #: Default range (mm) of the tip sensor for planners that only know what they have sensed.
@@ -79,7 +78,7 @@ def sensor_rays(W, known, range_mm, origin, dirs, max_dist, eps, out, work, stat
         out[i] = ray_into(W, known, origin, dirs[i], reach, eps, work, stats)
 
 
-@njit(cache=True)
+@kernel
 def _sense_points(W, known, range_mm, points) -> bool:
     walk = workspace(W)[2]
     new = False

@@ -26,7 +26,6 @@ from dataclasses import dataclass
 from typing import Literal, NamedTuple
 
 import numpy as np
-from numba import njit
 
 from snakeplan import ftl
 from snakeplan.geometry.distance import ObstacleSet, chain_hit, workspace
@@ -36,7 +35,7 @@ from snakeplan.geometry.polyline import (
     grid_unchecked,
     validate_path,
 )
-from snakeplan.jit import leaf
+from snakeplan.jit import kernel, leaf
 from snakeplan.robots import Chain
 from snakeplan.world.knowledge import KnowledgeView
 from snakeplan.world.tolerances import (
@@ -82,7 +81,7 @@ class CrawlCheck:
 _COLLISION, _BEND, _INSERTION = 0, 1, 2
 
 
-@njit(cache=True)
+@kernel
 def _scan(p, cum, lengths, u, depths, max_bends, radii, W, stats):
     """The first failing depth of a crawl, scanned in order: (depth index, kind code, link) or (-1, -1, -1).
 
@@ -123,7 +122,7 @@ class CrawlSpec(NamedTuple):
     total_length: float
 
 
-@njit(cache=True)
+@kernel
 def crawl_depths(start, stop, step, total_length):
     """The profile's depths (mm) in (start, stop], and 0 when start is 0: the grid 0, h, 2h, ... of the crawl to
     ``stop``, never past where insertion must fail (one step beyond the arm's length)."""
@@ -137,7 +136,7 @@ def in_box(lo, hi, x, y, z):
     return lo[0] <= x <= hi[0] and lo[1] <= y <= hi[1] and lo[2] <= z <= hi[2]
 
 
-@njit(cache=True)
+@kernel
 def first_out_vertex(p, cum, start, stop, lo, hi):
     """The first vertex of the tip path ``p`` outside the bounds [lo, hi], among those from the one at or before
     depth ``start`` to the one at or after ``stop`` (mm; ``cum`` its cumulative length), or -1."""
@@ -149,7 +148,7 @@ def first_out_vertex(p, cum, start, stop, lo, hi):
     return -1
 
 
-@njit(cache=True)
+@kernel
 def crawl_free(p, start, spec, W, stats):
     """Whether the crawl along the tip path ``p (m, 3)`` is feasible at every depth in (start, end] (mm; depth 0
     included when start is 0) against the packed obstacles ``W``: :meth:`ValidityChecker.first_failure` is None,

@@ -28,10 +28,10 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
 from snakeplan import ftl
 from snakeplan.geometry.transforms import frame_from_z, pose
+from snakeplan.jit import kernel
 from snakeplan.robots import Chain
 from snakeplan.world import JUDGE
 
@@ -85,7 +85,7 @@ class Crawl:
         return float(self.deviation.max())
 
 
-@njit(cache=True)
+@kernel
 def _deviation_kernel(vertices, arc_vertices, joints, arcs, e, out):
     """Per step, the largest distance of the modules' sample points from the directive modules they span."""
     n_steps, n_joints = joints.shape[0], joints.shape[1]

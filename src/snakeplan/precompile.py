@@ -1,0 +1,164 @@
+"""``snakeplan compile``: compile the kernels the commands call ahead of time, so that commands start without numba.
+
+The workload is the commands themselves: ``snakeplan plan`` on seed 1 of each scene family with its default
+planner, and each registered planner on fuel-tank, run in this process with every kernel a recording proxy
+(``SNAKEPLAN_KERNELS=record``, :mod:`snakeplan.jit`). Each kernel called from Python is then compiled, once per
+set of argument types it was called with, into one extension module (numba's ahead-of-time compiler,
+``numba.pycc``, for this CPU; a C compiler is needed), written with its table into :func:`snakeplan.jit.compiled_dir`.
+Kernels called only by other kernels are compiled into their callers. A later process whose sources match loads
+it (:mod:`snakeplan.jit`); an edit to any of snakeplan's Python files retires it until the next compile.
+
+``snakeplan compile [--scene NAME ...]`` (or ``python -m snakeplan.precompile``) records in a fresh interpreter,
+since the recording must start before any kernel is defined; ``--remove`` deletes the module.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import copy
+import importlib.machinery
+import io
+import os
+import pickle
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+import warnings
+from collections.abc import Iterator
+
+from snakeplan import jit
+from snakeplan.files import atomic_write
+
+#: The planner seed and scene seed of the workload's plans.
+WORKLOAD_SEED = 1
+
+
+def workload(scenes: list[str] | None = None) -> list[list[str]]:
+    """The commands whose kernels are compiled: each scene family's default plan and, where fuel-tank is among
+    ``scenes`` (default: all families), every registered planner on it."""
+    from snakeplan.planners import planner_names
+    from snakeplan.scenes import scene_names
+
+    names = scene_names() if scenes is None else scenes
+    commands = [["plan", "--scene", name, "--seed", str(WORKLOAD_SEED)] for name in names]
+    if "fuel-tank" in names:
+        commands += [["plan", "--scene", "fuel-tank", "--seed", str(WORKLOAD_SEED), "--planner", planner]
+                     for planner in planner_names()]
+    return commands
+
+
+def record(commands: list[list[str]]) -> list[jit.Kernel]:
+    """Run ``commands`` (their output discarded) and return the kernels they called from Python."""
+    from snakeplan.cli import main
+
+    if jit.mode() != "record":
+        raise RuntimeError(f"recording needs {jit.ENV_MODE}=record before snakeplan's kernels are defined")
+    sink = io.StringIO()
+    for argv in commands:
+        with contextlib.redirect_stdout(sink), contextlib.redirect_stderr(sink):
+            main(argv)
+    return [k for k in jit.KERNELS if k.calls]
+
+
+@contextlib.contextmanager
+def _fresh_flags() -> Iterator[None]:
+    """numba's ahead-of-time compiler passes one flags object to every function it compiles, and compiling one
+    can change it for the next (a literal integer then fails to unify with int64); give each its own copy."""
+    from numba.pycc import compiler
+
+    original = compiler.compile_extra
+
+    def compile_extra(typingctx, targetctx, func, args, return_type, flags, **kwargs):
+        return original(typingctx, targetctx, func, args, return_type, copy.deepcopy(flags), **kwargs)
+
+    compiler.compile_extra = compile_extra
+    try:
+        yield
+    finally:
+        compiler.compile_extra = original
+
+
+def build(kernels: list[jit.Kernel], folder=None) -> dict:
+    """Compile ``kernels`` for the argument types they were called with into one module in ``folder`` (default
+    :func:`snakeplan.jit.compiled_dir`) with its table, replacing any module there. Returns a summary."""
+    jit._numba()
+    from numba.pycc import CC
+
+    folder = jit.compiled_dir() if folder is None else folder
+    files = sorted({os.path.abspath(sys.modules[k.py_func.__module__].__file__) for k in kernels})
+    package = os.path.dirname(os.path.abspath(jit.__file__))
+    outside = [f for f in files if not f.startswith(package + os.sep)]
+    digest = jit.source_digest(outside)
+    module = f"snakeplan_kernels_{digest[:16]}"
+    cc = CC(module)
+    cc.target_cpu = "host"
+    cc.verbose = False
+    table: dict[str, dict[tuple, str]] = {}
+    signatures = 0
+    for k in kernels:
+        symbols: dict[tuple, str] = {}
+        for key, argtypes in k.calls.items():
+            if argtypes not in symbols:
+                symbols[argtypes] = f"k{signatures}"
+                cc.export(symbols[argtypes], k.dispatcher.overloads[argtypes].signature)(k.py_func)
+                signatures += 1
+            table.setdefault(jit.name_of(k.py_func), {})[key] = symbols[argtypes]
+    os.makedirs(folder, exist_ok=True)
+    start = time.perf_counter()
+    with tempfile.TemporaryDirectory(dir=folder) as tmp, _fresh_flags(), warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        cc.output_dir = tmp
+        cc.compile()
+        filename = module + importlib.machinery.EXTENSION_SUFFIXES[0]
+        shutil.move(os.path.join(tmp, filename), os.path.join(folder, filename))
+    manifest = {"digest": digest, "files": outside, "module": module, "filename": filename, "table": table}
+    atomic_write(os.path.join(folder, jit.MANIFEST), pickle.dumps(manifest))
+    for old in os.listdir(folder):
+        if old.startswith("snakeplan_kernels_") and old != filename:
+            os.remove(os.path.join(folder, old))
+    return {"folder": str(folder), "file": filename, "kernels": len(table), "signatures": signatures,
+            "compile_s": time.perf_counter() - start}
+
+
+def remove(folder=None) -> bool:
+    """Delete the compiled module and its table; whether there was one."""
+    folder = jit.compiled_dir() if folder is None else folder
+    found = False
+    for name in os.listdir(folder) if os.path.isdir(folder) else []:
+        if name == jit.MANIFEST or name.startswith("snakeplan_kernels_"):
+            os.remove(os.path.join(folder, name))
+            found = True
+    return found
+
+
+def main(scenes: list[str] | None = None) -> int:
+    """Record the workload of ``scenes`` (default: all families) and compile it; in a fresh interpreter unless
+    this one is recording. Returns the exit status."""
+    if jit.mode() != "record":
+        command = [sys.executable, "-m", "snakeplan.precompile"]
+        for name in scenes or []:
+            command += ["--scene", name]
+        return subprocess.run(command, env={**os.environ, jit.ENV_MODE: "record"}).returncode
+    start = time.perf_counter()
+    commands = workload(scenes)
+    kernels = record(commands)
+    recorded = time.perf_counter() - start
+    try:
+        summary = build(kernels)
+    except Exception as exc:  # numba's compiler, the C compiler, the cache folder: say which, in one line
+        sys.stderr.write(f"snakeplan: error: compiling the kernels failed: {type(exc).__name__}: "
+                         f"{str(exc).strip().splitlines()[-1] if str(exc).strip() else ''}\n")
+        return 1
+    sys.stdout.write(f"compiled {summary['kernels']} kernels ({summary['signatures']} signatures) from "
+                     f"{len(commands)} commands into {summary['folder']}/{summary['file']}: recording "
+                     f"{recorded:.0f} s, compiling {summary['compile_s']:.0f} s\n")
+    return 0
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(prog="python -m snakeplan.precompile", description=__doc__.split("\n")[0])
+    parser.add_argument("--scene", action="append", help="only this scene family's commands (may be repeated)")
+    sys.exit(main(parser.parse_args().scene))

@@ -1,0 +1,142 @@
+"""Kernels compiled ahead of time (``snakeplan compile``): the same plans as numba's, without importing numba."""
+
+from __future__ import annotations
+
+import itertools
+import json
+import os
+import pickle
+import shutil
+import subprocess
+import sys
+import sysconfig
+from pathlib import Path
+
+import numba
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from snakeplan import jit
+
+PLANNERS = ("sac-her", "rrt-star", "sp-rrt", "as-rrt")
+#: Runs a command in-process and says on stderr whether numba was imported.
+RUN = ("import sys; from snakeplan.cli import main; rc = main(sys.argv[1:]); "
+       "sys.stderr.write(f'numba imported: {\"numba\" in sys.modules}\\n'); sys.exit(rc)")
+
+
+def _arrays(draw) -> np.ndarray:
+    dtype = draw(st.sampled_from([np.float64, np.float32, np.int64, np.bool_]))
+    shape = tuple(draw(st.lists(st.integers(0, 3), min_size=1, max_size=3)))
+    a = np.zeros(shape, dtype=dtype, order=draw(st.sampled_from("CF")))
+    if draw(st.booleans()) and a.ndim > 1:
+        a = a.T
+    if draw(st.booleans()):
+        a = a[::2]
+    if draw(st.booleans()):
+        a = a.copy()
+        a.flags.writeable = False
+    return a
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.composite(_arrays)(), min_size=2, max_size=6))
+def test_argument_keys_tell_apart_exactly_what_numba_types_apart(arrays):
+    """The compiled function a proxy runs is chosen by ``arg_key``: two arrays share a key exactly when numba
+    gives them the same type (dtype, dimensions, C/F/A layout, writeable, aligned): a shared key with different
+    types would run code compiled for another layout, and different keys for one type would miss."""
+    for a, b in itertools.combinations(arrays, 2):
+        assert (jit.arg_key((a,)) == jit.arg_key((b,))) == (numba.typeof(a) == numba.typeof(b)), (a.flags, b.flags)
+    packed = tuple(arrays)
+    assert jit.arg_key((packed,)) == jit.arg_key((tuple(a for a in arrays),))
+    assert jit.arg_key((packed, 1.0, 2)) != jit.arg_key((packed, 1, 2))
+
+
+def _env(cache: Path, **extra: str) -> dict:
+    return {**os.environ, jit.ENV_DIR: str(cache), **extra}
+
+
+def _run(cache: Path, *argv: str, **extra: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-c", RUN, *argv], env=_env(cache, **extra), capture_output=True,
+                          text=True, timeout=600)
+
+
+def _plan(cache: Path, planner: str, **extra: str) -> tuple[dict, bool]:
+    """The plan/1 document of ``planner`` on fuel-tank seed 1 (its timings, in seconds, dropped) and whether numba
+    was imported."""
+    proc = _run(cache, "plan", "--scene", "fuel-tank", "--seed", "1", "--planner", planner, "--json", **extra)
+    assert proc.returncode in (0, 1), proc.stderr
+    doc = json.loads(proc.stdout)
+    doc.pop("compute_time_s")
+    doc["details"] = {k: v for k, v in doc["details"].items() if not k.endswith("_s")}
+    return doc, "numba imported: True" in proc.stderr
+
+
+@pytest.fixture(scope="module")
+def compiled(tmp_path_factory) -> Path:
+    """A cache folder holding the kernels of fuel-tank's commands, compiled."""
+    if shutil.which(sysconfig.get_config_var("CC").split()[0] or "cc") is None:
+        pytest.skip("no C compiler: snakeplan compile needs one")
+    cache = tmp_path_factory.mktemp("cache")
+    proc = subprocess.run([sys.executable, "-m", "snakeplan.cli", "compile", "--scene", "fuel-tank"],
+                          env=_env(cache), capture_output=True, text=True, timeout=900)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.startswith("compiled "), proc.stdout
+    return cache
+
+
+@pytest.mark.parametrize("planner", PLANNERS)
+def test_compiled_kernels_plan_exactly_as_numba_without_importing_it(compiled, planner):
+    """Each planner's plan and judged report on fuel-tank seed 1 are the same with the compiled module as with
+    numba's kernels, number for number (rrt-star's random stream included), and numba is never imported."""
+    ahead, imported = _plan(compiled, planner)
+    jitted, _ = _plan(compiled, planner, **{jit.ENV_MODE: "numba"})
+    assert not imported
+    assert ahead == jitted
+
+
+def test_arguments_the_module_lacks_run_numba(compiled):
+    """A call with argument types that were not compiled (a strided array) runs numba's kernel, with the same
+    result as the compiled one on the same values."""
+    code = ("import sys, numpy as np; from snakeplan.geometry.polyline import cumulative_unchecked as f; "
+            "p = np.array([[0., 0, 0], [3, 4, 0], [3, 4, 12], [0, 0, 0]]); a = f(p); "
+            "print('numba' in sys.modules); b = f(np.repeat(p, 2, axis=0)[::2]); print('numba' in sys.modules); "
+            "print(a.tolist() == b.tolist() == [0.0, 5.0, 17.0, 30.0])")
+    proc = subprocess.run([sys.executable, "-c", code], env=_env(compiled), capture_output=True, text=True)
+    assert proc.stdout.split() == ["False", "True", "True"], proc.stderr
+
+
+def test_a_module_built_from_other_sources_is_not_used(compiled, tmp_path):
+    """The table records the sources' digest; a module whose digest differs (an edited source) is ignored and
+    numba compiles instead, with the same plan."""
+    stale = tmp_path / "cache"
+    shutil.copytree(compiled, stale)
+    manifest_path = stale / "kernels" / jit.MANIFEST
+    manifest = pickle.loads(manifest_path.read_bytes())
+    manifest["digest"] = "0" * 32
+    manifest_path.write_bytes(pickle.dumps(manifest))
+    doc, imported = _plan(stale, "as-rrt")
+    assert imported
+    assert doc == _plan(compiled, "as-rrt")[0]
+
+
+def test_the_plan_command_uses_only_compiled_kernels(compiled):
+    """``snakeplan plan --scene fuel-tank --seed 1`` (the start-up figure) finds every kernel it calls compiled."""
+    proc = _run(compiled, "plan", "--scene", "fuel-tank", "--seed", "1")
+    assert proc.stdout.startswith("sac-her on fuel-tank (seed 1)")
+    assert "numba imported: False" in proc.stderr
+
+
+def test_compile_refuses_an_unknown_scene_and_removes_its_module(compiled, tmp_path):
+    proc = subprocess.run([sys.executable, "-m", "snakeplan.cli", "compile", "--scene", "fuel-tnak"],
+                          env=_env(tmp_path), capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert proc.stderr.startswith("snakeplan: error: --scene: unknown scene family 'fuel-tnak'")
+    assert len(proc.stderr.splitlines()) == 1
+    copy = tmp_path / "copy"
+    shutil.copytree(compiled, copy)
+    proc = subprocess.run([sys.executable, "-m", "snakeplan.cli", "compile", "--remove"], env=_env(copy),
+                          capture_output=True, text=True)
+    assert proc.returncode == 0 and proc.stdout.startswith("removed"), proc.stderr
+    assert os.listdir(copy / "kernels") == []
