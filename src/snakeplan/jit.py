@@ -230,6 +230,11 @@ def source_digest(files: list[str]) -> str:
     return h.hexdigest()
 
 
+def compiled_in_use() -> bool:
+    """Whether this process loaded a compiled module (it loads one, if any matches, at its first kernel call)."""
+    return bool(_compiled)
+
+
 def _load_compiled() -> None:
     """Load the compiled module if it matches these sources, and give each proxy its table."""
     global _compiled
