@@ -1,12 +1,13 @@
 """``snakeplan compile``: compile the kernels the commands call ahead of time, so that commands start without numba.
 
-The workload is the commands themselves: ``snakeplan plan`` on seed 1 of each scene family with its default
-planner, and each registered planner on fuel-tank, run in this process with every kernel a recording proxy
-(``SNAKEPLAN_KERNELS=record``, :mod:`snakeplan.jit`). Each kernel called from Python is then compiled, once per
-set of argument types it was called with, into one extension module (numba's ahead-of-time compiler,
-``numba.pycc``, for this CPU; a C compiler is needed), written with its table into :func:`snakeplan.jit.compiled_dir`.
-Kernels called only by other kernels are compiled into their callers. A later process whose sources match loads
-it (:mod:`snakeplan.jit`); an edit to any of snakeplan's Python files retires it until the next compile.
+The workload is the commands themselves: ``snakeplan plan`` on seed 1 of each scene family with its default planner
+(a reaching family's with full and with sensed knowledge), and each registered planner on fuel-tank, run in this process with every
+kernel a recording proxy (``SNAKEPLAN_KERNELS=record``, :mod:`snakeplan.jit`). Each kernel called from Python is
+then compiled, once per set of argument types it was called with, into one extension module (numba's ahead-of-time
+compiler, ``numba.pycc``, for this CPU; a C compiler is needed), written with its table into
+:func:`snakeplan.jit.compiled_dir`. Kernels called only by other kernels are compiled into their callers. A later
+process whose sources match loads it (:mod:`snakeplan.jit`); an edit to any of snakeplan's Python files retires it
+until the next compile.
 
 ``snakeplan compile [--scene NAME ...]`` (or ``python -m snakeplan.precompile``) records in a fresh interpreter,
 since the recording must start before any kernel is defined; ``--remove`` deletes the module.
@@ -37,13 +38,17 @@ WORKLOAD_SEED = 1
 
 
 def workload(scenes: list[str] | None = None) -> list[list[str]]:
-    """The commands whose kernels are compiled: each scene family's default plan and, where fuel-tank is among
-    ``scenes`` (default: all families), every registered planner on it."""
+    """The commands whose kernels are compiled: each scene family's default plan (a reaching family's also with
+    sensed knowledge) and, where fuel-tank is among ``scenes`` (default: all families), every registered planner
+    on it."""
     from snakeplan.planners import planner_names
-    from snakeplan.scenes import scene_names
+    from snakeplan.scenes import scene_names, scene_spec
 
     names = scene_names() if scenes is None else scenes
-    commands = [["plan", "--scene", name, "--seed", str(WORKLOAD_SEED)] for name in names]
+    commands = []
+    for name in names:
+        plan = ["plan", "--scene", name, "--seed", str(WORKLOAD_SEED)]
+        commands += [plan, plan + ["--knowledge", "sensed"]] if scene_spec(name).task == "reach" else [plan]
     if "fuel-tank" in names:
         commands += [["plan", "--scene", "fuel-tank", "--seed", str(WORKLOAD_SEED), "--planner", planner]
                      for planner in planner_names()]
