@@ -140,3 +140,20 @@ def test_compile_refuses_an_unknown_scene_and_removes_its_module(compiled, tmp_p
                           capture_output=True, text=True)
     assert proc.returncode == 0 and proc.stdout.startswith("removed"), proc.stderr
     assert os.listdir(copy / "kernels") == []
+
+
+def test_ctrl_c_stops_compile_with_one_line_and_no_table(tmp_path):
+    """Ctrl-C (SIGINT to the terminal's process group) while the commands are being recorded: one line, exit
+    130, and no table in the cache folder."""
+    import signal
+    import time
+
+    proc = subprocess.Popen([sys.executable, "-m", "snakeplan.cli", "compile", "--scene", "fuel-tank"],
+                            env=_env(tmp_path), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    time.sleep(3)
+    os.killpg(proc.pid, signal.SIGINT)
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert err == "snakeplan: interrupted\n" and out == ""
+    assert not (tmp_path / "kernels" / jit.MANIFEST).exists()

@@ -1,10 +1,10 @@
 """``snakeplan compile``: compile the kernels the commands call ahead of time, so that commands start without numba.
 
 The workload is the commands themselves: ``snakeplan plan`` on seed 1 of each scene family with its default planner
-(a reaching family's with full and with sensed knowledge), and each registered planner on fuel-tank, run in this process with every
-kernel a recording proxy (``SNAKEPLAN_KERNELS=record``, :mod:`snakeplan.jit`). Each kernel called from Python is
-then compiled, once per set of argument types it was called with, into one extension module (numba's ahead-of-time
-compiler, ``numba.pycc``, for this CPU; a C compiler is needed), written with its table into
+(a reaching family's with full and with sensed knowledge), and each registered planner on fuel-tank, run in this
+process with every kernel a recording proxy (``SNAKEPLAN_KERNELS=record``, :mod:`snakeplan.jit`). Each kernel called
+from Python is then compiled, once per set of argument types it was called with, into one extension module (numba's
+ahead-of-time compiler, ``numba.pycc``, for this CPU; a C compiler is needed), written with its table into
 :func:`snakeplan.jit.compiled_dir`. Kernels called only by other kernels are compiled into their callers. A later
 process whose sources match loads it (:mod:`snakeplan.jit`); an edit to any of snakeplan's Python files retires it
 until the next compile.
@@ -32,6 +32,7 @@ from collections.abc import Iterator
 
 from snakeplan import jit
 from snakeplan.files import atomic_write
+from snakeplan.interrupt import EXIT_INTERRUPTED
 
 #: The planner seed and scene seed of the workload's plans.
 WORKLOAD_SEED = 1
@@ -64,7 +65,9 @@ def record(commands: list[list[str]]) -> list[jit.Kernel]:
     sink = io.StringIO()
     for argv in commands:
         with contextlib.redirect_stdout(sink), contextlib.redirect_stderr(sink):
-            main(argv)
+            status = main(argv)
+        if status == EXIT_INTERRUPTED:
+            raise KeyboardInterrupt
     return [k for k in jit.KERNELS if k.calls]
 
 
@@ -166,4 +169,7 @@ def main(scenes: list[str] | None = None) -> int:
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(prog="python -m snakeplan.precompile", description=__doc__.split("\n")[0])
     parser.add_argument("--scene", action="append", help="only this scene family's commands (may be repeated)")
-    sys.exit(main(parser.parse_args().scene))
+    try:
+        sys.exit(main(parser.parse_args().scene))
+    except KeyboardInterrupt:  # Ctrl-C reaches ``snakeplan compile`` too, which says so; nothing was written
+        sys.exit(EXIT_INTERRUPTED)
