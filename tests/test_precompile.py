@@ -11,6 +11,7 @@ import subprocess
 import sys
 import sysconfig
 from pathlib import Path
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -24,6 +25,11 @@ PLANNERS = ("sac-her", "rrt-star", "sp-rrt", "as-rrt")
 #: Runs a command in-process and says on stderr whether numba was imported.
 RUN = ("import sys; from snakeplan.cli import main; rc = main(sys.argv[1:]); "
        "sys.stderr.write(f'numba imported: {\"numba\" in sys.modules}\\n'); sys.exit(rc)")
+
+
+class Pair(NamedTuple):
+    first: np.ndarray
+    second: np.ndarray
 
 
 def _arrays(draw) -> np.ndarray:
@@ -51,6 +57,10 @@ def test_argument_keys_tell_apart_exactly_what_numba_types_apart(arrays):
     packed = tuple(arrays)
     assert jit.arg_key((packed,)) == jit.arg_key((tuple(a for a in arrays),))
     assert jit.arg_key((packed, 1.0, 2)) != jit.arg_key((packed, 1, 2))
+    pairs = [Pair(a, b) for a, b in itertools.pairwise(arrays)]  # named tuples: their fields count too
+    for p, q in itertools.combinations(pairs, 2):
+        assert (jit.arg_key((p,)) == jit.arg_key((q,))) == (numba.typeof(p) == numba.typeof(q))
+    assert jit.arg_key((pairs[0],)) != jit.arg_key((tuple(pairs[0]),))
 
 
 def _env(cache: Path, **extra: str) -> dict:

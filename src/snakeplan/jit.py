@@ -72,9 +72,11 @@ _MODE = mode()
 _PROXIES = _MODE == "record" or (_MODE == "" and (compiled_dir() / MANIFEST).is_file())
 #: Every proxy made in this process, in order.
 KERNELS: list[Kernel] = []
-#: The compiled module's table ({kernel name: {argument key: function}}) once loaded; None before; {} when none
-#: matches.
-_compiled: dict[str, dict[tuple, Callable]] | None = None
+#: The compiled module's table once loaded ({kernel name: its {argument key: function name}, pickled}; each
+#: kernel unpickles its own at its first call, so that loading imports no module its keys name); None before, {}
+#: when no module matches.
+_compiled: dict[str, bytes] | None = None
+_module = None
 
 
 #: The last tuple argument and its key: kernels are called again and again with the same packed obstacle set
@@ -93,12 +95,15 @@ def _arg_key(a: Any) -> Any:
         key = tuple([_arg_key(b) for b in a])
         _last_tuple[:] = a, key
         return key
+    if isinstance(a, tuple):  # a named tuple: numba types its class and each field
+        return (t, tuple([_arg_key(b) for b in a]))
     return t
 
 
 def arg_key(args: tuple) -> tuple:
     """What decides numba's types of ``args``: each array's dtype, dimensions, layout (C, F or A, as numba
-    reads it) and whether it is aligned and writeable; each tuple's elements; each other value's Python type."""
+    reads it) and whether it is aligned and writeable; each tuple's elements (a named tuple's with its class); each
+    other value's Python type."""
     return tuple([_arg_key(a) for a in args])
 
 
@@ -121,7 +126,8 @@ class Kernel:
         #: Record mode: {argument key: numba argument types} of the calls from Python.
         self.calls: dict[tuple, tuple] = {}
         self._dispatcher = None
-        self._table: dict[tuple, Callable] = {} if _compiled is None else _compiled.get(name_of(fn), {})
+        self._table: dict[tuple, Callable] = {}
+        self._resolved = False
         KERNELS.append(self)
 
     def __call__(self, *args):
@@ -131,11 +137,16 @@ class Kernel:
         return fn(*args)
 
     def _missing(self, args: tuple) -> Callable:
-        if _compiled is None:
-            _load_compiled()
-            fn = self._table.get(arg_key(args))
-            if fn is not None:
-                return fn
+        if not self._resolved:
+            self._resolved = True
+            if _compiled is None:
+                _load_compiled()
+            raw = _compiled.get(name_of(self.py_func))
+            if raw is not None:
+                self._table = {key: getattr(_module, symbol) for key, symbol in pickle.loads(raw).items()}
+                fn = self._table.get(arg_key(args))
+                if fn is not None:
+                    return fn
         dispatcher = self.dispatcher
         if _MODE == "record":
             self.calls.setdefault(arg_key(args), tuple(dispatcher.typeof_pyval(a) for a in args))
@@ -236,8 +247,8 @@ def compiled_in_use() -> bool:
 
 
 def _load_compiled() -> None:
-    """Load the compiled module if it matches these sources, and give each proxy its table."""
-    global _compiled
+    """Load the compiled module and its table if they match these sources."""
+    global _compiled, _module
     _compiled = {}
     if _MODE == "record":
         return
@@ -251,7 +262,4 @@ def _load_compiled() -> None:
         spec.loader.exec_module(module)
     except (OSError, ImportError, EOFError, KeyError, TypeError, AttributeError, pickle.UnpicklingError):
         return  # no usable module: numba compiles, as without one
-    _compiled = {name: {key: getattr(module, symbol) for key, symbol in table.items()}
-                 for name, table in manifest["table"].items()}
-    for k in KERNELS:
-        k._table = _compiled.get(name_of(k.py_func), {})
+    _compiled, _module = manifest["table"], module

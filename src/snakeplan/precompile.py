@@ -122,7 +122,8 @@ def build(kernels: list[jit.Kernel], folder=None) -> dict:
         cc.compile()
         filename = module + importlib.machinery.EXTENSION_SUFFIXES[0]
         shutil.move(os.path.join(tmp, filename), os.path.join(folder, filename))
-    manifest = {"digest": digest, "files": outside, "module": module, "filename": filename, "table": table}
+    manifest = {"digest": digest, "files": outside, "module": module, "filename": filename,
+                "table": {name: pickle.dumps(entries) for name, entries in table.items()}}
     atomic_write(os.path.join(folder, jit.MANIFEST), pickle.dumps(manifest))
     for old in os.listdir(folder):
         if old.startswith("snakeplan_kernels_") and old != filename:
