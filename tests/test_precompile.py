@@ -167,3 +167,24 @@ def test_ctrl_c_stops_compile_with_one_line_and_no_table(tmp_path):
     assert proc.returncode == 130, err
     assert err == "snakeplan: interrupted\n" and out == ""
     assert not (tmp_path / "kernels" / jit.MANIFEST).exists()
+
+
+def test_only_keys_that_fix_numba_types_are_recorded():
+    """A list's numba type depends on its contents, which its key (the class) does not hold: such calls are not
+    compiled ahead of time; arrays, tuples, named tuples and numbers are."""
+    a = np.zeros((2, 3))
+    assert jit._exact(jit.arg_key((a, (a, a), Pair(a, a), 1.0, 2, True, np.float32(1), None)))
+    assert not jit._exact(jit.arg_key(([1.0, 2.0],)))
+    assert not jit._exact(jit.arg_key(((a, {"k": 1}),)))
+
+
+def test_a_fallback_to_numba_seeds_numbas_stream_as_the_compiled_side_was(compiled):
+    """rrt-star's stream is seeded by a compiled kernel; once a call falls back to numba, numba's stream is
+    seeded with the same seed, so a numba kernel then draws NumPy's legacy sequence for that seed."""
+    code = ("import numpy as np, sys; from snakeplan.planners.tip_rrt_star import seed_stream; "
+            "from snakeplan.geometry.polyline import cumulative_unchecked as f; seed_stream(5); "
+            "print('numba' in sys.modules); f(np.zeros((4, 3))[::2]); import numba; "
+            "draw = numba.njit(lambda: np.random.random()); "
+            "print(draw() == np.random.RandomState(5).random_sample())")
+    proc = subprocess.run([sys.executable, "-c", code], env=_env(compiled), capture_output=True, text=True)
+    assert proc.stdout.split() == ["False", "True"], proc.stderr

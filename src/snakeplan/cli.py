@@ -909,7 +909,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "recording the kernels they call, and compile those into one module in the "
                                    "cache folder ($SNAKEPLAN_CACHE_DIR, else ~/.cache/snakeplan). Commands then "
                                    "load it instead of numba while snakeplan's sources match it. Needs a C "
-                                   "compiler; takes a few minutes.")
+                                   "compiler; takes about two minutes.")
     p.add_argument("--scene", action="append", help="only this scene family's commands (may be repeated)")
     p.add_argument("--remove", action="store_true", help="delete the compiled module")
     p.set_defaults(func=cmd_compile)

@@ -17,13 +17,14 @@ another, so a helper's own decorator is what guarantees it.
 Ahead of time. A command that loads its kernels from numba's cache still imports numba and starts its compiler
 (about 0.6 s on the 2-core machine, more than the plan it makes). ``snakeplan compile``
 (:mod:`snakeplan.precompile`) therefore compiles every kernel the commands call from Python, once per set of
-argument types they were called with, into one extension module in :func:`compiled_dir`. While that folder
-holds a module built from these very sources (a digest of the package's Python files, NumPy's version and the
-CPU), kernels are :class:`Kernel` proxies: a call looks its arguments' types up in the module's table and runs the
-compiled function, and a process that calls only compiled signatures never imports numba. A call with types the
-module lacks runs the kernel's numba dispatcher (numba imported then): the same code, from numba's cache or
-compiled. Without the module (or with ``SNAKEPLAN_KERNELS=numba``) the decorators return numba's dispatchers.
-Each side keeps its own random stream (``np.random`` inside kernels), seeded by the kernels of that side.
+argument types they were called with, into one extension module in :func:`compiled_dir`. When that folder holds
+a table, kernels are :class:`Kernel` proxies. At the first kernel call the process loads the module if it was
+built from these very sources (a digest of the package's Python files, NumPy's version and the CPU); a call then
+looks its arguments' types up in the module's table and runs the compiled function, and a process that calls only
+compiled signatures never imports numba. A call with types the module lacks, or any call when the module does
+not match, runs the kernel's numba dispatcher (numba imported then): the same code, from numba's cache or
+compiled. Without a table (or with ``SNAKEPLAN_KERNELS=numba``) the decorators return numba's dispatchers. Each
+side keeps its own random stream (``np.random`` inside kernels); see ``kernel(seeds=True)``.
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ import importlib.util
 import os
 import pickle
 import sys
+import threading
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -68,8 +70,11 @@ def mode() -> str:
 
 
 _MODE = mode()
-#: Whether the decorators make proxies: when recording, or when a compiled module may match.
-_PROXIES = _MODE == "record" or (_MODE == "" and (compiled_dir() / MANIFEST).is_file())
+#: Whether this process records the argument types of its kernels' calls (``snakeplan compile``'s workload).
+RECORDING = _MODE == "record"
+#: Whether the decorators make proxies: when recording, or when a compiled module may match (a table exists;
+#: whether it matches these sources is checked at the first kernel call).
+_PROXIES = RECORDING or (_MODE == "" and (compiled_dir() / MANIFEST).is_file())
 #: Every proxy made in this process, in order.
 KERNELS: list[Kernel] = []
 #: The compiled module's table once loaded ({kernel name: its {argument key: function name}, pickled}; each
@@ -79,24 +84,31 @@ _compiled: dict[str, bytes] | None = None
 _module = None
 
 
-#: The last tuple argument and its key: kernels are called again and again with the same packed obstacle set
-#: (eleven arrays), whose key would otherwise be most of a call's overhead. Held, so its identity is not reused.
-_last_tuple: list = [None, None]
+#: The last tuple argument and its key, as one pair: kernels are called again and again with the same packed
+#: obstacle set (eleven arrays), whose key would otherwise be most of a call's overhead. Held, so its identity is
+#: not reused; swapped whole, so that a thread never pairs one tuple with another's key.
+_last_tuple: tuple = (None, None)
+#: Python types whose values numba types by their type alone (a key of only these, arrays and tuples is exact).
+_SCALARS = (bool, int, float, complex, np.bool_, np.integer, np.floating, np.complexfloating, type(None))
 
 
 def _arg_key(a: Any) -> Any:
+    global _last_tuple
     t = type(a)
     if t is np.ndarray:
         flags = a.flags.num
         return (a.dtype, a.ndim, flags & _C or flags & _F, flags & _ALIGNED_WRITEABLE)
     if t is tuple:
-        if a is _last_tuple[0]:
-            return _last_tuple[1]
+        last = _last_tuple
+        if a is last[0]:
+            return last[1]
         key = tuple([_arg_key(b) for b in a])
-        _last_tuple[:] = a, key
+        _last_tuple = (a, key)
         return key
     if isinstance(a, tuple):  # a named tuple: numba types its class and each field
         return (t, tuple([_arg_key(b) for b in a]))
+    if isinstance(a, np.ndarray):  # a subclass: its class, then as an array
+        return (t, _arg_key(a.view(np.ndarray)))
     return t
 
 
@@ -107,20 +119,40 @@ def arg_key(args: tuple) -> tuple:
     return tuple([_arg_key(a) for a in args])
 
 
+def _exact(key: Any) -> bool:
+    """Whether ``key`` determines numba's types: arrays, tuples and scalars only (a list's or a dict's type
+    depends on its contents, which the key does not hold)."""
+    if isinstance(key, tuple):
+        if key and isinstance(key[0], np.dtype):
+            return True
+        return all(_exact(k) for k in key)
+    return isinstance(key, type) and (issubclass(key, _SCALARS) or issubclass(key, (tuple, np.ndarray)))
+
+
 def name_of(fn: Callable) -> str:
     """A kernel's name in the compiled module's table: ``module.qualname``."""
     return f"{fn.__module__}.{fn.__qualname__}"
 
 
+#: Guards loading the module and each proxy's first look at its table (planners may run in threads).
+_LOCK = threading.Lock()
+#: The last call of each kernel that seeds ``np.random`` (``kernel(seeds=True)``).
+_SEED_CALLS: dict[Kernel, tuple] = {}
+#: Whether a kernel has fallen back to numba while compiled kernels run: numba's random stream, apart from the
+#: compiled module's, is then seeded too, by every seeding call.
+_numba_side = False
+
+
 class Kernel:
     """A kernel that runs its compiled function where one matches its arguments' types, else its numba
-    dispatcher. numba sees it as that dispatcher (``py_func``, ``targetoptions`` and a ``typeof`` entry), so
-    kernels call and inline each other through proxies as they would through dispatchers."""
+    dispatcher. numba sees it as that dispatcher (``py_func``, ``targetoptions``, ``_numba_type_``), so kernels
+    call and inline each other through proxies as they would through dispatchers."""
 
-    def __init__(self, fn: Callable, options: dict) -> None:
+    def __init__(self, fn: Callable, options: dict, seeds: bool = False) -> None:
         functools.update_wrapper(self, fn)
         self.py_func = fn
         self.options = options
+        self.seeds = seeds
         #: What numba's inliner reads of a callee (``inline``).
         self.targetoptions = {k: v for k, v in options.items() if k != "cache"}
         #: Record mode: {argument key: numba argument types} of the calls from Python.
@@ -131,73 +163,95 @@ class Kernel:
         KERNELS.append(self)
 
     def __call__(self, *args):
-        fn = self._table.get(arg_key(args))
+        key = arg_key(args)
+        fn = self._table.get(key)
         if fn is None:
-            fn = self._missing(args)
+            fn = self._missing(key, args)
+        if self.seeds:
+            self._seeded(args)
         return fn(*args)
 
-    def _missing(self, args: tuple) -> Callable:
-        if not self._resolved:
-            self._resolved = True
-            if _compiled is None:
-                _load_compiled()
-            raw = _compiled.get(name_of(self.py_func))
-            if raw is not None:
-                self._table = {key: getattr(_module, symbol) for key, symbol in pickle.loads(raw).items()}
-                fn = self._table.get(arg_key(args))
-                if fn is not None:
-                    return fn
-        dispatcher = self.dispatcher
-        if _MODE == "record":
-            self.calls.setdefault(arg_key(args), tuple(dispatcher.typeof_pyval(a) for a in args))
-        return dispatcher
+    def _missing(self, key: tuple, args: tuple) -> Callable:
+        """The function for ``key`` (compiled, else the dispatcher), kept in the table for the next call."""
+        global _numba_side
+        with _LOCK:
+            if not self._resolved:
+                if _compiled is None:
+                    _load_compiled()
+                raw = _compiled.get(name_of(self.py_func))
+                try:
+                    table = {} if raw is None else {k: getattr(_module, s) for k, s in pickle.loads(raw).items()}
+                except Exception:  # a table this module does not match: numba for this kernel
+                    table = {}
+                self._table = table
+                self._resolved = True
+            fn = self._table.get(key)
+            if fn is not None:
+                return fn
+            fn = self.dispatcher
+            if RECORDING:
+                if _exact(key):
+                    self.calls[key] = tuple(fn.typeof_pyval(a) for a in args)
+            elif _compiled and not _numba_side:
+                _numba_side = True
+                for k, seed_args in _SEED_CALLS.items():
+                    k.dispatcher(*seed_args)
+            self._table[key] = fn
+            return fn
+
+    def _seeded(self, args: tuple) -> None:
+        """Remember a seeding call; seed numba's stream too once kernels run on both sides."""
+        _SEED_CALLS[self] = args
+        if _numba_side:
+            self.dispatcher(*args)
 
     @property
     def dispatcher(self):
-        """The numba dispatcher (numba is imported on first use)."""
+        """The numba dispatcher (numba is imported on first use). Recording compiles afresh, without numba's
+        cache: its callees' cached code may predate an edit of their module, and the compiled module would keep
+        it."""
         if self._dispatcher is None:
-            self._dispatcher = _njit(self.options)(self.py_func)
+            options = {**self.options, "cache": False} if RECORDING else self.options
+            self._dispatcher = njit(options)(self.py_func)
         return self._dispatcher
+
+    @property
+    def _numba_type_(self):
+        """numba's type of this kernel as a value: its dispatcher's."""
+        from numba.core import types
+
+        return types.Dispatcher(self.dispatcher)
 
     def __repr__(self) -> str:
         return f"<kernel {name_of(self.py_func)}>"
 
 
-@functools.cache
-def _numba():
-    """numba, imported, with proxies typed as their dispatchers."""
+def njit(options: dict) -> Callable:
+    """numba's ``njit`` with ``options`` (numba imported now); ``_nrt`` dropped where this numba lacks it (``leaf``
+    is then plain ``njit``: the same results, without the saving)."""
     import numba
-    from numba.core import types
-    from numba.core.typing.typeof import typeof_impl
-
-    @typeof_impl.register(Kernel)
-    def _typeof_kernel(val: Kernel, c) -> types.Dispatcher:
-        return types.Dispatcher(val.dispatcher)
-
-    return numba
-
-
-def _njit(options: dict) -> Callable:
-    numba = _numba()
     from numba.core.cpu import CPUTargetOptions
 
-    if not hasattr(CPUTargetOptions, "_nrt"):  # a numba without the option: leaf is plain njit, same results
+    if not hasattr(CPUTargetOptions, "_nrt"):
         options = {k: v for k, v in options.items() if k != "_nrt"}
     return numba.njit(**options)
 
 
-def _decorator(**options: Any) -> Callable[[Callable], Callable]:
+def _decorator(seeds: bool = False, **options: Any) -> Callable[[Callable], Callable]:
     options = {"cache": True, **options}
 
     def decorate(fn: Callable) -> Callable:
-        return Kernel(fn, options) if _PROXIES else _njit(options)(fn)
+        return Kernel(fn, options, seeds) if _PROXIES else njit(options)(fn)
 
     return decorate
 
 
-def kernel(fn: Callable | None = None, **options: Any):
-    """``njit(cache=True)``; ``@kernel(inline="always")`` passes numba options."""
-    return _decorator(**options) if fn is None else _decorator()(fn)
+def kernel(fn: Callable | None = None, *, seeds: bool = False, **options: Any):
+    """``njit(cache=True)``; ``@kernel(inline="always")`` passes numba options. ``seeds=True`` marks a kernel that
+    seeds ``np.random``: compiled kernels and numba's each keep a random stream, and once a call falls back to
+    numba while compiled kernels run, its stream is seeded with the last seeding call's arguments and by every
+    later one, so that draws stay a function of the seed."""
+    return _decorator(seeds, **options) if fn is None else _decorator(seeds)(fn)
 
 
 #: ``njit(cache=True)`` without reference counting, for a kernel that allocates and keeps no array.
@@ -247,19 +301,23 @@ def compiled_in_use() -> bool:
 
 
 def _load_compiled() -> None:
-    """Load the compiled module and its table if they match these sources."""
+    """Load the compiled module and its table if they match these sources (under :data:`_LOCK`)."""
     global _compiled, _module
-    _compiled = {}
-    if _MODE == "record":
+    if RECORDING:
+        _compiled = {}
         return
     folder = compiled_dir()
     try:
         manifest = pickle.loads((folder / MANIFEST).read_bytes())
         if manifest["digest"] != source_digest(manifest["files"]):
+            _compiled = {}
             return
         spec = importlib.util.spec_from_file_location(manifest["module"], folder / manifest["filename"])
         module = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(module)
-    except (OSError, ImportError, EOFError, KeyError, TypeError, AttributeError, pickle.UnpicklingError):
-        return  # no usable module: numba compiles, as without one
-    _compiled, _module = manifest["table"], module
+        table = dict(manifest["table"])
+    except Exception:  # no usable module (missing, half-written, another build's): numba compiles, as without one
+        _compiled = {}
+        return
+    _module = module
+    _compiled = table

@@ -1,7 +1,7 @@
 """``snakeplan compile``: compile the kernels the commands call ahead of time, so that commands start without numba.
 
 The workload is the commands themselves: ``snakeplan plan`` on seed 1 of each scene family with its default planner
-(a reaching family's with full and with sensed knowledge), and each registered planner on fuel-tank, run in this
+(also with sensed knowledge where its planner takes it), and each registered planner on fuel-tank, run in this
 process with every kernel a recording proxy (``SNAKEPLAN_KERNELS=record``, :mod:`snakeplan.jit`). Each kernel called
 from Python is then compiled, once per set of argument types it was called with, into one extension module (numba's
 ahead-of-time compiler, ``numba.pycc``, for this CPU; a C compiler is needed), written with its table into
@@ -10,7 +10,9 @@ process whose sources match loads it (:mod:`snakeplan.jit`); an edit to any of s
 until the next compile.
 
 ``snakeplan compile [--scene NAME ...]`` (or ``python -m snakeplan.precompile``) records in a fresh interpreter,
-since the recording must start before any kernel is defined; ``--remove`` deletes the module.
+since the recording must start before any kernel is defined; ``snakeplan compile --remove`` deletes the module.
+The recording compiles each kernel afresh (numba's cache may hold a callee's code from before an edit of its
+module), and the sources must not change until the module is written.
 """
 
 from __future__ import annotations
@@ -18,7 +20,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import copy
-import importlib.machinery
 import io
 import os
 import pickle
@@ -27,6 +28,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import uuid
 import warnings
 from collections.abc import Iterator
 
@@ -39,36 +41,44 @@ WORKLOAD_SEED = 1
 
 
 def workload(scenes: list[str] | None = None) -> list[list[str]]:
-    """The commands whose kernels are compiled: each scene family's default plan (a reaching family's also with
-    sensed knowledge) and, where fuel-tank is among ``scenes`` (default: all families), every registered planner
+    """The commands whose kernels are compiled: each scene family's default plan (also with sensed knowledge where
+    its planner takes it) and, where fuel-tank is among ``scenes`` (default: all families), every registered planner
     on it."""
     from snakeplan.planners import planner_names
+    from snakeplan.planners.registry import PLANNERS
     from snakeplan.scenes import scene_names, scene_spec
 
     names = scene_names() if scenes is None else scenes
     commands = []
     for name in names:
+        spec = scene_spec(name)
         plan = ["plan", "--scene", name, "--seed", str(WORKLOAD_SEED)]
-        commands += [plan, plan + ["--knowledge", "sensed"]] if scene_spec(name).task == "reach" else [plan]
+        sensed = spec.task == "reach" and not PLANNERS.get(spec.planner).needs_full_scene
+        commands += [plan, plan + ["--knowledge", "sensed"]] if sensed else [plan]
     if "fuel-tank" in names:
         commands += [["plan", "--scene", "fuel-tank", "--seed", str(WORKLOAD_SEED), "--planner", planner]
                      for planner in planner_names()]
     return commands
 
 
-def record(commands: list[list[str]]) -> list[jit.Kernel]:
-    """Run ``commands`` (their output discarded) and return the kernels they called from Python."""
+def record(commands: list[list[str]]) -> tuple[list[jit.Kernel], list[str]]:
+    """Run ``commands`` (their output discarded); the kernels they called from Python, and a line for each command
+    that failed (exit status other than 0, or 1 for an infeasible plan)."""
     from snakeplan.cli import main
 
-    if jit.mode() != "record":
+    if not jit.RECORDING:
         raise RuntimeError(f"recording needs {jit.ENV_MODE}=record before snakeplan's kernels are defined")
-    sink = io.StringIO()
+    failed = []
     for argv in commands:
+        sink = io.StringIO()
         with contextlib.redirect_stdout(sink), contextlib.redirect_stderr(sink):
             status = main(argv)
         if status == EXIT_INTERRUPTED:
             raise KeyboardInterrupt
-    return [k for k in jit.KERNELS if k.calls]
+        if status not in (0, 1):
+            last = sink.getvalue().strip().splitlines()
+            failed.append(f"'snakeplan {' '.join(argv)}' exited {status}: {last[-1] if last else ''}")
+    return [k for k in jit.KERNELS if k.calls], failed
 
 
 @contextlib.contextmanager
@@ -89,18 +99,24 @@ def _fresh_flags() -> Iterator[None]:
         compiler.compile_extra = original
 
 
-def build(kernels: list[jit.Kernel], folder=None) -> dict:
+def build(kernels: list[jit.Kernel], folder=None, recorded_from: str | None = None) -> dict:
     """Compile ``kernels`` for the argument types they were called with into one module in ``folder`` (default
-    :func:`snakeplan.jit.compiled_dir`) with its table, replacing any module there. Returns a summary."""
-    jit._numba()
+    :func:`snakeplan.jit.compiled_dir`) with its table, replacing any module there. ``recorded_from``: the
+    package's digest when the recording began; the sources must not change from then until the module is written.
+    Returns a summary."""
     from numba.pycc import CC
 
+    names = [jit.name_of(k.py_func) for k in kernels]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise RuntimeError(f"two kernels named {twice[0]}: the table tells kernels apart by module and name")
     folder = jit.compiled_dir() if folder is None else folder
     files = sorted({os.path.abspath(sys.modules[k.py_func.__module__].__file__) for k in kernels})
     package = os.path.dirname(os.path.abspath(jit.__file__))
     outside = [f for f in files if not f.startswith(package + os.sep)]
     digest = jit.source_digest(outside)
-    module = f"snakeplan_kernels_{digest[:16]}"
+    # a name of its own per build, so that a table only ever names the module built with it
+    module = f"snakeplan_kernels_{digest[:12]}_{uuid.uuid4().hex[:8]}"
     cc = CC(module)
     cc.target_cpu = "host"
     cc.verbose = False
@@ -120,7 +136,9 @@ def build(kernels: list[jit.Kernel], folder=None) -> dict:
         warnings.simplefilter("ignore")
         cc.output_dir = tmp
         cc.compile()
-        filename = module + importlib.machinery.EXTENSION_SUFFIXES[0]
+        if jit.source_digest(outside) != digest or (recorded_from and jit.source_digest([]) != recorded_from):
+            raise RuntimeError("snakeplan's sources changed while compiling; run snakeplan compile again")
+        filename = os.path.basename(cc.output_file)
         shutil.move(os.path.join(tmp, filename), os.path.join(folder, filename))
     manifest = {"digest": digest, "files": outside, "module": module, "filename": filename,
                 "table": {name: pickle.dumps(entries) for name, entries in table.items()}}
@@ -137,7 +155,9 @@ def remove(folder=None) -> bool:
     folder = jit.compiled_dir() if folder is None else folder
     found = False
     for name in os.listdir(folder) if os.path.isdir(folder) else []:
-        if name == jit.MANIFEST or name.startswith("snakeplan_kernels_"):
+        if os.path.isdir(os.path.join(folder, name)):  # a build's temporary folder, left by a killed compile
+            shutil.rmtree(os.path.join(folder, name))
+        elif name == jit.MANIFEST or name.startswith("snakeplan_kernels_"):
             os.remove(os.path.join(folder, name))
             found = True
     return found
@@ -146,20 +166,26 @@ def remove(folder=None) -> bool:
 def main(scenes: list[str] | None = None) -> int:
     """Record the workload of ``scenes`` (default: all families) and compile it; in a fresh interpreter unless
     this one is recording. Returns the exit status."""
-    if jit.mode() != "record":
+    if not jit.RECORDING:
         command = [sys.executable, "-m", "snakeplan.precompile"]
         for name in scenes or []:
             command += ["--scene", name]
         return subprocess.run(command, env={**os.environ, jit.ENV_MODE: "record"}).returncode
     start = time.perf_counter()
+    sources = jit.source_digest([])
     commands = workload(scenes)
-    kernels = record(commands)
+    kernels, failed = record(commands)
     recorded = time.perf_counter() - start
+    for line in failed:
+        sys.stderr.write(f"snakeplan: warning: {line}; its kernels are compiled only as far as it ran\n")
+    if not kernels:
+        sys.stderr.write("snakeplan: error: the commands called no kernel; nothing to compile\n")
+        return 1
     try:
-        summary = build(kernels)
+        summary = build(kernels, recorded_from=sources)
     except Exception as exc:  # numba's compiler, the C compiler, the cache folder: say which, in one line
         sys.stderr.write(f"snakeplan: error: compiling the kernels failed: {type(exc).__name__}: "
-                         f"{str(exc).strip().splitlines()[-1] if str(exc).strip() else ''}\n")
+                         f"{str(exc).strip().splitlines()[0] if str(exc).strip() else ''}\n")
         return 1
     sys.stdout.write(f"compiled {summary['kernels']} kernels ({summary['signatures']} signatures) from "
                      f"{len(commands)} commands into {summary['folder']}/{summary['file']}: recording "
@@ -172,5 +198,5 @@ if __name__ == "__main__":
     parser.add_argument("--scene", action="append", help="only this scene family's commands (may be repeated)")
     try:
         sys.exit(main(parser.parse_args().scene))
-    except KeyboardInterrupt:  # Ctrl-C reaches ``snakeplan compile`` too, which says so; nothing was written
-        sys.exit(EXIT_INTERRUPTED)
+    except KeyboardInterrupt:  # Ctrl-C reaches ``snakeplan compile`` too, which says so; the table is written
+        sys.exit(EXIT_INTERRUPTED)  # last, so the module in use before stays in use

@@ -53,7 +53,7 @@ MAX_GRID_SIDE = 128
 _N, _ITER, _FOUND_AT, _BEST, _GOALS = 0, 1, 2, 3, 4
 
 
-@kernel
+@kernel(seeds=True)
 def seed_stream(seed):
     """Seed numba's random stream (process-wide, like OMPL's: plan from one thread at a time)."""
     np.random.seed(seed)
