@@ -86,7 +86,7 @@ def _plan(cache: Path, planner: str, **extra: str) -> tuple[dict, bool]:
 @pytest.fixture(scope="module")
 def compiled(tmp_path_factory) -> Path:
     """A cache folder holding the kernels of fuel-tank's commands, compiled."""
-    if shutil.which(sysconfig.get_config_var("CC").split()[0] or "cc") is None:
+    if shutil.which((sysconfig.get_config_var("CC") or "cc").split()[0]) is None:
         pytest.skip("no C compiler: snakeplan compile needs one")
     cache = tmp_path_factory.mktemp("cache")
     proc = subprocess.run([sys.executable, "-m", "snakeplan.cli", "compile", "--scene", "fuel-tank"],
