@@ -152,6 +152,11 @@ def planner_rows(name: str, scene: str, seeds: int, baseline: Callable[[], conte
     return out
 
 
+def _child_env(**extra: str) -> dict:
+    """The environment of a child interpreter that imports this snakeplan (this process's path), with ``extra``."""
+    return {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p), **extra}
+
+
 def command_rows(repeats: int, progress: Callable[[str], None]) -> dict:
     """Wall time of ``snakeplan plan --scene fuel-tank --seed 1`` in a fresh interpreter: with its kernels compiled
     ahead of time (``snakeplan compile --scene fuel-tank`` first, into a temporary cache folder, so that the figure
@@ -162,7 +167,7 @@ def command_rows(repeats: int, progress: Callable[[str], None]) -> dict:
 
     plan = [sys.executable, "-m", "snakeplan.cli", "plan", "--scene", "fuel-tank", "--seed", "1"]
     with tempfile.TemporaryDirectory() as cache:
-        env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p), ENV_DIR: cache}
+        env = _child_env(**{ENV_DIR: cache})
         t0 = time.perf_counter()
         built = subprocess.run([sys.executable, "-m", "snakeplan.cli", "compile", "--scene", "fuel-tank"], env=env,
                                capture_output=True, text=True)
@@ -224,8 +229,8 @@ def judge_rows(progress: Callable[[str], None]) -> dict:
     from snakeplan.jit import ENV_MODE
 
     code = "import json; from snakeplan.bench.speed import judge_figures; print(json.dumps(judge_figures()))"
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p), ENV_MODE: "numba"}
-    proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    proc = subprocess.run([sys.executable, "-c", code], env=_child_env(**{ENV_MODE: "numba"}), capture_output=True,
+                          text=True)
     if proc.returncode != 0:
         raise RuntimeError(f"the judge's figures failed: {proc.stderr.strip()[-300:]}")
     out = json.loads(proc.stdout)
