@@ -1,4 +1,4 @@
-"""Inspection planning (paper 002): trajectories, the arm's reach, the viewpoint library, the mission loop and
+"""Inspection planning (paper 002): camera paths, the arm's reach, the viewpoint library, the mission loop and
 the three planners (deterministic for a seed, coverage helix fitted to the budget)."""
 
 import dataclasses
@@ -9,18 +9,34 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from snakeplan.planners import Problem, get_planner, planner_names
 from snakeplan.planners.coverage import helix_points
 from snakeplan.planners.inspection import (
     KEEP_OUT_MM,
     SPLINE_SAMPLES,
-    InspectionProblem,
-    Trajectory,
-    get_inspection_planner,
-    inspection_planner_names,
     natural_spline_samples,
+    survey_for,
 )
+from snakeplan.planners.inspection import CameraPath as Trajectory
 from snakeplan.robots import get_robot
 from snakeplan.scenes import make_scene
+from snakeplan.world.mission import InspectionSettings
+
+
+def InspectionProblem(scene, robot, **settings):
+    """The inspect problem of ``scene`` with mission ``settings`` (budget_s, ...)."""
+    return Problem(scene, robot, task="inspect", inspection=InspectionSettings(**settings))
+
+
+def get_inspection_planner(name, **options):
+    """An inspection planner by name, whose ``plan`` flies its mission and returns the planner's own account."""
+    planner = get_planner(name, task="inspect", **options)
+    planner.plan = planner.fly
+    return planner
+
+
+def inspection_planner_names():
+    return planner_names("inspect")
 
 #: A short mission keeps the planner tests fast.
 SHORT_BUDGET_S = 16.0
@@ -33,7 +49,7 @@ def problem():
 
 @pytest.fixture(scope="module")
 def world(problem):
-    return problem.world()
+    return survey_for(problem.scene, problem.robot, problem.inspection)
 
 
 def test_registry_names():
@@ -44,7 +60,7 @@ def test_registry_names():
 
 def test_problem_validation(problem):
     with pytest.raises(ValueError, match="budget_s"):
-        dataclasses.replace(problem, budget_s=0.0)
+        dataclasses.replace(problem.inspection, budget_s=0.0)
     with pytest.raises(ValueError, match="no surface field"):
         InspectionProblem(make_scene("fuel-tank", 0), get_robot("hsr-10"))
 
@@ -107,7 +123,7 @@ def test_library_reach_and_keep_out(world):
     assert lib.reachable.mean() > 0.9
     assert np.all(world.field.distance(lib.positions) > KEEP_OUT_MM)
     assert all(len(s) > 0 for s in lib.seen)
-    home = world.frame.home()
+    home = world.home()
     report = world.reach.check([home, [0.0, 0.0, 10000.0]])
     assert report.ok.tolist() == [True, False]
     joints = world.reach.robot.with_base(report.base[0]).joint_positions(report.q[0])
@@ -124,10 +140,10 @@ def test_look_direction_points_at_the_skin(world):
 
 def test_coverage_fills_the_budget(problem):
     res = get_inspection_planner("coverage").plan(problem, seed=0)
-    assert res.times[-1] == pytest.approx(problem.budget_s)
-    assert len(res.times) == len(problem.ticks())
+    assert res.times[-1] == pytest.approx(problem.inspection.budget_s)
+    assert len(res.times) == len(problem.inspection.ticks())
     length = np.sum(np.linalg.norm(np.diff(res.path, axis=0), axis=1))
-    assert length == pytest.approx(problem.speed_mm_s * problem.budget_s, rel=0.01)
+    assert length == pytest.approx(problem.inspection.speed_mm_s * problem.inspection.budget_s, rel=0.01)
     assert np.all(np.diff(res.trace) <= 1e-6)
     out = json.loads(json.dumps(res.to_dict(), allow_nan=False))
     assert out["final_rmse_k"] == pytest.approx(res.rmse[-1]) and len(out["rmse_k"]) == len(res.times)
@@ -136,7 +152,7 @@ def test_coverage_fills_the_budget(problem):
 @pytest.fixture(scope="module")
 def short_runs(problem):
     """Two missions per planner with the same seed on a short budget."""
-    short = dataclasses.replace(problem, budget_s=SHORT_BUDGET_S)
+    short = dataclasses.replace(problem, inspection=dataclasses.replace(problem.inspection, budget_s=SHORT_BUDGET_S))
     options = {"informative": {"generations": 2, "popsize": 4}}
     return {name: [get_inspection_planner(name, **options.get(name, {})).plan(short, seed=7) for _ in range(2)]
             for name in ("coverage", "random", "informative")}

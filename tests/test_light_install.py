@@ -35,11 +35,10 @@ PLAN_AND_JUDGE = '''
 import json
 from snakeplan.evaluation import evaluate
 from snakeplan.planners import Problem, get_planner, planner_names
-from snakeplan.planners.inspection import inspection_planner_names
 from snakeplan.robots import get_robot
 from snakeplan.scenes import make_scene
 
-names = planner_names() + inspection_planner_names()  # imports every built-in planner module
+names = planner_names()  # every built-in planner, reach and inspect
 runs = {}
 for scene_name, seed, planner, robot in [("fuel-tank", 0, "sac-her", "sjtu-snake-iii"),
                                          ("oil-tank", 0, "sac-per", "sjtu-snake-iii"),

@@ -73,8 +73,7 @@ def test_the_user_facing_decorators_refuse_built_in_names():
 
 def test_listing_names_imports_no_planner_or_generator_module():
     code = ("import json, sys; from snakeplan.planners import planner_names; from snakeplan.scenes import scene_names; "
-            "from snakeplan.planners.inspection import inspection_planner_names; "
-            "names = planner_names() + scene_names() + inspection_planner_names(); "
+            "names = planner_names() + scene_names(); "
             "print(json.dumps({'names': names, 'modules': sorted(sys.modules)}))")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           env={**os.environ, "PYTHONPATH": str(SRC)})

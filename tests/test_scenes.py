@@ -12,7 +12,6 @@ import trimesh
 from snakeplan.geometry.distance import ObstacleSet
 from snakeplan.geometry.primitives import Box, Plate
 from snakeplan.planners import planner_names
-from snakeplan.planners.inspection import inspection_planner_names
 from snakeplan.robots import get_robot, robot_names
 from snakeplan.scenes import Entrance, Scene, SceneSpec, make_scene, scene_spec, spec_for
 from snakeplan.scenes.reach import Grid, geodesic_field
@@ -257,7 +256,7 @@ def test_spec_fits_its_scenes(name):
     assert float(robot.radii.max()) == pytest.approx(s.metadata["arm_radius_mm"])
     # The task follows from what the scene holds: targets to reach, or a surface field and no targets.
     assert spec.task == ("inspect" if len(s.targets) == 0 and "field" in s.metadata else "reach")
-    known = planner_names() if spec.task == "reach" else inspection_planner_names()
+    known = planner_names(spec.task)
     assert spec.planner in known and set(spec.policies) <= set(known)
 
 

@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 from _browser import near
 
-from snakeplan.episode import run_mission
-from snakeplan.planners.inspection import InspectionProblem
+from snakeplan.planners import Problem, get_planner
 from snakeplan.robots import load_robot
 from snakeplan.scenes import make_scene
 from snakeplan.viz.mission import MissionRecord, save_mission_page, save_mission_video
+from snakeplan.world.mission import InspectionSettings
 
 imageio_ffmpeg = pytest.importorskip("imageio_ffmpeg", reason="the video extra (imageio-ffmpeg) is not installed")
 
@@ -20,8 +20,8 @@ def mission():
     """A short random mission round station seed 0 and the map after each of its measurements."""
     scene = make_scene("station", 0)
     record = MissionRecord()
-    result = run_mission(InspectionProblem(scene, load_robot("hsr-10"), budget_s=10.0), "random", 0,
-                         on_measure=record).result
+    result = get_planner("random").fly(Problem(scene, load_robot("hsr-10"), inspection=InspectionSettings(budget_s=10.0)),
+                                       0, on_measure=record)
     return scene, result, record
 
 
@@ -61,14 +61,12 @@ def test_mission_page_colours_the_station_by_the_map(tmp_path, mission, browser)
 
 
 def test_plan_station_writes_plot_video_and_page(tmp_path, monkeypatch, capsys):
-    import functools
-
     from PIL import Image
 
-    import snakeplan.planners.inspection as inspection
+    import snakeplan.world.mission as missions
     from snakeplan.cli import main
 
-    monkeypatch.setattr(inspection, "InspectionProblem", functools.partial(InspectionProblem, budget_s=10.0))
+    monkeypatch.setattr(missions, "default_settings", lambda scene: InspectionSettings(budget_s=10.0))
     png, mp4, page = tmp_path / "maps.png", tmp_path / "flight.mp4", tmp_path / "flight.html"
     assert main(["plan", "--scene", "station", "--planner", "random", "--plot", str(png), "--animate", str(mp4),
                  "--frames", "6", "--frame-size", "480x272", "--html", str(page)]) == 0

@@ -1,7 +1,7 @@
 """The one benchmark runner: episodes (scene families or scene files x seeds) x planners (+ options), planned and
-judged through :func:`snakeplan.episode.run_episode`, one JSON Lines row per run in a results folder. A scene
-whose task is to inspect a surface (``station``) is flown by an inspection planner instead; its row holds the
-mission's map error and uncertainty curves, the final map and the share of measurement poses the arm reaches.
+judged through :func:`snakeplan.episode.run_episode`, one JSON Lines row per run in a results folder, whatever the
+scene's task: a planner runs in the scenes whose task it does, and an inspect row's metrics are the judge's
+(the mission's map error and uncertainty curves, the share of views the arm holds).
 
 A results folder ``DIR`` holds::
 
@@ -60,8 +60,6 @@ PATH_INLINE_POINTS = 400
 WARMUP_SEED = 10_000
 #: Budget (s) of a warm-up plan, at most.
 WARMUP_TIME_LIMIT_S = 2.0
-#: Mission time (s) of the untimed warm-up mission before a worker's first inspection run of a scene.
-WARMUP_MISSION_S = 4.0
 #: Most runs in one task; fewer when there are few runs per worker.
 CHUNK_MAX = 8
 #: Fields of a row that measure time or place rather than the result.
@@ -160,10 +158,9 @@ class Sweep:
 
 def _needs_full_scene(planner: str) -> bool:
     """Whether ``planner`` (a registered name) plans only with the whole scene."""
-    from snakeplan.planners.inspection import inspection_planner_names
     from snakeplan.planners.registry import PLANNERS
 
-    return planner not in inspection_planner_names() and PLANNERS.get(planner).needs_full_scene
+    return PLANNERS.get(planner).needs_full_scene
 
 
 def _scene_source(scene: str) -> tuple[str, str]:
@@ -183,11 +180,10 @@ def _scene_source(scene: str) -> tuple[str, str]:
 
 
 def _does_task(planner: str, task: str) -> bool:
-    """Whether ``planner`` does a scene task: inspect a surface (an inspection planner) or reach targets."""
-    from snakeplan.planners import planner_names
-    from snakeplan.planners.inspection import inspection_planner_names
+    """Whether ``planner`` does a scene's task (the tasks it declares)."""
+    from snakeplan.planners.registry import PLANNERS
 
-    return planner in (inspection_planner_names() if task == "inspect" else planner_names())
+    return task in PLANNERS.get(planner).tasks
 
 
 def _spec(family: str, text: str):
@@ -245,72 +241,29 @@ def run_chunk(task: list[Run], stamp: dict) -> list[dict]:
     rows = []
     shared: dict[tuple, object] = {}
     for run in task:
-        if run.task == "inspect":
-            rows.append(_inspection_row(run, {**stamp, **host}))
-            continue
         robot = get_robot(run.robot)
         options = dict(run.options)
         warm = (run.scene, run.scene_json, run.robot, run.planner, run.options, run.knowledge)
         if warm not in _WARM:
             run_episode(Problem(_scene_of(run, WARMUP_SEED), robot, min(run.time_limit_s, WARMUP_TIME_LIMIT_S),
-                                knowledge=run.knowledge), get_planner(run.planner, **options), seed=WARMUP_SEED)
+                                knowledge=run.knowledge, task=run.task), get_planner(run.planner, **options),
+                        seed=WARMUP_SEED)
             _WARM.add(warm)
         if run.stateful:
             planner = shared.setdefault((run.planner, run.options, run.knowledge), get_planner(run.planner, **options))
         else:
             planner = get_planner(run.planner, **options)
-        problem = Problem(_scene_of(run), robot, run.time_limit_s, knowledge=run.knowledge)
+        problem = Problem(_scene_of(run), robot, run.time_limit_s, knowledge=run.knowledge, task=run.task)
         episode = run_episode(problem, planner, seed=run.seed)
         rows.append(make_row(run, episode, {**stamp, **host}))
     return rows
 
 
-def _inspection_row(run: Run, provenance: dict) -> dict:
-    """Fly the inspection mission of ``run`` (a scene whose task is to inspect a surface; ``planner`` an
-    inspection planner) and make its row. The mission loop measures and scores the map (RMSE against the scene's
-    true field, covariance trace); the camera's measurement poses are checked for reach by the arm. The first
-    mission of a (scene, planner) in a worker is preceded by an untimed short one (jit caches, the world)."""
-    from snakeplan.planners.inspection import InspectionProblem, get_inspection_planner
-    from snakeplan.robots import get_robot
-
-    options = dict(run.options)
-    scene = _scene_of(run)
-    problem = InspectionProblem(scene, get_robot(run.robot))
-    warm = (run.scene, run.scene_json, run.robot, run.planner, run.options)
-    if warm not in _WARM:
-        get_inspection_planner(run.planner, **options).plan(replace(problem, budget_s=WARMUP_MISSION_S), seed=run.seed)
-        _WARM.add(warm)
-    result = get_inspection_planner(run.planner, **options).plan(problem, seed=run.seed)
-    world = problem.world()
-    flown = bool(result.times[-1] >= problem.ticks()[-1] - 1e-9)
-    path = np.asarray(result.path, dtype=float)
-    prior = world.prior
-    details = {
-        "compute_cpu_s": result.compute_cpu_s, "plans": result.plans,
-        # nested, so that comparable() keeps them (it drops top-level details ending in _s)
-        "mission": {"budget_s": problem.budget_s, "camera_speed_mm_s": problem.speed_mm_s,
-                    "measurement_hz": problem.measurement_hz},
-        "measurement_times": result.times, "rmse_k": result.rmse, "trace_k2": result.trace,
-        "final_mean_k": result.final_map.mean, "final_variance_k2": np.diag(result.final_map.cov),
-        "world": {"viewpoints": len(world.library), "reachable_share": float(world.library.reachable.mean()),
-                  "prior_mean_k": float(prior.mean[0]), "sigma_f_k": prior.sigma_f,
-                  "length_scale_mm": prior.length_scale,
-                  "pd_fix": {"smallest_eigenvalues_before": list(prior.pd_fix.smallest_before),
-                             "smallest_eigenvalues_after": list(prior.pd_fix.smallest_after),
-                             "clipped": prior.pd_fix.n_clipped, "max_entry_change": prior.pd_fix.max_change}}}
-    metrics = {"final_rmse_k": float(result.rmse[-1]), "final_trace_k2": float(result.trace[-1]),
-               "reach_share": float(world.reach.check(result.poses).share),
-               "path_length_mm": float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum())}
-    reason = None if flown else f"the planner stopped at {result.times[-1]:.1f} s of {problem.budget_s:.0f} s"
-    return _row(run, "solved" if flown else "stopped", flown, reason, result.compute_time_s, metrics,
-                jsonable(details), path, provenance, task=run.task)
-
-
 def _row(run: Run, status: str, success: bool, reason: str | None, compute_time_s: float, metrics: dict | None,
-         details: dict, path: np.ndarray | None, provenance: dict, **extra) -> dict:
-    """A ``snakeplan.run/1`` row: the run, the outcome, the path (mm) with its hash, provenance; ``extra`` fields
-    (an inspection row's ``task``) after the run's."""
-    row = {"schema": SCHEMA, "key": run.key, "config": run.config, **extra, "scene": run.scene, "seed": run.seed,
+         details: dict, path: np.ndarray | None, provenance: dict) -> dict:
+    """A ``snakeplan.run/1`` row: the run, the outcome, the path (mm) with its hash, provenance."""
+    row = {"schema": SCHEMA, "key": run.key, "config": run.config, "task": run.task, "scene": run.scene,
+           "seed": run.seed,
            "robot": run.robot, "planner": run.planner, "options": dict(run.options),
            "time_limit_s": run.time_limit_s, "knowledge": run.knowledge,
            "status": status, "success": success, "reason": reason, "compute_time_s": compute_time_s,

@@ -4,6 +4,11 @@ A planner turns a :class:`Problem` into a :class:`Plan`: a tip path from the ent
 itself; :func:`snakeplan.evaluation.evaluate` does, with the same rules for every planner.
 :func:`snakeplan.planners.check_planner` checks a planner against the contract stated in :class:`Planner`.
 
+One problem shape whatever the task (after OMPL's ``ProblemDefinition`` and its goals): a :class:`Problem` says
+its :class:`~snakeplan.scenes.Task`, reach the scene's targets or inspect its surface, and every planner declares
+the tasks it does (``Planner.tasks``). A reach plan is a tip path; an inspect plan is the tip path flown and its
+:class:`~snakeplan.world.mission.Mission`, the arm's motions and the views, which the judge replays.
+
 Multi-target rule (decided once here, applied to every planner): targets are visited in the scene's order
 (generators order them by geodesic distance from the entrance) along ONE continuous follow-the-leader path;
 the arm does not retract between targets. A plan reaches target k when its tip path passes within the
@@ -23,9 +28,11 @@ import numpy as np
 
 from snakeplan.geometry.polyline import validate_path
 from snakeplan.robots import Chain
-from snakeplan.scenes import Scene
+from snakeplan.scenes import Scene, Task, as_task, spec_for
 from snakeplan.threads import single_threaded
 from snakeplan.world import DEFAULT_SENSOR_RANGE_MM, PLANNING, KnowledgeView, ValidityChecker, view_for
+from snakeplan.world import mission as missions
+from snakeplan.world.mission import InspectionSettings, Mission, inspected_surface
 
 #: Default planning budget (s), the same for every planner in a comparison.
 DEFAULT_TIME_LIMIT_S = 30.0
@@ -54,8 +61,11 @@ STOPPED = (Status.TIMEOUT, Status.FAILED)
 
 @dataclass(frozen=True)
 class Problem:
-    """What to plan: a robot in a scene, from the entrance through the targets, within a time budget.
+    """What to plan: a robot in a scene, its task, within a time budget.
 
+    ``task``: reach the scene's targets from the entrance, or inspect its surface (``inspection`` says how the
+    mission is flown and measured; None: the scene's defaults); None takes the task of the scene's family
+    (:func:`spec_for`).
     ``knowledge`` says what the planner may use: ``"full"`` the whole scene, ``"sensed"`` only obstacles within
     ``sensor_range_mm`` of where the tip has been. ``world`` is the knowledge view that says it
     (:mod:`snakeplan.world.knowledge`; built from ``knowledge`` when not given): the only way a planner reaches
@@ -68,6 +78,8 @@ class Problem:
     knowledge: Knowledge = "full"
     sensor_range_mm: float = DEFAULT_SENSOR_RANGE_MM
     world: KnowledgeView | None = None
+    task: Task | None = None
+    inspection: InspectionSettings | None = None
 
     def __post_init__(self) -> None:
         if not _positive(self.time_limit_s):
@@ -76,8 +88,15 @@ class Problem:
             raise ValueError(f"knowledge: must be 'full' or 'sensed', got {self.knowledge!r}")
         if not isinstance(self.scene, Scene):
             raise ValueError(f"scene: must be a Scene, got {type(self.scene).__name__}")
-        if len(self.scene.targets) == 0:
+        object.__setattr__(self, "task", spec_for(self.scene).task if self.task is None else as_task(self.task))
+        if self.task is Task.REACH and len(self.scene.targets) == 0:
             raise ValueError(f"scene: {self.scene.name} has no targets to plan to")
+        if self.task is Task.INSPECT:
+            inspected_surface(self.scene)
+        if self.inspection is None:
+            object.__setattr__(self, "inspection", missions.default_settings(self.scene))
+        if not isinstance(self.inspection, InspectionSettings):
+            raise ValueError(f"inspection: must be InspectionSettings, got {type(self.inspection).__name__}")
         if not isinstance(self.robot, Chain):
             raise ValueError(f"robot: must be a Chain, got {type(self.robot).__name__}")
         if not _positive(self.sensor_range_mm):
@@ -105,7 +124,8 @@ def _positive(value) -> bool:
 
 @dataclass(frozen=True)
 class Plan:
-    """A planner's answer: how it ended, the tip path (mm, ``(m, 3)``, m >= 2) or None, and how long it took (s).
+    """A planner's answer: how it ended, the tip path (mm, ``(m, 3)``, m >= 2) or None, how long it took (s), and
+    for an inspect task the mission flown (the arm's motions and the views; None for a reach plan).
 
     Status and path agree (checked here, ValueError naming the field):
 
@@ -120,6 +140,7 @@ class Plan:
     path: np.ndarray | None
     compute_time_s: float
     details: dict = field(default_factory=dict)
+    mission: Mission | None = None
 
     def __post_init__(self) -> None:
         try:
@@ -153,6 +174,8 @@ class Planner(ABC):
     """
 
     name: ClassVar[str] = ""
+    #: The tasks the planner does (a problem of another task is refused, naming both).
+    tasks: ClassVar[frozenset[Task]] = frozenset({Task.REACH})
     #: Whether the planner needs the whole scene (it then refuses ``knowledge="sensed"`` problems).
     needs_full_scene: ClassVar[bool] = True
     #: Whether the planner rolls out a trained policy, given as ``policy=`` (a file; ``snakeplan plan --policy``).
@@ -161,6 +184,9 @@ class Planner(ABC):
     def plan(self, problem: Problem, seed: int = 0) -> Plan:
         """Plan within ``problem.time_limit_s``; the wall time is measured here, the same way for all planners,
         with BLAS/OpenMP on one thread (:mod:`snakeplan.threads`)."""
+        if problem.task not in self.tasks:
+            raise ValueError(f"task: planner {self.name} does not {problem.task} (it does: "
+                             f"{', '.join(sorted(t.value for t in self.tasks))})")
         if self.needs_full_scene and problem.knowledge != "full":
             raise ValueError(f"knowledge: planner {self.name} needs the whole scene ('full')")
         problem = replace(problem, world=problem.world.fresh())  # every plan starts knowing only the prior
@@ -169,9 +195,10 @@ class Planner(ABC):
                 self.warm_up(replace(problem, world=problem.world.fresh()))
                 _WARM.add(type(self))
             t0 = time.perf_counter()
-            status, path, details = self._solve(problem, np.random.default_rng(seed), t0 + problem.time_limit_s)
+            status, path, details, *mission = self._solve(problem, np.random.default_rng(seed),
+                                                          t0 + problem.time_limit_s)
             elapsed = time.perf_counter() - t0
-        return Plan(self.name, status, path, elapsed, details)
+        return Plan(self.name, status, path, elapsed, details, *mission)
 
     def warm_up(self, problem: Problem) -> None:
         """Load, before a process's first plan of this class is timed, what that plan would otherwise load
@@ -182,6 +209,6 @@ class Planner(ABC):
 
     @abstractmethod
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float
-               ) -> tuple[Status, np.ndarray | None, dict]:
-        """Return (status, tip path or None, details) as :class:`Plan` says; stop by ``deadline`` (a
-        time.perf_counter() value)."""
+               ) -> tuple[Status, np.ndarray | None, dict] | tuple[Status, np.ndarray | None, dict, Mission]:
+        """Return (status, tip path or None, details) as :class:`Plan` says, and for an inspect task the mission
+        fourth; stop by ``deadline`` (a time.perf_counter() value)."""

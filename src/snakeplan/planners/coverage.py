@@ -17,9 +17,9 @@ from snakeplan.planners.inspection import (
     VIEW_STANDOFF_MM,
     InspectionPlanner,
     MissionState,
-    Trajectory,
-    register_inspection_planner,
+    CameraPath,
 )
+from snakeplan.planners.registry import register_planner
 
 #: Spacing (mm) of the points that sample the helix.
 HELIX_STEP_MM = 200.0
@@ -37,7 +37,7 @@ def helix_points(radius: float, z0: float, z1: float, length: float, theta0: flo
     return np.stack([radius * np.cos(th), radius * np.sin(th), z0 + (z1 - z0) * u], axis=1), turns
 
 
-@register_inspection_planner
+@register_planner
 class CoveragePlanner(InspectionPlanner):
     """Helical coverage scan of the side (CP)."""
 
@@ -47,14 +47,14 @@ class CoveragePlanner(InspectionPlanner):
         self.standoff = float(standoff)
         self.turns = 0.0
 
-    def next_trajectory(self, state: MissionState) -> Trajectory | None:
+    def next_path(self, state: MissionState) -> CameraPath | None:
         if state.time_s > 0.0:
             return None
         f = state.world.frame
-        v = state.problem.speed_mm_s
+        v = state.settings.speed_mm_s
         z0, z1 = (0.0, f.height) if f.entrance_z <= f.height / 2 else (f.height, 0.0)
         start = f.point(f.radius + self.standoff, f.entrance_theta, z0)
         drop = float(np.linalg.norm(start - state.position))
         helix, self.turns = helix_points(f.radius + self.standoff, z0, z1,
                                          max(v * state.time_left_s - drop, 0.0) + HELIX_STEP_MM, f.entrance_theta)
-        return Trajectory(np.vstack([state.position, helix + f.base_center]), v, "polyline")
+        return CameraPath(np.vstack([state.position, helix + f.base_center]), v, "polyline")

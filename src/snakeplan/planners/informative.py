@@ -32,9 +32,9 @@ from snakeplan.planners.inspection import (
     N_CONTROL_POINTS,
     InspectionPlanner,
     MissionState,
-    Trajectory,
-    register_inspection_planner,
+    CameraPath,
 )
+from snakeplan.planners.registry import register_planner
 
 #: CMA-ES: initial step (mm), population size, generations per plan.
 CMA_SIGMA0_MM = 1000.0
@@ -55,7 +55,7 @@ def interest_weights(mean: np.ndarray, cov: np.ndarray, threshold: float) -> np.
     return ndtr((mean - threshold) / sd)
 
 
-@register_inspection_planner
+@register_planner
 class InformativePlanner(InspectionPlanner):
     """Informative path planning (IP): greedy + CMA-ES, replanned after every flown trajectory."""
 
@@ -76,11 +76,11 @@ class InformativePlanner(InspectionPlanner):
         """Node weights of the trace (None: plain eq. 13), fixed for one plan from the map as it stands."""
         if self.interest_delta_k is None:
             return None
-        return interest_weights(state.map.mean, state.map.cov, state.problem.prior_mean + self.interest_delta_k)
+        return interest_weights(state.map.mean, state.map.cov, state.prior_mean + self.interest_delta_k)
 
     def greedy(self, state: MissionState, weights: np.ndarray | None = None) -> np.ndarray:
         """Control points (k, 3) mm from the current position by the sequential greedy search (eq. 12)."""
-        world, v, hz = state.world, state.problem.speed_mm_s, state.problem.measurement_hz
+        world, v, hz = state.world, state.settings.speed_mm_s, state.settings.measurement_hz
         lib = world.library
         reachable = np.flatnonzero(lib.reachable)
         sim = GaussianMap(np.zeros(len(state.map.mean)), state.map.cov)
@@ -100,10 +100,10 @@ class InformativePlanner(InspectionPlanner):
             sim.update(lib.seen[best], None, lib.noise[best])
         return np.array(ctrl)
 
-    def next_trajectory(self, state: MissionState) -> Trajectory | None:
+    def next_path(self, state: MissionState) -> CameraPath | None:
         if state.time_left_s <= 0.0:
             return None
-        world, v = state.world, state.problem.speed_mm_s
+        world, v = state.world, state.settings.speed_mm_s
         weights = self.weights(state)
         ctrl = self.greedy(state, weights)
         if len(ctrl) < 2:
@@ -111,7 +111,7 @@ class InformativePlanner(InspectionPlanner):
         ev = GainEvaluator(state.map.cov, weights)
         left = state.time_left_s
 
-        def info_rate(traj: Trajectory) -> float:
+        def info_rate(traj: CameraPath) -> float:
             t = state.future_ticks(traj.duration)
             if traj.length < 1e-6 or t.size == 0:
                 return 0.0
@@ -120,15 +120,15 @@ class InformativePlanner(InspectionPlanner):
             gain = ev.gain(seen.node, world.camera.model.noise_variance(seen.distance))
             return gain / min(traj.duration, left)
 
-        def offending(traj: Trajectory) -> int:
+        def offending(traj: CameraPath) -> int:
             s = traj.samples()
             return int(np.sum(~world.clear(s)) + np.sum(~world.within_reach(s)))
 
-        greedy_spline = Trajectory(ctrl, v, "spline")
+        greedy_spline = CameraPath(ctrl, v, "spline")
         scale = max(info_rate(greedy_spline), 1e-9)
 
         def utility(x: np.ndarray) -> float:
-            traj = Trajectory(np.vstack([state.position, np.reshape(x, (-1, 3))]), v, "spline")
+            traj = CameraPath(np.vstack([state.position, np.reshape(x, (-1, 3))]), v, "spline")
             return info_rate(traj) - PENALTY_WEIGHT * scale * offending(traj)
 
         options = {"seed": int(self.rng.integers(1, 2**31 - 1)), "popsize": self.popsize,
@@ -138,8 +138,8 @@ class InformativePlanner(InspectionPlanner):
             xs = es.ask()
             es.tell(xs, [-utility(x) for x in xs])
         best = np.vstack([state.position, np.reshape(es.result.xbest, (-1, 3))])
-        smooth = [t for t in (Trajectory(best, v, "spline"), greedy_spline) if world.feasible(t)]
+        smooth = [t for t in (CameraPath(best, v, "spline"), greedy_spline) if world.feasible(t)]
         if smooth:
             return max(smooth, key=info_rate)
-        straight = Trajectory(ctrl, v, "polyline")
+        straight = CameraPath(ctrl, v, "polyline")
         return straight if world.feasible(straight) else None

@@ -14,22 +14,22 @@ import numpy as np
 from snakeplan.planners.inspection import (
     InspectionPlanner,
     MissionState,
-    Trajectory,
-    register_inspection_planner,
+    CameraPath,
 )
+from snakeplan.planners.registry import register_planner
 
 #: Shortest hop (mm) between consecutive random viewpoints.
 MIN_HOP_MM = 500.0
 
 
-@register_inspection_planner
+@register_planner
 class RandomPlanner(InspectionPlanner):
     """Random viewpoints from the library (RP)."""
 
     name = "random"
 
-    def next_trajectory(self, state: MissionState) -> Trajectory | None:
-        world, v = state.world, state.problem.speed_mm_s
+    def next_path(self, state: MissionState) -> CameraPath | None:
+        world, v = state.world, state.settings.speed_mm_s
         lib = world.library
         reachable = np.flatnonzero(lib.reachable)
         pts, cur, length = [state.position], state.position, 0.0
@@ -42,5 +42,5 @@ class RandomPlanner(InspectionPlanner):
             length += float(np.linalg.norm(nxt - cur))
             pts.append(nxt)
             cur = nxt
-        traj = Trajectory(pts, v, "spline")
-        return traj if world.feasible(traj) else Trajectory(pts, v, "polyline")
+        traj = CameraPath(pts, v, "spline")
+        return traj if world.feasible(traj) else CameraPath(pts, v, "polyline")

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from snakeplan.planners.base import Planner
 from snakeplan.registry import Registry, named_subclass
+from snakeplan.scenes import Task, as_task
 
 BUILTIN_PLANNERS = {
     "rrt-star": "snakeplan.planners.rrt_star:RRTStar",
@@ -19,6 +20,9 @@ BUILTIN_PLANNERS = {
     "sac-her": "snakeplan.planners.sac:SacHerPlanner",
     "sac-per": "snakeplan.planners.sac:SacPerPlanner",
     "sscc": "snakeplan.planners.sscc:SSCCPlanner",
+    "informative": "snakeplan.planners.informative:InformativePlanner",
+    "coverage": "snakeplan.planners.coverage:CoveragePlanner",
+    "random": "snakeplan.planners.random_views:RandomPlanner",
 }
 
 PLANNERS: Registry[type[Planner]] = Registry("planner", BUILTIN_PLANNERS, load=named_subclass(Planner))
@@ -28,10 +32,18 @@ PLANNERS: Registry[type[Planner]] = Registry("planner", BUILTIN_PLANNERS, load=n
 register_planner = PLANNERS.register_class
 
 
-def planner_names() -> list[str]:
-    return PLANNERS.names()
+def planner_names(task: Task | str | None = None) -> list[str]:
+    """Names of the registered planners, or of those that do ``task`` (which imports each planner's module)."""
+    if task is None:
+        return PLANNERS.names()
+    task = as_task(task)
+    return [n for n in PLANNERS.names() if task in PLANNERS.get(n).tasks]
 
 
-def get_planner(name: str, **options) -> Planner:
-    """A new planner instance; KeyError lists the known names for an unknown one."""
+def get_planner(name: str, task: Task | str | None = None, **options) -> Planner:
+    """A new planner instance; KeyError lists the known names (of the planners that do ``task``, when given) for an
+    unknown one."""
+    if task is not None and name not in PLANNERS:
+        known = planner_names(task)
+        raise KeyError(f"unknown {as_task(task)} planner {name!r} (known: {', '.join(known)})")
     return PLANNERS.get(name)(**options)

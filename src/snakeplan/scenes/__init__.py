@@ -1,6 +1,16 @@
 """Scenes: the `Scene` data type, its JSON form, and seeded generators registered by name with their specs."""
 
-from snakeplan.scenes.registry import SceneSpec, make_scene, register_scene, scene_names, scene_spec, spec_for
+from snakeplan.scenes.registry import (
+    SceneSpec,
+    Task,
+    as_task,
+    make_scene,
+    register_scene,
+    scene_names,
+    scene_spec,
+    spec_for,
+)
 from snakeplan.scenes.scene import Entrance, Scene
 
-__all__ = ["Entrance", "Scene", "SceneSpec", "make_scene", "register_scene", "scene_names", "scene_spec", "spec_for"]
+__all__ = ["Entrance", "Scene", "SceneSpec", "Task", "as_task", "make_scene", "register_scene", "scene_names",
+           "scene_spec", "spec_for"]

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
+from enum import Enum
 from importlib.resources import files
 from pathlib import Path
 from types import MappingProxyType
@@ -24,11 +25,24 @@ from snakeplan.scenes.scene import Scene
 
 SceneGenerator = Callable[..., Scene]
 
-#: The task kinds: reach the targets in order, or inspect a surface (the scene has a field and no targets).
-TASKS = ("reach", "inspect")
+
+
+class Task(str, Enum):
+    """What a problem asks of the arm: reach the targets in order, or inspect the scene's surfaces (views that
+    measure them). A ``str`` so that JSON and the command line hold the plain value (``"reach"``)."""
+
+    REACH = "reach"
+    INSPECT = "inspect"
+
+    def __str__(self) -> str:
+        return self.value
+
+
+#: The task kinds, as their plain values.
+TASKS = tuple(t.value for t in Task)
 #: A spec's defaults where its family names none: the robot and, per task, the planner.
 DEFAULT_ROBOT = "sjtu-snake-iii"
-DEFAULT_PLANNER = {"reach": "as-rrt", "inspect": "informative"}
+DEFAULT_PLANNER = {Task.REACH: "as-rrt", Task.INSPECT: "informative"}
 
 BUILTIN_SCENES = {
     "fuel-tank": "snakeplan.scenes.fuel_tank:fuel_tank",
@@ -58,12 +72,11 @@ class SceneSpec:
     generator: SceneGenerator | None = None
     robot: str = DEFAULT_ROBOT
     planner: str = ""
-    task: str = "reach"
+    task: Task = Task.REACH
     policies: Mapping[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        if self.task not in TASKS:
-            raise ValueError(f"task: must be one of {', '.join(TASKS)}, got {self.task!r}")
+        object.__setattr__(self, "task", as_task(self.task))
         for planner, ref in self.policies.items():
             if ":" not in ref:
                 raise ValueError(f"policies[{planner!r}]: expected 'package:path', got {ref!r}")
@@ -79,6 +92,14 @@ class SceneSpec:
         return Path(str(files(package).joinpath(*path.split("/"))))
 
 
+def as_task(value) -> Task:
+    """``value`` (a :class:`Task` or its plain value) as a Task; ValueError naming ``task`` otherwise."""
+    try:
+        return Task(value)
+    except ValueError:
+        raise ValueError(f"task: must be one of {', '.join(TASKS)}, got {value!r}") from None
+
+
 def _as_spec(name: str, obj) -> SceneSpec:
     """An entry-point object its module did not register: a spec, or a bare generator with the default spec."""
     if isinstance(obj, SceneSpec):
@@ -91,7 +112,7 @@ def _as_spec(name: str, obj) -> SceneSpec:
 SCENES: Registry[SceneSpec] = Registry("scene", BUILTIN_SCENES, load=_as_spec)
 
 
-def register_scene(name: str, *, robot: str = DEFAULT_ROBOT, planner: str = "", task: str = "reach",
+def register_scene(name: str, *, robot: str = DEFAULT_ROBOT, planner: str = "", task: Task | str = Task.REACH,
                    policies: Mapping[str, str] | None = None) -> Callable[[SceneGenerator], SceneGenerator]:
     """Decorator that registers a generator under ``name`` with its spec (see :class:`SceneSpec`; names are
     unique)."""

@@ -21,8 +21,10 @@ the surface from every side at a stand-off. No targets: what to inspect is the i
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.sparse.csgraph import csgraph_from_dense, dijkstra
 
 from snakeplan.geometry.primitives import Mesh
@@ -224,3 +226,43 @@ def station(seed: int, *, n_sources: int = HEAT_SOURCES, base_temperature_k: flo
     }
     return Scene("station", seed, [-R - margin, -R - margin, -margin], [R + margin, R + margin, H + margin],
                  entrance, np.zeros((0, 3)), [Mesh(V, F)], meta)
+
+
+@dataclass(frozen=True)
+class StationFrame:
+    """The station cylinder: radius and height (mm), axis +z from ``base_center``; the arm's entrance (its
+    stand-off from the skin in mm, its azimuth in rad and its height in mm)."""
+
+    radius: float
+    height: float
+    base_center: np.ndarray
+    entrance_standoff: float
+    entrance_theta: float
+    entrance_z: float
+
+    @classmethod
+    def from_scene(cls, scene: Scene) -> StationFrame:
+        """From the station scene's metadata and entrance (axis must be +z, as the generator builds it)."""
+        mesh = scene.metadata.get("mesh", {})
+        if "radius_mm" not in mesh or "height_mm" not in mesh:
+            raise ValueError(f"scene: {scene.name} has no station cylinder in metadata['mesh']")
+        if not np.allclose(mesh.get("axis", [0.0, 0.0, 1.0]), [0.0, 0.0, 1.0]):
+            raise ValueError("scene: the station axis must be +z")
+        base = np.asarray(mesh.get("base_center", [0.0, 0.0, 0.0]), dtype=float)
+        e = scene.entrance.position - base
+        return cls(float(mesh["radius_mm"]), float(mesh["height_mm"]), base,
+                   float(np.hypot(e[0], e[1])) - float(mesh["radius_mm"]), float(np.arctan2(e[1], e[0])), float(e[2]))
+
+    def cylindrical(self, p: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(rho, theta, z) of points (..., 3) about the axis, z from the base."""
+        q = np.asarray(p, dtype=float) - self.base_center
+        return np.hypot(q[..., 0], q[..., 1]), np.arctan2(q[..., 1], q[..., 0]), q[..., 2]
+
+    def point(self, rho: ArrayLike, theta: ArrayLike, z: ArrayLike) -> np.ndarray:
+        """Cartesian points (..., 3) mm from cylindrical coordinates."""
+        rho, theta, z = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (rho, theta, z)))
+        return np.stack([rho * np.cos(theta), rho * np.sin(theta), z], axis=-1) + self.base_center
+
+    def home(self, standoff: float) -> np.ndarray:
+        """Mission start: the viewpoint straight out of the entrance, ``standoff`` mm off the skin."""
+        return self.point(self.radius + standoff, self.entrance_theta, self.entrance_z)

@@ -1,8 +1,9 @@
 """Inspection missions seen as they fly: the camera's path round the station, and the map's mean and variance
 filling in measurement by measurement (a video, and an interactive page with a slider over mission time).
 
-:class:`MissionRecord` is handed to ``run_mission(..., on_measure=record)`` and keeps, after every fused
-measurement, its time, the camera pose and the map's mean and per-node variance.
+:class:`MissionRecord` keeps, after every fused measurement, its time, the camera pose and the map's mean and
+per-node variance: handed to ``InspectionPlanner.fly(..., on_measure=record)`` it sees the planner's map, and
+:meth:`MissionRecord.of` makes it from a plan's mission as the judge measures it again.
 """
 
 from __future__ import annotations
@@ -34,6 +35,16 @@ class MissionRecord:
         self.poses.append(np.array(pose, dtype=float))
         self.means.append(gmap.mean.copy())
         self.variances.append(np.diag(gmap.cov).copy())
+
+    @classmethod
+    def of(cls, scene: Scene, mission) -> MissionRecord:
+        """The record of a plan's mission, the judge's recomputation of its views
+        (:func:`snakeplan.evaluation.mission.measure_views`)."""
+        from snakeplan.evaluation.mission import measure_views
+
+        record = cls()
+        measure_views(scene, mission, record)
+        return record
 
     def at(self, t: np.ndarray) -> np.ndarray:
         """Index of the last measurement at or before each time ``t`` (s)."""

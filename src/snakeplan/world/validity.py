@@ -37,6 +37,7 @@ from snakeplan.geometry.polyline import (
 )
 from snakeplan.jit import kernel, leaf
 from snakeplan.robots import Chain
+from snakeplan.world.joint_motion import JointMotionCheck, MotionFailure
 from snakeplan.world.knowledge import KnowledgeView
 from snakeplan.world.tolerances import (
     BEND_TOLERANCE_RAD,
@@ -371,3 +372,15 @@ class ValidityChecker:
         failure = min(found, key=lambda f: (f.depth_mm, FAILURE_KINDS.index(f.kind))) if found else None
         return CrawlCheck(states, least, closest, collides, bend_bad, insertion_bad,
                           not any(f.kind == "out_of_bounds" for f in found), failure)
+
+    # --- joint motions ------------------------------------------------------------------------------------------
+    def joint_motions(self) -> JointMotionCheck:
+        """The check of whole-arm joint motions (base pose and joints at sample times, linear in between) under
+        this profile, against the obstacles known now (:mod:`snakeplan.world.joint_motion`)."""
+        return JointMotionCheck(self.robot, self.obstacles, self.tolerances, self.spec.lo, self.spec.hi)
+
+    def joint_motion_failure(self, times, bases, q) -> MotionFailure | None:
+        """The first failure in time of a joint motion (times (k,) s, base poses (k, 4, 4), joints (k, dof)), or
+        None: collisions certified between samples, bends, joint limits and the tip's bounds every step."""
+        return self.joint_motions().first_failure(np.asarray(times, dtype=float), np.asarray(bases, dtype=float),
+                                                  np.asarray(q, dtype=float))

@@ -1,0 +1,205 @@
+"""The judge of inspection missions: every motion of the arm through the one validity checker under ``JUDGE``,
+every view on the arm's tip, and what the views saw recomputed from the camera model (mm, rad, s, K).
+
+The planner's own account of its mission (its map, its curves) is not read. The judge replays the motions
+(whole body, collisions certified between samples, bends and joint limits every step: the checker's joint
+motions; a fed arm's crawls as reaching's crawls), checks that the tip is where each view says the camera was, and
+measures again: the views' sightings by ray casts against the inspected surface, the simulated measurements drawn
+from the mission's measurement seed, fused into the surface map from its prior. The map's error and uncertainty,
+and the share of the surface seen, come from that recomputation.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from snakeplan.geometry.polyline import cumulative_length
+from snakeplan.mapping import GaussianMap, SurfaceCamera, surface_prior
+from snakeplan.mapping.camera import CameraModel
+from snakeplan.robots import Chain
+from snakeplan.scenes import Scene
+from snakeplan.world import JUDGE, REACH_TOLERANCE_MM, FullView, ValidityChecker
+from snakeplan.world.joint_motion import MotionFailure, interpolate
+from snakeplan.world.mission import Crawl, JointMotion, Mission, inspected_surface, mission_rngs
+
+#: The reasons a mission is refused, in the order that breaks a tie, and its verdict when none holds.
+MISSION_FAILURES = ("collision", "bend_limit", "joint_limit", "insertion", "out_of_bounds", "discontinuity",
+                    "view_off_arm")
+INSPECTED = "inspected"
+#: How far (mm) one motion may end from where the next starts (the tip), and how far apart in time (s).
+CONTINUITY_MM = 1e-6
+CONTINUITY_S = 1e-9
+
+
+@dataclass(frozen=True)
+class MissionFailure:
+    """The first thing wrong with a mission: the motion (index), the mission time (s), the kind (one of
+    :data:`MISSION_FAILURES`) and the link or joint involved, if any."""
+
+    motion: int
+    time_s: float
+    kind: str
+    link: int | None = None
+
+
+@dataclass(frozen=True)
+class MissionReport:
+    """The judge's verdict on a mission and the map its views make (see the module)."""
+
+    success: bool
+    reason: str
+    failure: MissionFailure | None
+    motions: int
+    mission_time_s: float
+    min_clearance_mm: float
+    views: int
+    views_on_arm: int
+    coverage: float
+    times_s: np.ndarray
+    rmse_k: np.ndarray
+    trace_k2: np.ndarray
+    final_mean_k: np.ndarray
+    final_variance_k2: np.ndarray
+
+    def metrics(self) -> dict:
+        """The metrics block of an inspect plan's ``snakeplan.plan/1`` document and runner rows."""
+        f = self.failure
+        return {"inspected": self.success, "motions": self.motions, "mission_time_s": self.mission_time_s,
+                "min_clearance_mm": self.min_clearance_mm, "views": self.views,
+                "reach_share": self.views_on_arm / self.views if self.views else 1.0,
+                "coverage": self.coverage,
+                "final_rmse_k": float(self.rmse_k[-1]) if self.rmse_k.size else None,
+                "final_trace_k2": float(self.trace_k2[-1]) if self.trace_k2.size else None,
+                "first_failure_time_s": None if f is None else f.time_s,
+                "first_failure_motion": None if f is None else f.motion,
+                "measurement_times_s": self.times_s.tolist(), "rmse_k": self.rmse_k.tolist(),
+                "trace_k2": self.trace_k2.tolist()}
+
+    def lines(self) -> list[str]:
+        """The verdict as console lines."""
+        head = "inspected: every motion valid, every view on the arm" if self.success else (
+            f"refused ({self.reason}) at {self.failure.time_s:.2f} s, motion {self.failure.motion}")
+        return [head, f"views {self.views} ({self.views_on_arm} on the arm), coverage {self.coverage:.1%}, "
+                      f"final RMSE {self.rmse_k[-1]:.3f} K, min clearance {self.min_clearance_mm:.1f} mm"]
+
+
+_CAMERAS: dict[tuple, SurfaceCamera] = {}
+
+
+def _camera(mesh, model: CameraModel) -> SurfaceCamera:
+    """The camera bound to the inspected surface, kept per mesh content and camera model."""
+    key = (mesh.fingerprint, model)
+    if key not in _CAMERAS:
+        _CAMERAS[key] = SurfaceCamera(mesh.vertices, mesh.faces, model)
+    return _CAMERAS[key]
+
+
+def _motion_failure(checker: ValidityChecker, motion, index: int) -> MissionFailure | None:
+    """The first failure of one motion, in mission time."""
+    if isinstance(motion, JointMotion):
+        f: MotionFailure | None = checker.joint_motion_failure(motion.times_s, motion.bases, motion.q)
+        return None if f is None else MissionFailure(index, f.time_s, f.kind, f.link)
+    f = checker.first_failure(motion.path, 0.0, motion.depth_mm)
+    if f is None:
+        return None
+    span = max(motion.depth_mm, 1e-300)
+    return MissionFailure(index, motion.start_s + (motion.end_s - motion.start_s) * min(f.depth_mm / span, 1.0),
+                          str(f.kind), f.link)
+
+
+def _tip_at(checker: ValidityChecker, motion, t: np.ndarray) -> np.ndarray:
+    """Tip positions (k, 3) mm of a motion at mission times ``t`` within it."""
+    if isinstance(motion, Crawl):
+        cum = cumulative_length(motion.path)
+        frac = (t - motion.start_s) / max(motion.end_s - motion.start_s, 1e-300)
+        depth = motion.depth_mm * (1.0 - np.abs(1.0 - 2.0 * frac) if motion.retract else frac)
+        return np.stack([np.interp(depth, cum, motion.path[:, d]) for d in range(3)], axis=-1)
+    jm = checker.joint_motions()
+    times = motion.times_s
+    out = np.empty((len(t), 3))
+    for k, tk in enumerate(t):
+        i = int(np.clip(np.searchsorted(times, tk, side="right") - 1, 0, len(times) - 1))
+        if i == len(times) - 1 or times[i + 1] == times[i]:
+            T, Q = motion.bases[i:i + 1], motion.q[i:i + 1]
+        else:
+            T, Q = interpolate(motion.bases, motion.q, i, np.array([(tk - times[i]) / (times[i + 1] - times[i])]))
+        out[k] = jm.tips(T, Q)[0]
+    return out
+
+
+def _ends(checker: ValidityChecker, motion) -> tuple[np.ndarray, np.ndarray]:
+    """The tip where a motion starts and where it ends (mm)."""
+    start, end = (motion.start_s, motion.end_s)
+    tips = _tip_at(checker, motion, np.array([start, end]))
+    return tips[0], tips[1]
+
+
+def measure_views(scene: Scene, mission: Mission, on_measure: Callable[[float, np.ndarray, GaussianMap], None]
+                  | None = None) -> tuple[GaussianMap, np.ndarray, list[float], list[float]]:
+    """Measure again from every view of ``mission``: sightings by ray casts against the inspected surface, the
+    simulated measurements drawn from the mission's measurement seed, fused into the map from its prior. Returns
+    (the final map, which surface nodes were seen, the RMSE (K) and covariance trace (K^2) after each view);
+    ``on_measure(t, position, map)`` sees the map after each."""
+    surface, truth = inspected_surface(scene)
+    s, views = mission.settings, mission.views
+    prior = surface_prior(surface.vertices, surface.faces, s.prior_mean(scene.metadata), s.sigma_f, s.length_scale)
+    camera = _camera(surface, s.camera)
+    gmap = GaussianMap(prior.mean, prior.covariance)
+    noise = mission_rngs(mission.measurement_seed)[1]
+    seen = np.zeros(len(truth), dtype=bool)
+    rmse, trace = [], []
+    for t, p, d in zip(views.times_s, views.positions, views.directions):
+        nodes, y, r = camera.measure(p, d, truth, noise)
+        gmap.update(nodes, y, r)
+        seen[nodes] = True
+        rmse.append(gmap.rmse(truth))
+        trace.append(gmap.trace)
+        if on_measure is not None:
+            on_measure(float(t), p, gmap)
+    return gmap, seen, rmse, trace
+
+
+def evaluate_mission(scene: Scene, robot: Chain, mission: Mission) -> MissionReport:
+    """Judge ``mission`` of ``robot`` in ``scene`` (see the module); ValueError for a scene with no surface to
+    inspect."""
+    inspected_surface(scene)
+    checker = ValidityChecker(FullView(scene), robot, JUDGE)
+    failure: MissionFailure | None = None
+    clearance = math.inf
+    previous_end: tuple[float, np.ndarray] | None = None
+    for i, motion in enumerate(mission.motions):
+        start, end = _ends(checker, motion)
+        if previous_end is not None and (abs(motion.start_s - previous_end[0]) > CONTINUITY_S
+                                         or np.linalg.norm(start - previous_end[1]) > CONTINUITY_MM):
+            failure = MissionFailure(i, motion.start_s, "discontinuity")
+            break
+        previous_end = (motion.end_s, end)
+        found = _motion_failure(checker, motion, i)
+        if isinstance(motion, JointMotion):
+            clearance = min(clearance, checker.joint_motions().least_clearance(motion.bases, motion.q))
+        else:
+            clearance = min(clearance, checker.crawl(motion.path).min_clearance_mm)
+        if found is not None:
+            failure = found
+            break
+    views = mission.views
+    held = np.zeros(len(views), dtype=bool)
+    for i, motion in enumerate(mission.motions):
+        inside = (views.times_s >= motion.start_s - CONTINUITY_S) & (views.times_s <= motion.end_s + CONTINUITY_S)
+        if inside.any():
+            tips = _tip_at(checker, motion, views.times_s[inside])
+            held[inside] |= np.linalg.norm(tips - views.positions[inside], axis=1) <= REACH_TOLERANCE_MM
+    if failure is None and not held.all():
+        k = int(np.argmin(held))
+        owner = next((i for i, m in enumerate(mission.motions) if m.start_s <= views.times_s[k] <= m.end_s), -1)
+        failure = MissionFailure(owner, float(views.times_s[k]), "view_off_arm")
+    gmap, seen, rmse, trace = measure_views(scene, mission)
+    end_s = max((m.end_s for m in mission.motions), default=0.0)
+    return MissionReport(failure is None, INSPECTED if failure is None else failure.kind, failure,
+                         len(mission.motions), float(end_s), float(clearance), len(views), int(held.sum()),
+                         float(seen.mean()), views.times_s.copy(), np.array(rmse), np.array(trace), gmap.mean.copy(),
+                         np.diag(gmap.cov).copy())

@@ -1,0 +1,18 @@
+"""One entry to the judge for every plan: a reach plan's tip path by the crawl rules, an inspect plan's mission by
+the mission rules (:mod:`snakeplan.evaluation.mission`); nothing else forks on the task."""
+
+from __future__ import annotations
+
+from snakeplan.evaluation.judge import Report, evaluate
+from snakeplan.evaluation.mission import MissionReport, evaluate_mission
+from snakeplan.robots import Chain
+from snakeplan.scenes import Scene
+from snakeplan.world.mission import Mission
+
+
+def judge(scene: Scene, robot: Chain, path, mission: Mission | None = None) -> Report | MissionReport | None:
+    """The judge's report on a plan's ``path`` (a reach plan) or ``mission`` (an inspect plan), against the whole
+    scene; None when the plan has neither."""
+    if mission is not None:
+        return evaluate_mission(scene, robot, mission)
+    return None if path is None else evaluate(scene, robot, path)

@@ -1,0 +1,139 @@
+"""The hsr-10 on its carriage round the station: where the carriage stands for a camera position, the arm's
+configuration that puts its tip there (inverse kinematics with the feed), and the arm following a camera path
+continuously, every step checked by the one validity checker (mm, rad).
+
+The arm (10 x 800 mm and a 0..2000 mm feed) cannot reach round a 12 m x 20 m module from one place, so its feed
+stage rides a carriage on rails round the side (like Canadarm2's mobile base on the ISS truss), the base the
+entrance's stand-off off the skin, feeding along the outward normal. The carriage's place is a continuous function
+of the camera position: at the camera's height (held between the rims) and CARRIAGE_LEAD_MM of arc behind its
+azimuth, so the arm goes out and bends round the skin to the camera; as the camera moves along a path the carriage
+glides with it. The camera rides a pan-tilt on the tip that keeps it aimed at the closest point of the station,
+so a view fixes the tip's position only.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from snakeplan.robots import Chain, Section
+from snakeplan.scenes.station import StationFrame
+from snakeplan.world import ValidityChecker
+from snakeplan.world.joint_motion import JointMotionCheck
+
+#: Arc (mm, on the carriage's ring) by which the carriage trails the camera's azimuth. 4000 mm holds 344 of the
+#: 362 library viewpoints (2500 mm: 312; 6000 mm: none): all but the inner end-cap rings.
+CARRIAGE_LEAD_MM = 4000.0
+#: Inverse kinematics: iterations, random restarts and seed of a cold solve, iterations of a warm one (from the
+#: previous configuration along a path), tolerance (mm).
+IK_ITERATIONS = 150
+IK_RESTARTS = 4
+IK_SEED = 0
+IK_WARM_ITERATIONS = 60
+IK_TOL_MM = 1.0
+
+
+@dataclass(frozen=True)
+class ReachReport:
+    """Reach check of points: ``ok`` (k,), the carriage pose used (k, 4, 4) and the joint vectors (k, dof)."""
+
+    ok: np.ndarray
+    base: np.ndarray
+    q: np.ndarray
+
+    @property
+    def share(self) -> float:
+        """Fraction of reachable points."""
+        return float(np.mean(self.ok)) if self.ok.size else 1.0
+
+
+@dataclass(frozen=True)
+class Follow:
+    """The arm following camera positions: how many it held (a prefix), and the carriage poses (k, 4, 4) and
+    joint vectors (k, dof) that hold them."""
+
+    held: int
+    bases: np.ndarray
+    q: np.ndarray
+
+
+class StationArm:
+    """The hsr-10 on its carriage: inverse kinematics and validity checks for tip positions (see the module)."""
+
+    def __init__(self, robot: Chain, frame: StationFrame, checker: ValidityChecker) -> None:
+        self.robot = robot
+        self.frame = frame
+        self.check_motion: JointMotionCheck = checker.joint_motions()
+        # the same arm with its bends limited as the checker's profile limits them, for inverse kinematics
+        frac = checker.tolerances.bend_fraction
+        self.ik_robot = Chain([Section(s.length, s.radius, s.max_bend * frac) for s in robot.sections],
+                              name=robot.name, feed_range=robot.feed_range, base=robot.base, k_ul=robot.k_ul,
+                              kinematics=robot.kinematics, limits=robot.limits, cables=robot.cables)
+        self._cold: dict[bytes, tuple[bool, np.ndarray, np.ndarray]] = {}
+
+    def carriage(self, point: ArrayLike) -> np.ndarray:
+        """The carriage pose (4x4; +z the skin's outward normal, the arm's feed axis; +x up the station's axis) for
+        a camera position (3,) mm."""
+        f = self.frame
+        _, theta, z = (float(v) for v in f.cylindrical(np.asarray(point, dtype=float)))
+        ring = f.radius + f.entrance_standoff
+        tb = theta - CARRIAGE_LEAD_MM / ring
+        T = np.eye(4)
+        T[:3, 2] = [math.cos(tb), math.sin(tb), 0.0]
+        T[:3, 0] = [0.0, 0.0, 1.0]
+        T[:3, 1] = np.cross(T[:3, 2], T[:3, 0])
+        T[:3, 3] = f.point(ring, tb, min(max(z, 0.0), f.height))
+        return T
+
+    def _valid(self, T: np.ndarray, q: np.ndarray) -> bool:
+        """The state's body clears the station (with the planning margin), within its bends and limits."""
+        chk = self.check_motion
+        return chk._pointwise(T[None], q[None]) is None and float(chk._clear(T[None], q[None])[0]) >= 0.0
+
+    def solve(self, point: ArrayLike, q0: np.ndarray | None = None) -> tuple[bool, np.ndarray, np.ndarray]:
+        """(held, carriage pose, joints) putting the tip on ``point`` (3,) mm: from ``q0`` when given (a warm start
+        along a path), else, or when that fails, from zero and random restarts (a cold start; cached by the exact
+        point: library viewpoints and the home recur)."""
+        p = np.asarray(point, dtype=float)
+        T = self.carriage(p)
+        rel = T[:3, :3].T @ (p - T[:3, 3])
+        if q0 is not None:
+            res = self.ik_robot.ik(rel, q0, iterations=IK_WARM_ITERATIONS, restarts=0, tol=IK_TOL_MM)
+            if res.converged and self._valid(T, res.q):
+                return True, T, res.q
+        key = p.tobytes()
+        if key not in self._cold:
+            res = self.ik_robot.ik(rel, iterations=IK_ITERATIONS, restarts=IK_RESTARTS, tol=IK_TOL_MM, seed=IK_SEED)
+            self._cold[key] = (bool(res.converged) and self._valid(T, res.q), T, res.q)
+        return self._cold[key]
+
+    def check(self, points: ArrayLike) -> ReachReport:
+        """For each camera position (k, 3): whether the arm holds it (cold IK, body, bends, limits)."""
+        P = np.asarray(points, dtype=float).reshape(-1, 3)
+        ok = np.zeros(len(P), dtype=bool)
+        base = np.tile(np.eye(4), (len(P), 1, 1))
+        Q = np.zeros((len(P), self.robot.dof))
+        for k in range(len(P)):
+            ok[k], base[k], Q[k] = self.solve(P[k])
+        return ReachReport(ok, base, Q)
+
+    def follow(self, points: ArrayLike, base0: np.ndarray, q0: np.ndarray, times: ArrayLike) -> Follow:
+        """The arm following camera positions (k, 3) at ``times`` (k,) s from the state (``base0``, ``q0``): each
+        configuration warm-started from the one before, each step from one to the next checked as a joint motion
+        (collisions certified, bends and limits every step); stops at the first position it cannot hold."""
+        P = np.asarray(points, dtype=float).reshape(-1, 3)
+        t = np.asarray(times, dtype=float)
+        bases, Q = [np.asarray(base0, dtype=float)], [np.asarray(q0, dtype=float)]
+        for k in range(len(P)):
+            ok, T, q = self.solve(P[k], Q[-1])
+            if not ok:
+                break
+            step_t = np.array([t[k - 1] if k else t[k] - 1e-3, t[k]])
+            if self.check_motion.first_failure(step_t, np.stack([bases[-1], T]), np.stack([Q[-1], q])) is not None:
+                break
+            bases.append(T)
+            Q.append(q)
+        return Follow(len(bases) - 1, np.array(bases[1:]).reshape(-1, 4, 4), np.array(Q[1:]).reshape(-1, self.robot.dof))

@@ -1,0 +1,96 @@
+"""The base of the inspection planners: a :class:`~snakeplan.planners.base.Planner` for the inspect task whose
+subclasses propose camera paths from the map as it stands; the mission loop flies them with the arm.
+
+A subclass sets ``name`` and implements :meth:`InspectionPlanner.next_path`; ``reset`` is called once before a
+mission with the survey and the planner's seeded generator. :meth:`Planner.plan` times the whole mission (the
+planner's calls, the arm following, the simulated measurements); the planner's own calls are in the plan's
+``details`` (``planning_time_s``, ``compute_cpu_s``, ``plans``), and ``time_limit_s`` bounds them (flying the
+mission is the simulated world's time, not the planner's).
+"""
+
+from __future__ import annotations
+
+from abc import abstractmethod
+from collections.abc import Callable
+from typing import ClassVar
+
+import numpy as np
+
+from snakeplan.mapping import GaussianMap, kalman
+from snakeplan.planners.base import Planner, Problem, Status
+from snakeplan.planners.inspection.camera_path import CameraPath
+from snakeplan.planners.inspection.library import VIEW_STANDOFF_MM
+from snakeplan.planners.inspection.mission import FlownMission, MissionState, fly
+from snakeplan.planners.inspection.survey import Survey, survey_for
+from snakeplan.scenes import Task
+from snakeplan.world.mission import inspected_surface, mission_rngs
+
+#: Control points per planned camera path (paper 002 §4), the current position included.
+N_CONTROL_POINTS = 5
+#: Why a mission ended short of its budget -> the plan's ``details["stopped"]``.
+_STOPPED = {"planner": Status.FAILED, "arm": Status.FAILED, "timeout": Status.TIMEOUT}
+
+
+def mission_details(flown: FlownMission, survey: Survey) -> dict:
+    """The plan's details of a flown mission: the planner's own curves and final map, its calls and their time,
+    the mission's settings and the survey's prior and library."""
+    s = flown.mission.settings
+    prior = survey.prior
+    details = {
+        "mission": {"budget_s": s.budget_s, "camera_speed_mm_s": s.speed_mm_s, "measurement_hz": s.measurement_hz},
+        "measurement_times": flown.times, "rmse_k": flown.rmse, "trace_k2": flown.trace,
+        "final_mean_k": flown.final_map.mean, "final_variance_k2": np.diag(flown.final_map.cov),
+        "path_times_s": flown.path_times, "planning_time_s": flown.compute_time_s,
+        "compute_cpu_s": flown.compute_cpu_s, "plans": flown.plans, "ended": flown.stopped,
+        "world": {"prior_mean_k": float(prior.mean[0]), "sigma_f_k": prior.sigma_f,
+                  "length_scale_mm": prior.length_scale,
+                  "pd_fix": {"smallest_eigenvalues_before": list(prior.pd_fix.smallest_before),
+                             "smallest_eigenvalues_after": list(prior.pd_fix.smallest_after),
+                             "clipped": prior.pd_fix.n_clipped, "max_entry_change": prior.pd_fix.max_change},
+                  "viewpoints": len(survey.library), "reachable_share": float(survey.library.reachable.mean()),
+                  "standoff_mm": VIEW_STANDOFF_MM}}
+    if flown.stopped in _STOPPED:
+        details["stopped"] = str(_STOPPED[flown.stopped])
+    return details
+
+
+class InspectionPlanner(Planner):
+    """An inspection planner: proposes camera paths from the current map (see the module)."""
+
+    name: ClassVar[str] = ""
+    tasks: ClassVar[frozenset[Task]] = frozenset({Task.INSPECT})
+
+    def reset(self, problem: Problem, world: Survey, rng: np.random.Generator) -> None:
+        """Called once before a mission (subclasses keep their seeded generator here)."""
+        self.rng = rng
+
+    @abstractmethod
+    def next_path(self, state: MissionState) -> CameraPath | None:
+        """The camera path to fly next from ``state.position`` (None: nothing more to do)."""
+
+    def survey(self, problem: Problem) -> Survey:
+        """The (cached) survey of the problem's station, arm and settings."""
+        return survey_for(problem.scene, problem.robot, problem.inspection)
+
+    def warm_up(self, problem: Problem) -> None:
+        """Build the survey and load the map's kernels before the first mission's clock starts."""
+        super().warm_up(problem)
+        self.survey(problem)
+        kalman.warm_up()
+
+    def fly(self, problem: Problem, seed: int = 0,
+            on_measure: Callable[[float, np.ndarray, GaussianMap], None] | None = None) -> FlownMission:
+        """Fly the mission of ``problem`` from ``seed`` (same seed, same mission): the planner's generator and the
+        measurements' noise are independent streams of it; the planner's own calls may take
+        ``problem.time_limit_s`` in all. ``on_measure(t, pose, map)`` sees the map after each measurement."""
+        world = self.survey(problem)
+        _, truth = inspected_surface(problem.scene)
+        self.reset(problem, world, mission_rngs(seed)[0])
+        return fly(self.name, self.next_path, problem.inspection, world, truth, seed, problem.time_limit_s,
+                   on_measure)
+
+    def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float):
+        flown = self.fly(problem, int(rng.integers(2**32)))
+        status = _STOPPED.get(flown.stopped)
+        status = Status.FOUND if status is None else Status.APPROXIMATE
+        return status, flown.path, mission_details(flown, self.survey(problem)), flown.mission

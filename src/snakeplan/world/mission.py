@@ -1,0 +1,202 @@
+"""An inspect task's settings and a mission's record: the arm's motions, in a form the judge replays, and the
+views taken (mm, rad, s).
+
+A mission is what an inspection planner hands the judge instead of a bare tip path. Its motions are the arm's
+own: a :class:`JointMotion` holds the base pose (a carriage on rails, a fixed mount) and the joint vector at
+sample times, and between two samples every joint and the base move linearly (the base's rotation along the
+shortest arc); a :class:`Crawl` is a fed arm inserted along a tip path from the entrance to a depth and retracted
+back along it, the follow-the-leader states of reaching. Its views are camera poses at times; the camera rides
+the tip, so each view's position must be where the motion puts the tip at that time.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from snakeplan.geometry.polyline import validate_path
+from snakeplan.geometry.primitives import Mesh
+from snakeplan.mapping.camera import CameraModel
+from snakeplan.mapping.gp import DEFAULT_LENGTH_SCALE_MM, DEFAULT_SIGMA_F
+from snakeplan.scenes import Scene
+
+#: Motion budget of a mission (s), paper 002 §4.
+BUDGET_S = 130.0
+#: Constant camera (tip) speed (mm/s).
+CAMERA_SPEED_MM_S = 1000.0
+#: Measurement frequency (Hz).
+MEASUREMENT_HZ = 0.5
+
+
+def _positive(name: str, value) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+        raise ValueError(f"{name}: must be a positive number, got {value!r}")
+    return float(value)
+
+
+@dataclass(frozen=True)
+class InspectionSettings:
+    """How an inspect task is flown and measured: the mission's flight budget (s), the camera's speed (mm/s), the
+    measurement frequency (Hz), the camera model, and the surface map's prior (Matérn 3/2 amplitude K and length
+    scale mm, constant mean K; None takes the scene's nominal temperature, what an operator knows beforehand)."""
+
+    budget_s: float = BUDGET_S
+    speed_mm_s: float = CAMERA_SPEED_MM_S
+    measurement_hz: float = MEASUREMENT_HZ
+    camera: CameraModel = field(default_factory=CameraModel)
+    sigma_f: float = DEFAULT_SIGMA_F
+    length_scale: float = DEFAULT_LENGTH_SCALE_MM
+    prior_mean_k: float | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("budget_s", "speed_mm_s", "measurement_hz", "sigma_f", "length_scale"):
+            _positive(name, getattr(self, name))
+
+    def ticks(self) -> np.ndarray:
+        """Measurement times (s) of the mission clock: 0, 1/f, 2/f, ... up to the budget."""
+        return np.arange(math.floor(self.budget_s * self.measurement_hz + 1e-9) + 1) / self.measurement_hz
+
+    def prior_mean(self, metadata: dict) -> float:
+        """The map's prior mean (K): the setting, else the scene's base temperature, else 0."""
+        if self.prior_mean_k is not None:
+            return float(self.prior_mean_k)
+        return float(metadata.get("parameters", {}).get("base_temperature_k", 0.0))
+
+    def to_dict(self) -> dict:
+        c = self.camera
+        return {"budget_s": self.budget_s, "camera_speed_mm_s": self.speed_mm_s,
+                "measurement_hz": self.measurement_hz, "sigma_f_k": self.sigma_f,
+                "length_scale_mm": self.length_scale, "prior_mean_k": self.prior_mean_k,
+                "camera": {"fov_half_angle_rad": c.fov_half_angle, "d_min_mm": c.d_min, "d_max_mm": c.d_max,
+                           "incidence_max_rad": c.incidence_max, "noise_a_k2": c.noise_a,
+                           "noise_b_per_m": c.noise_b}}
+
+
+def default_settings(scene: Scene) -> InspectionSettings:
+    """The settings an inspect task in ``scene`` is flown under when the problem names none: paper 002's."""
+    return InspectionSettings()
+
+
+def inspected_surface(scene: Scene) -> tuple[Mesh, np.ndarray]:
+    """(the surface an inspect task measures, its true field on the mesh's vertices (K)): the scene's only mesh
+    and its ``metadata["field"]``; ValueError naming ``scene`` for a scene that has none."""
+    if "field" not in scene.metadata:
+        raise ValueError(f"scene: {scene.name} has no surface field to inspect")
+    meshes = [o for o in scene.obstacles if isinstance(o, Mesh)]
+    if len(meshes) != 1:
+        raise ValueError(f"scene: {scene.name} must hold exactly one surface mesh, found {len(meshes)}")
+    return meshes[0], np.asarray(scene.metadata["field"]["values"], dtype=float)
+
+
+def mission_rngs(seed: int) -> tuple[np.random.Generator, np.random.Generator]:
+    """(the planner's generator, the measurements' noise generator) of a mission flown from ``seed``: independent
+    streams, so the judge draws the same noise as the mission without the planner's draws."""
+    planner, noise = (np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(2))
+    return planner, noise
+
+
+def _array(name: str, value, shape: tuple) -> np.ndarray:
+    a = np.asarray(value, dtype=float)
+    if a.ndim != len(shape) or any(s is not None and a.shape[i] != s for i, s in enumerate(shape)):
+        raise ValueError(f"{name}: expected shape {tuple('k' if s is None else s for s in shape)}, got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name}: must be finite")
+    return np.ascontiguousarray(a)
+
+
+@dataclass(frozen=True)
+class JointMotion:
+    """The arm moved by its joints: at times ``times_s`` (k,) s, nondecreasing, the base poses ``bases`` (k, 4, 4)
+    (mm, world) and the joint vectors ``q`` (k, dof) (rad; mm for a feed)."""
+
+    times_s: np.ndarray
+    bases: np.ndarray
+    q: np.ndarray
+
+    def __post_init__(self) -> None:
+        t = _array("times_s", self.times_s, (None,))
+        if len(t) < 1 or np.any(np.diff(t) < 0):
+            raise ValueError("times_s: needs at least one time, nondecreasing")
+        object.__setattr__(self, "times_s", t)
+        object.__setattr__(self, "bases", _array("bases", self.bases, (len(t), 4, 4)))
+        object.__setattr__(self, "q", _array("q", self.q, (len(t), None)))
+
+    @property
+    def start_s(self) -> float:
+        return float(self.times_s[0])
+
+    @property
+    def end_s(self) -> float:
+        return float(self.times_s[-1])
+
+    def to_dict(self) -> dict:
+        return {"kind": "joints", "times_s": self.times_s.tolist(), "bases": self.bases.tolist(),
+                "q": self.q.tolist()}
+
+
+@dataclass(frozen=True)
+class Crawl:
+    """A fed arm inserted along ``path`` (m, 3) mm from the entrance to ``depth_mm`` between ``start_s`` and
+    ``end_s``, and (``retract``) back along it: the follow-the-leader states of the path up to that depth."""
+
+    path: np.ndarray
+    depth_mm: float
+    start_s: float
+    end_s: float
+    retract: bool = True
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "path", validate_path(self.path, "path"))
+        if not (math.isfinite(self.depth_mm) and self.depth_mm >= 0):
+            raise ValueError(f"depth_mm: must be a non-negative length, got {self.depth_mm!r}")
+        if not (math.isfinite(self.start_s) and math.isfinite(self.end_s) and self.end_s >= self.start_s):
+            raise ValueError("end_s: must not precede start_s")
+
+    def to_dict(self) -> dict:
+        return {"kind": "crawl", "path": self.path.tolist(), "depth_mm": self.depth_mm, "start_s": self.start_s,
+                "end_s": self.end_s, "retract": self.retract}
+
+
+Motion = JointMotion | Crawl
+
+
+@dataclass(frozen=True)
+class Views:
+    """Camera poses taken: times (k,) s, positions (k, 3) mm and unit view directions (k, 3), world frame."""
+
+    times_s: np.ndarray
+    positions: np.ndarray
+    directions: np.ndarray
+
+    def __post_init__(self) -> None:
+        t = _array("times_s", self.times_s, (None,))
+        object.__setattr__(self, "times_s", t)
+        object.__setattr__(self, "positions", _array("positions", self.positions, (len(t), 3)))
+        d = _array("directions", self.directions, (len(t), 3))
+        n = np.linalg.norm(d, axis=1, keepdims=True)
+        if np.any(n == 0):
+            raise ValueError("directions: must be non-zero")
+        object.__setattr__(self, "directions", d / n)
+
+    def __len__(self) -> int:
+        return len(self.times_s)
+
+
+@dataclass(frozen=True)
+class Mission:
+    """What an inspection plan did: the arm's motions in time order, the views taken, the inspection settings it
+    was flown under, and the seed of the simulated measurements' noise (so the judge measures as the mission did)."""
+
+    motions: tuple[Motion, ...]
+    views: Views
+    settings: InspectionSettings
+    measurement_seed: int
+
+    def to_dict(self) -> dict:
+        """The ``mission`` block of ``snakeplan.plan/1`` (docs/ARCHITECTURE.md)."""
+        return {"settings": self.settings.to_dict(), "measurement_seed": self.measurement_seed,
+                "views": {"times_s": self.views.times_s.tolist(), "positions": self.views.positions.tolist(),
+                          "directions": self.views.directions.tolist()},
+                "motions": [m.to_dict() for m in self.motions]}
