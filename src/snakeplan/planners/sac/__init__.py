@@ -16,19 +16,19 @@ module, lowest first:
 - :mod:`.planner`: :func:`rollout` and the planners :class:`SacPlanner`, :class:`SacHerPlanner`,
   :class:`SacPerPlanner`, with their retries and smoothings.
 
-The names below are the package's public ones: the planner registry's built-in entries
-(``snakeplan.planners.sac:SacPlanner``, ...), docs/ARCHITECTURE.md and user code import them from here.
+The names exported here are the package's public ones, which the planner registry's built-in entries
+(``snakeplan.planners.sac:SacPlanner``, ...), the tests and user code import from the package; the library's own
+modules import from the concept modules.
 """
 
 from snakeplan.planners.sac.crawler import CAPTURE_STEPS, STEP_MM, TURN_RADIUS_MM, Crawler
-from snakeplan.planners.sac.guide import GUIDE_MARGIN_MM, guide_for, guide_space
+from snakeplan.planners.sac.guide import GUIDE_MARGIN_MM, guide_for
 from snakeplan.planners.sac.kernels import PURSUIT_GAIN, Outcome
 from snakeplan.planners.sac.observation import (
     FEATURE_CLIP,
     FEATURE_SCALE_MM,
     GOAL_SCALE_MM,
     GUIDE_AHEAD_MM,
-    OBSERVATIONS,
     RoomGraph,
     action_dim,
     input_dim,
@@ -44,11 +44,10 @@ from snakeplan.planners.sac.policy import (
     load_policy,
     policy_path,
     shipped_policy,
-    trained_robot,
 )
 
 __all__ = ["CAPTURE_STEPS", "FEATURE_CLIP", "FEATURE_SCALE_MM", "GOAL_SCALE_MM", "GUIDE_AHEAD_MM", "GUIDE_MARGIN_MM",
-           "OBSERVATIONS", "PURSUIT_GAIN", "STEP_MM", "TURN_RADIUS_MM", "Crawler", "NumpyPolicy", "Outcome",
-           "PolicyTransferWarning", "RoomGraph", "SacHerPlanner", "SacPerPlanner", "SacPlanner", "action_dim",
-           "check_policy_fits", "generalist_path", "guide_for", "guide_space", "input_dim", "load_policy",
-           "observation_dim", "policy_input", "policy_path", "rollout", "shipped_policy", "trained_robot"]
+           "PURSUIT_GAIN", "STEP_MM", "TURN_RADIUS_MM", "Crawler", "NumpyPolicy", "Outcome", "PolicyTransferWarning",
+           "RoomGraph", "SacHerPlanner", "SacPerPlanner", "SacPlanner", "action_dim", "check_policy_fits",
+           "generalist_path", "guide_for", "input_dim", "load_policy", "observation_dim", "policy_input", "policy_path",
+           "rollout", "shipped_policy"]

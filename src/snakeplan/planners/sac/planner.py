@@ -4,8 +4,11 @@ The planners roll the policy out from the entrance (compiled whole, :func:`rollo
 every target is reached; the smoothest of the roll-out and its Gaussian smoothings (``SMOOTHING_SIGMAS_MM``) that
 passes the planning-time crawl check (the ``PLANNING`` profile of :class:`~snakeplan.world.ValidityChecker`) is
 planned; when none passes, the policy is rolled out again with seeded action noise, up to ``PLAN_ATTEMPTS`` times
-within the budget; the path goes to the judge. The planner registry's built-in entries name these classes
-through the package (``snakeplan.planners.sac:SacPlanner``), so they are registered when first asked for.
+within the budget; the path goes to the judge.
+
+The planner registry's built-in entries name these classes through the package (``snakeplan.planners.sac:SacPlanner``)
+and register them when first asked for; ``@register_planner`` here would clash with those entries, which name the
+package, not this module.
 """
 
 from __future__ import annotations
