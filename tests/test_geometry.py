@@ -120,7 +120,7 @@ def test_least_clearance_is_the_least_of_every_chains_clearance(chains, radius):
 def test_capped_signed_distance_is_the_least_of_each_obstacles_and_the_cap(points, cap):
     """A capped query equals min(the distance to each obstacle alone, cap) and evaluates no more obstacles than
     the uncapped one; free_space on a grid is the distance at the cell centres clamped to [-cap, cap]."""
-    from snakeplan.scenes.reach import Grid, free_space
+    from snakeplan.scenes.routes.grid import Grid, free_space
 
     shapes = [Box([0, 0, 0], [100, 200, 150]), Sphere([250, 50, 0], 60), cube_mesh(40.0),
               Pipe([0, 250, 0], [0, 0, 1], 60, 80, 300),
@@ -154,7 +154,7 @@ def test_a_mesh_grid_field_is_the_clamped_distance_far_inside_and_outside_and_is
     (an annulus) and an open shell equal their exact point queries, clamped. An equal mesh built again reuses the
     field without evaluating."""
     from snakeplan.geometry import distance
-    from snakeplan.scenes.reach import Grid, free_space
+    from snakeplan.scenes.routes.grid import Grid, free_space
 
     distance._MESH_GRIDS.clear()
     grid = Grid.covering(np.array([-500.0, -450, -420]), np.array([480.0, 500, 430]), cell)
@@ -181,7 +181,7 @@ def test_a_mesh_grid_field_is_the_clamped_distance_far_inside_and_outside_and_is
 
 def test_the_kept_mesh_fields_stay_within_their_bound_dropping_the_least_recently_used(monkeypatch):
     from snakeplan.geometry import distance
-    from snakeplan.scenes.reach import Grid, free_space
+    from snakeplan.scenes.routes.grid import Grid, free_space
 
     distance._MESH_GRIDS.clear()
     grid = Grid.covering(np.array([-200.0, -200, -200]), np.array([200.0, 200, 200]), 40.0)

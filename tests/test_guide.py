@@ -16,15 +16,9 @@ from snakeplan.rl.envs import SnakeEnv
 from snakeplan.robots import get_robot
 from snakeplan.scenes import Entrance, make_scene
 from snakeplan.scenes.fuel_tank import outside_turning_region
-from snakeplan.scenes.reach import (
-    GUIDE_CELL_MM,
-    FreeSpace,
-    Grid,
-    free_space,
-    geodesic_field,
-    route_guide,
-    route_through,
-)
+from snakeplan.scenes.routes.geodesic import geodesic_field
+from snakeplan.scenes.routes.grid import Grid, free_space
+from snakeplan.scenes.routes.guide import GUIDE_CELL_MM, FreeSpace, route_guide, route_through
 from snakeplan.world import SensedView
 
 ROBOT = get_robot("sjtu-snake-iii")

@@ -22,13 +22,13 @@ from snakeplan.planners.sac import (
     Crawler,
     NumpyPolicy,
     RoomGraph,
-    _actor_rows,
     input_dim,
     load_policy,
     policy_input,
     policy_path,
     rollout,
 )
+from snakeplan.planners.sac.kernels import _actor_rows
 from snakeplan.rl import rewards
 from snakeplan.rl.envs import ENV_IDS, SnakeEnv
 from snakeplan.rl.per import PrioritizedDictReplayBuffer, PrioritizedSamples, SumTree

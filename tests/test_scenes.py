@@ -14,7 +14,8 @@ from snakeplan.geometry.primitives import Box, Plate
 from snakeplan.planners import planner_names
 from snakeplan.robots import get_robot, robot_names
 from snakeplan.scenes import Entrance, Scene, SceneSpec, make_scene, scene_spec, spec_for
-from snakeplan.scenes.reach import Grid, geodesic_field
+from snakeplan.scenes.routes.geodesic import geodesic_field
+from snakeplan.scenes.routes.grid import Grid
 from snakeplan.scenes.station import STATION_HEIGHT_MM, STATION_RADIUS_MM
 
 ALL = ["fuel-tank", "oil-tank", "pipe", "concentric-pipe", "station"]

@@ -89,7 +89,8 @@ def run_kernel_bench(repeats: int = 7, batch: int = 20000, seed: int = 0, print_
     t_loop = median_seconds(lambda: [ftl.fit(path, robot.lengths, s, u) for s in loop_depths], max(1, repeats // 2))
     loop_rate = len(loop_depths) / t_loop
 
-    from snakeplan.planners.sac import load_policy, policy_path, rollout
+    from snakeplan.planners.sac.planner import rollout
+    from snakeplan.planners.sac.policy import load_policy, policy_path
 
     policy = load_policy(policy_path("fuel-tank", "sac-her"))
     steps = len(rollout(policy, scene, robot)[0]) - 1
@@ -143,6 +144,8 @@ def stepped_rollout(policy, scene: Scene, robot: Chain, world=None, noise: float
                     rng: np.random.Generator | None = None) -> tuple[np.ndarray, str]:
     """The planning roll-out (:func:`snakeplan.planners.sac.rollout`) as a loop of ``Crawler`` steps in Python,
     one noise draw per step taken: the baseline of the compiled roll-out, and what a test holds it to."""
+    from snakeplan.planners.sac.kernels import Outcome
+
     crawler = policy.crawler(robot, check_body=False)
     crawler.reset(scene, world)
     for _ in range(int(np.ceil(robot.total_length / crawler.step_mm)) + 1):
@@ -153,5 +156,5 @@ def stepped_rollout(policy, scene: Scene, robot: Chain, world=None, noise: float
         if failure is not None:
             return crawler.tip_path(), failure
         if crawler.done:
-            return crawler.tip_path(), "reached"
-    return crawler.tip_path(), "steps"
+            return crawler.tip_path(), Outcome.REACHED
+    return crawler.tip_path(), Outcome.STEPS

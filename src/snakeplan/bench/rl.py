@@ -43,7 +43,7 @@ import torch as th
 from stable_baselines3.common.vec_env import DummyVecEnv
 
 from snakeplan.bench.kernels import median_seconds
-from snakeplan.planners.sac import input_dim, observation_dim
+from snakeplan.planners.sac.observation import input_dim, observation_dim
 from snakeplan.rl.envs import TRAIN_SEED, SnakeEnv
 from snakeplan.rl.policy import from_sb3
 from snakeplan.rl.train import (

@@ -119,7 +119,7 @@ class Table2Config:
 
 def generalist_installed() -> bool:
     """Whether the generalist policy ships in this installation."""
-    from snakeplan.planners.sac import generalist_path
+    from snakeplan.planners.sac.policy import generalist_path
 
     return generalist_path() is not None
 

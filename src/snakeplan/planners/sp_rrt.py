@@ -24,10 +24,10 @@ Choices (every number is a module-level default below):
   length to the root plus a lower bound on the rest of the path exceeds the arm by more than ``BUDGET_SLACK_MM``
   (the grid error of the bound). The bound is a geodesic distance (below), or before an intermediate target the
   straight distance to it plus its geodesic distance. A target beyond that reach fails at once.
-* **Geodesic field.** :func:`snakeplan.scenes.reach.geodesic_from_sdf` on cells of ``FIELD_CELL_MM`` (coarse: it
-  is only a guide and a bound, and it costs a few ms), inflated by the planning body radius, with its source on
-  the feed axis ``FIELD_SOURCE_SECTIONS`` first-section lengths inside the entrance (less if the axis is not
-  clear that far); distances minus that depth bound the path length from the entrance (triangle inequality).
+* **Geodesic field.** :func:`snakeplan.scenes.routes.geodesic.geodesic_from_sdf` on cells of ``FIELD_CELL_MM``
+  (coarse: it is only a guide and a bound, and it costs a few ms), inflated by the planning body radius, with its
+  source on the feed axis ``FIELD_SOURCE_SECTIONS`` first-section lengths inside the entrance (less if the axis
+  is not clear that far); distances minus that depth bound the path length from the entrance (triangle inequality).
   Pulled towards that source, the tree meets the entrance from the inside, where it can join the axis, instead
   of crowding beside the port along the wall (which made some fuel-tank seeds fail).
 * **Nearest neighbour.** A numba kernel over the node arrays: for each sample, the nearest node of the sample's
@@ -87,13 +87,8 @@ from snakeplan.jit import kernel
 from snakeplan.planners.base import Planner, Problem, Status
 from snakeplan.planners.registry import register_planner
 from snakeplan.world import PLANNING, Failure, ValidityChecker
-from snakeplan.scenes.reach import (
-    DEFAULT_FEED_MM,
-    FieldDeadline,
-    Grid,
-    free_space,
-    geodesic_from_sdf,
-)
+from snakeplan.scenes.routes.geodesic import DEFAULT_FEED_MM, geodesic_from_sdf
+from snakeplan.scenes.routes.grid import FieldDeadline, Grid, free_space
 from snakeplan.scenes.scene import Entrance
 
 #: Fraction of each section's bend limit the tree allows; the rest absorbs mid-depth chord effects.

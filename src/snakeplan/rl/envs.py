@@ -26,16 +26,9 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from snakeplan.planners.sac import (
-    CAPTURE_STEPS,
-    GOAL_SCALE_MM,
-    STEP_MM,
-    TURN_RADIUS_MM,
-    Crawler,
-    action_dim,
-    guide_for,
-    observation_dim,
-)
+from snakeplan.planners.sac.crawler import CAPTURE_STEPS, STEP_MM, TURN_RADIUS_MM, Crawler
+from snakeplan.planners.sac.guide import guide_for
+from snakeplan.planners.sac.observation import GOAL_SCALE_MM, action_dim, observation_dim
 from snakeplan.rl.rewards import (
     GUIDE_WEIGHT,
     collide_reward,
@@ -48,7 +41,7 @@ from snakeplan.rl.rewards import (
 from snakeplan.robots import Chain, get_robot
 from snakeplan.scenes import Scene, make_scene
 from snakeplan.scenes.prefetch import made_ahead
-from snakeplan.scenes.reach import RouteGuide
+from snakeplan.scenes.routes.guide import RouteGuide
 from snakeplan.world import KnowledgeView, view_for
 
 #: Truncation horizon H (steps), paper 000 §4.1.

@@ -12,7 +12,7 @@ import torch as th
 from gymnasium import spaces
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 
-from snakeplan.planners.sac import FEATURE_CLIP, FEATURE_SCALE_MM, GOAL_SCALE_MM, input_dim
+from snakeplan.planners.sac.observation import FEATURE_CLIP, FEATURE_SCALE_MM, GOAL_SCALE_MM, input_dim
 
 
 def _rel(frame: th.Tensor, vec: th.Tensor) -> th.Tensor:

@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import torch as th
 
-from snakeplan.planners.sac import NumpyPolicy, RoomGraph
+from snakeplan.planners.sac.observation import RoomGraph
+from snakeplan.planners.sac.policy import NumpyPolicy
 
 
 def from_sb3(model, meta: dict, graph: RoomGraph | None = None) -> NumpyPolicy:

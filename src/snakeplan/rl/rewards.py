@@ -19,7 +19,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from snakeplan.planners.sac import GOAL_SCALE_MM
+from snakeplan.planners.sac.observation import GOAL_SCALE_MM
 from snakeplan.world import REACH_TOLERANCE_MM
 
 #: R_s (eq. 5): reward for reaching a target.

@@ -79,13 +79,10 @@ from snakeplan.interrupt import (
 )
 from snakeplan.parallel import ProgressDisplay, usable_cores
 from snakeplan.planners import Problem
-from snakeplan.planners.sac import (
-    CAPTURE_STEPS,
-    TURN_RADIUS_MM,
-    NumpyPolicy,
-    RoomGraph,
-    SacPlanner,
-)
+from snakeplan.planners.sac.crawler import CAPTURE_STEPS, TURN_RADIUS_MM
+from snakeplan.planners.sac.observation import RoomGraph
+from snakeplan.planners.sac.planner import SacPlanner
+from snakeplan.planners.sac.policy import NumpyPolicy
 from snakeplan.rl.agents import (
     AUTODIFF,
     EPSILON_DECAY,

@@ -37,17 +37,9 @@ from snakeplan.scenes.fuel_tank import (
     outer_walls,
     outside_turning_region,
 )
-from snakeplan.scenes.reach import (
-    DEFAULT_FEED_MM,
-    DEFAULT_INFLATE_MM,
-    DEFAULT_REACH_FRACTION,
-    SDF_HORIZON_MM,
-    Grid,
-    check_range,
-    free_space,
-    geodesic_from_sdf,
-    tank_parameters,
-)
+from snakeplan.scenes.parameters import DEFAULT_REACH_FRACTION, check_range, tank_parameters
+from snakeplan.scenes.routes.geodesic import DEFAULT_FEED_MM, DEFAULT_INFLATE_MM, geodesic_from_sdf
+from snakeplan.scenes.routes.grid import SDF_HORIZON_MM, Grid, free_space
 from snakeplan.scenes.registry import register_scene
 from snakeplan.scenes.scene import Entrance, Scene
 

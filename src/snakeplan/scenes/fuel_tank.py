@@ -7,8 +7,8 @@ where partitions meet the outer walls, corner posts, stiffener beams along the t
 partition and outer side wall) that never covers a hole. Per seed (unknown to the operator): the entrance (a
 point on an outer side wall, fed along the inward normal, through a round port cut in that wall), 3-6 clutter
 obstacles resting on the floor, and one debris target one or two oval holes away from the entrance chamber, with
-clearance and geodesic reach checked by :mod:`snakeplan.scenes.reach`: its geodesic distance from the entrance
-lies between ``MIN_TARGET_GEODESIC_MM`` and the reach limit, so paths are as long as the paper's (Table 2:
+clearance and geodesic reach checked by :mod:`snakeplan.scenes.routes.geodesic`: its geodesic distance from the
+entrance lies between ``MIN_TARGET_GEODESIC_MM`` and the reach limit, so paths are as long as the paper's (Table 2:
 1.5-1.8 m), and it lies outside the region a tip that starts along the feed axis cannot reach when it turns no
 tighter than the arm's bend limits allow (``TURN_RADIUS_MM``; see :func:`outside_turning_region`).
 
@@ -25,16 +25,9 @@ import numpy as np
 
 from snakeplan.geometry.distance import ObstacleSet
 from snakeplan.geometry.primitives import Box, Cylinder, Obstacle, Plate, Sphere
-from snakeplan.scenes.reach import (
-    DEFAULT_INFLATE_MM,
-    DEFAULT_REACH_FRACTION,
-    SDF_HORIZON_MM,
-    Grid,
-    check_range,
-    free_space,
-    geodesic_from_sdf,
-    tank_parameters,
-)
+from snakeplan.scenes.parameters import DEFAULT_REACH_FRACTION, check_range, tank_parameters
+from snakeplan.scenes.routes.geodesic import DEFAULT_INFLATE_MM, geodesic_from_sdf
+from snakeplan.scenes.routes.grid import SDF_HORIZON_MM, Grid, free_space
 from snakeplan.scenes.registry import register_scene
 from snakeplan.scenes.scene import Entrance, Scene
 

@@ -5,7 +5,7 @@ a centred round hole of 280 mm diameter (28 plates); the outer walls are plates 
 bounds. Per seed: the entrance, centred on one cell's face in an end wall (x = 0 or x = 1200; the arm enters that
 cell through its own 60 mm-radius port and looks down a row of four cells), and 3 debris targets, one in each
 of the next cells of that row, within ``ROW_OFFSET_MM`` of the row's axis, with clearance >= 40 mm and
-geodesically reachable (:mod:`snakeplan.scenes.reach`).
+geodesically reachable (:mod:`snakeplan.scenes.routes.geodesic`).
 
 Why a row: the planners visit targets in order along one follow-the-leader path without retracting (see
 :mod:`snakeplan.planners.base`), so the whole tour must fit in one arm and pass the 280 mm holes; a 90 degree turn
@@ -21,16 +21,9 @@ import numpy as np
 from snakeplan.geometry.distance import ObstacleSet
 from snakeplan.geometry.primitives import Plate
 from snakeplan.scenes.fuel_tank import ARM_LENGTH_MM, ARM_RADIUS_MM, DECIMALS, PORT_RADIUS_MM, ROBOT, outer_walls
-from snakeplan.scenes.reach import (
-    DEFAULT_INFLATE_MM,
-    DEFAULT_REACH_FRACTION,
-    SDF_HORIZON_MM,
-    Grid,
-    check_range,
-    tank_parameters,
-    free_space,
-    geodesic_from_sdf,
-)
+from snakeplan.scenes.parameters import DEFAULT_REACH_FRACTION, check_range, tank_parameters
+from snakeplan.scenes.routes.geodesic import DEFAULT_INFLATE_MM, geodesic_from_sdf
+from snakeplan.scenes.routes.grid import SDF_HORIZON_MM, Grid, free_space
 from snakeplan.scenes.registry import register_scene
 from snakeplan.scenes.scene import Entrance, Scene
 

@@ -17,14 +17,9 @@ import math
 import numpy as np
 
 from snakeplan.geometry.primitives import Pipe
-from snakeplan.scenes.reach import (
-    DEFAULT_REACH_FRACTION,
-    SDF_HORIZON_MM,
-    Grid,
-    check_range,
-    free_space,
-    geodesic_from_sdf,
-)
+from snakeplan.scenes.parameters import DEFAULT_REACH_FRACTION, check_range
+from snakeplan.scenes.routes.geodesic import geodesic_from_sdf
+from snakeplan.scenes.routes.grid import SDF_HORIZON_MM, Grid, free_space
 from snakeplan.scenes.registry import register_scene
 from snakeplan.scenes.scene import Entrance, Scene
 

@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike
 from scipy.sparse.csgraph import csgraph_from_dense, dijkstra
 
 from snakeplan.geometry.primitives import Mesh
-from snakeplan.scenes.reach import check_range
+from snakeplan.scenes.parameters import check_range
 from snakeplan.scenes.registry import register_scene
 from snakeplan.scenes.scene import Entrance, Scene
 

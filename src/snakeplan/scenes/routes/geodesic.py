@@ -1,42 +1,30 @@
-"""Reachable in principle: a free-space grid and an any-angle geodesic distance from a scene's entrance (mm).
+"""Reachable in principle: an any-angle geodesic distance (mm) from a scene's entrance through the free cells of a
+grid (:mod:`.grid`).
 
-The workspace bounds are cut into cells of at most ``cell_mm``; a cell is free when the signed distance at its
-centre is at least ``inflate_mm`` (the arm's radius plus a margin), so a free path of cell centres keeps a body
-of that radius clear of every obstacle (to within half a cell). The distance from the entrance is found by a
-lazy Theta* search on the 26-connected grid (numba): each cell's parent is a cell (or the entrance itself) in
-straight sight through free cells, so in open space the distance is the straight-line length, not the staircase
-of plain grid Dijkstra (several per cent longer); around walls it is the length of a taut polyline through free
-cells. Scene generators accept a target only when this
-geodesic distance is at most a fraction of the arm length; planners reuse the same field as a heuristic and
+The distance from the entrance is found by a lazy Theta* search on the 26-connected grid (numba): each cell's
+parent is a cell (or the entrance itself) in straight sight through free cells, so in open space the distance is
+the straight-line length, not the staircase of plain grid Dijkstra (several per cent longer); around walls it is
+the length of a taut polyline through free cells. Scene generators accept a target only when this geodesic
+distance is at most a fraction of the arm length; planners reuse the same field as a heuristic and
 :meth:`GeodesicField.path_to` as a guide path.
 """
 
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass
 
 import numpy as np
 
-from snakeplan.geometry.distance import ObstacleSet
-from snakeplan.geometry.polyline import densify
 from snakeplan.jit import kernel
+from snakeplan.scenes.parameters import check_range
+from snakeplan.scenes.routes.grid import DEFAULT_CELL_MM, SDF_HORIZON_MM, Grid, free_space
 from snakeplan.scenes.scene import Entrance, Scene
 
-#: Grid cell edge (mm): small enough for the 120 mm half-height of a fuel-tank hole shrunk by the inflation.
-DEFAULT_CELL_MM = 20.0
 #: Inflation radius (mm): SJTU-Snake III's 27.5 mm body radius plus 2.5 mm.
 DEFAULT_INFLATE_MM = 30.0
 #: Length (mm) of the straight stretch along the feed axis, from the entrance inwards, that counts as free.
 DEFAULT_FEED_MM = 100.0
-#: A field made for one inflation keeps exact cell-centre distances up to the inflation plus this much (mm);
-#: farther ones are clamped (to minus this much inside material).
-SDF_HORIZON_MM = 40.0
-#: Largest grid (cells) a field may use, about 100 MB of working memory.
-MAX_CELLS = 8_000_000
-#: Targets are accepted when their geodesic distance is at most this fraction of the arm length.
-DEFAULT_REACH_FRACTION = 0.85
 
 _UNREACHED = -2
 _SOURCE = -1
@@ -44,61 +32,6 @@ _NEIGHBOURS = np.array(
     [(a, b, c) for a in (-1, 0, 1) for b in (-1, 0, 1) for c in (-1, 0, 1) if (a, b, c) != (0, 0, 0)],
     dtype=np.int64,
 )
-
-
-def check_range(name: str, value, low: float | None = None, high: float | None = None,
-                integer: bool = False) -> float:
-    """Validate a generator parameter (a finite number in [low, high]); ValueError names it."""
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise ValueError(f"{name}: expected a number, got {value!r}")
-    if integer and int(value) != value:
-        raise ValueError(f"{name}: expected an integer, got {value!r}")
-    v = float(value)
-    if not math.isfinite(v) or (low is not None and v < low) or (high is not None and v > high):
-        raise ValueError(f"{name}: must lie in [{low}, {high}], got {value!r}")
-    return v
-
-
-def tank_parameters(arm_length_mm, reach_fraction, inflate_mm, cell_mm) -> tuple[float, float, float, float]:
-    """The reach parameters a room-scale generator takes (fuel-tank, oil-tank, confined), checked: arm length
-    (mm, >= 1), reach fraction (0.1-1), inflation (0-100 mm), reach grid cell (5-50 mm)."""
-    return (check_range("arm_length_mm", arm_length_mm, 1.0), check_range("reach_fraction", reach_fraction, 0.1, 1.0),
-            check_range("inflate_mm", inflate_mm, 0.0, 100.0), check_range("cell_mm", cell_mm, 5.0, 50.0))
-
-
-@dataclass(frozen=True, eq=False)
-class Grid:
-    """A regular grid of ``shape`` cells tiling the box from ``origin`` with edge lengths ``spacing`` (mm)."""
-
-    origin: np.ndarray
-    spacing: np.ndarray
-    shape: tuple[int, int, int]
-
-    @classmethod
-    def covering(cls, bounds_min, bounds_max, cell_mm: float = DEFAULT_CELL_MM) -> Grid:
-        """The grid whose cells (edges <= ``cell_mm``) tile the bounds exactly."""
-        lo = np.array(bounds_min, dtype=float)  # a writable copy: the kernels see one array type, whatever the bounds
-        hi = np.array(bounds_max, dtype=float)
-        check_range("cell_mm", cell_mm, 1e-3)
-        n = np.maximum(1, np.ceil((hi - lo) / cell_mm - 1e-9)).astype(np.int64)
-        if np.prod(n.astype(float)) > MAX_CELLS:
-            raise ValueError(f"cell_mm: {cell_mm} gives {int(np.prod(n.astype(float)))} cells, more than {MAX_CELLS}")
-        return cls(lo, (hi - lo) / n, (int(n[0]), int(n[1]), int(n[2])))
-
-    @property
-    def size(self) -> int:
-        return int(np.prod(self.shape))
-
-    def centres(self) -> np.ndarray:
-        """Cell centres, shape ``shape + (3,)``."""
-        axes = [self.origin[k] + (np.arange(self.shape[k]) + 0.5) * self.spacing[k] for k in range(3)]
-        return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
-
-    def cell_of(self, points) -> np.ndarray:
-        """Integer cell indices ``(..., 3)`` of points, clipped into the grid."""
-        p = np.asarray(points, dtype=float)
-        idx = np.floor((p - self.origin) / self.spacing).astype(np.int64)
-        return np.clip(idx, 0, np.array(self.shape) - 1)
 
 
 @dataclass(frozen=True, eq=False)
@@ -154,43 +87,6 @@ class GeodesicField:
         return np.vstack([self.source[None], centres[::-1], q[None]])
 
 
-class FieldDeadline(Exception):
-    """:func:`free_space` ran past its deadline (a planner's budget ran out while it built its field)."""
-
-
-#: Cells evaluated between two looks at :func:`free_space`'s deadline.
-DEADLINE_CHUNK_CELLS = 4096
-
-
-def free_space(obstacles: ObstacleSet, grid: Grid, horizon_mm: float = math.inf,
-               deadline: float | None = None) -> np.ndarray:
-    """Signed distance (mm) at every cell centre, shape ``grid.shape``, clamped to [-``horizon_mm``,
-    ``horizon_mm``] (its users compare it with an inflation at most the horizon, and with 0).
-
-    A finite horizon evaluates each obstacle only at the cells within the horizon of its box
-    (:meth:`ObstacleSet.grid_distance`), so a cell far from everything costs nothing. With a ``deadline`` (a
-    perf_counter value) it raises :class:`FieldDeadline` once past it, so a planner's setup never outlasts its
-    budget by more than one chunk of cells.
-    """
-    out = np.empty(grid.shape)
-    if math.isfinite(horizon_mm):
-        layers = max(1, DEADLINE_CHUNK_CELLS // max(1, grid.shape[0] * grid.shape[1]))
-        for k0 in range(0, grid.shape[2], layers):
-            if deadline is not None and time.perf_counter() >= deadline:
-                raise FieldDeadline
-            k1 = min(k0 + layers, grid.shape[2])
-            out[:, :, k0:k1] = obstacles.grid_distance(grid.origin, grid.spacing, grid.shape, horizon_mm, (k0, k1))
-        return out
-    flat = grid.centres().reshape(-1, 3)
-    out = out.reshape(-1)
-    for start in range(0, len(flat), DEADLINE_CHUNK_CELLS):
-        if deadline is not None and time.perf_counter() >= deadline:
-            raise FieldDeadline
-        stop = start + DEADLINE_CHUNK_CELLS
-        out[start:stop] = obstacles.signed_distance(flat[start:stop], horizon_mm)
-    return out.reshape(grid.shape)
-
-
 def geodesic_from_sdf(grid: Grid, sdf: np.ndarray, entrance: Entrance, inflate_mm: float = DEFAULT_INFLATE_MM,
                       feed_mm: float = DEFAULT_FEED_MM, goal=None) -> GeodesicField:
     """Geodesic field from precomputed cell-centre distances ``sdf`` (shape ``grid.shape``, mm).
@@ -227,115 +123,7 @@ def geodesic_field(scene: Scene, inflate_mm: float = DEFAULT_INFLATE_MM, cell_mm
     return geodesic_from_sdf(grid, sdf, scene.entrance, inflate_mm, feed_mm)
 
 
-#: Grid cell (mm) of a route guide: coarse, so that a guide costs milliseconds; the openings a guide must pass
-#: (a fuel-tank hole, an oil-tank hole: 110 mm free radius once inflated) span several cells.
-GUIDE_CELL_MM = 40.0
-#: Spacing (mm) of a route guide's points.
-GUIDE_STEP_MM = 10.0
-
-
-@dataclass(frozen=True, eq=False)
-class RouteGuide:
-    """A coarse route from the entrance through every target in order (mm): ``points (n, 3)`` every
-    ``GUIDE_STEP_MM`` or less along it, their arc lengths ``arc (n,)``, and each target's arc length
-    ``target_arc (T,)``. Each leg is the taut geodesic through the free cells of the known obstacles, inflated by
-    the arm's radius; a leg the coarse grid cannot find is a straight segment (``complete`` is then False)."""
-
-    points: np.ndarray
-    arc: np.ndarray
-    target_arc: np.ndarray
-    complete: bool = True
-
-    def at(self, s) -> np.ndarray:
-        """Points (mm) at arc lengths ``s`` (clipped to the guide)."""
-        s = np.clip(np.asarray(s, dtype=float), 0.0, self.arc[-1])
-        return np.stack([np.interp(s, self.arc, self.points[:, k]) for k in range(3)], axis=-1)
-
-    def progress(self, tip, s_from: float, s_to: float) -> float:
-        """Arc length (mm) of the guide point nearest ``tip`` among those between ``s_from`` and ``s_to``."""
-        return nearest_on_guide(self.points, self.arc, np.asarray(tip, dtype=float), float(s_from), float(s_to))
-
-
-@dataclass(frozen=True, eq=False)
-class FreeSpace:
-    """:func:`free_space` of ``obstacles`` on ``grid``, capped at ``cap_mm``: the route guide's free cells for any
-    inflation up to the cap. :meth:`including` a superset of its obstacles evaluates only the added ones (the
-    field of a union is the least of the parts' fields), so a guide made again after sensing costs the newly
-    known obstacles, not the structure again."""
-
-    grid: Grid
-    cap_mm: float
-    sdf: np.ndarray
-    obstacles: ObstacleSet
-
-    def __post_init__(self) -> None:
-        self.sdf.setflags(write=False)  # shared by the spaces extended from it and the fields routed through it
-
-    @classmethod
-    def of(cls, obstacles: ObstacleSet, grid: Grid, cap_mm: float, deadline: float | None = None) -> FreeSpace:
-        """The field of ``obstacles`` (:class:`FieldDeadline` past ``deadline``)."""
-        return cls(grid, float(cap_mm), free_space(obstacles, grid, cap_mm, deadline), obstacles)
-
-    def including(self, obstacles: ObstacleSet, deadline: float | None = None) -> FreeSpace:
-        """The field of ``obstacles``: only those not in this field's set are evaluated when they are a superset
-        of it (the same obstacle objects; a sensed view's known set grows so), else all of them."""
-        held = {id(o) for o in self.obstacles.obstacles}
-        given = [id(o) for o in obstacles.obstacles]
-        if not held.issubset(given):
-            return FreeSpace.of(obstacles, self.grid, self.cap_mm, deadline)
-        added = np.array([k not in held for k in given], dtype=bool)
-        if not added.any():
-            return FreeSpace(self.grid, self.cap_mm, self.sdf, obstacles)
-        extra = free_space(obstacles.subset(added), self.grid, self.cap_mm, deadline)
-        return FreeSpace(self.grid, self.cap_mm, np.minimum(self.sdf, extra), obstacles)
-
-
-def route_guide(obstacles: ObstacleSet, bounds_min, bounds_max, entrance: Entrance, targets,
-                inflate_mm: float = DEFAULT_INFLATE_MM, cell_mm: float = GUIDE_CELL_MM,
-                deadline: float | None = None) -> RouteGuide:
-    """The :class:`RouteGuide` through ``obstacles`` (a planner passes what it knows before the job: its knowledge
-    view's obstacles) from ``entrance`` through ``targets`` in order; :class:`FieldDeadline` past ``deadline``
-    (a perf_counter value) while its free space is computed."""
-    space = FreeSpace.of(obstacles, Grid.covering(bounds_min, bounds_max, cell_mm), inflate_mm + SDF_HORIZON_MM,
-                         deadline)
-    return route_through(space, entrance, targets, inflate_mm)
-
-
-def route_through(space: FreeSpace, entrance: Entrance, targets, inflate_mm: float) -> RouteGuide:
-    """:func:`route_guide` through the cells of ``space`` at least ``inflate_mm`` (at most its cap) from its
-    obstacles."""
-    if inflate_mm > space.cap_mm:
-        raise ValueError(f"inflate_mm: at most the field's cap {space.cap_mm:g} mm, got {inflate_mm:g}")
-    grid, sdf = space.grid, space.sdf
-    source, pieces, ends, complete = entrance, [entrance.position[None]], [], True
-    for k, target in enumerate(np.asarray(targets, dtype=float).reshape(-1, 3)):
-        feed = DEFAULT_FEED_MM if k == 0 else 0.0
-        leg = geodesic_from_sdf(grid, sdf, source, inflate_mm, feed, goal=target).path_to(target)
-        if len(leg) < 2:
-            leg, complete = np.vstack([source.position, target]), False
-        pieces.append(densify(leg, GUIDE_STEP_MM)[1:])
-        ends.append(sum(len(p) for p in pieces) - 1)
-        source = Entrance(target, entrance.direction)
-    points = np.vstack(pieces)
-    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
-    return RouteGuide(points, arc, arc[ends], complete)
-
-
 # --- numba kernels --------------------------------------------------------------------------------------------
-
-
-@kernel
-def nearest_on_guide(points, arc, tip, s_from, s_to):
-    """:meth:`RouteGuide.progress`: the arc length of the point nearest ``tip`` with arc in [s_from, s_to] (the
-    first point at or after ``s_from`` at least)."""
-    i = min(np.searchsorted(arc, s_from), arc.shape[0] - 1)
-    j = max(np.searchsorted(arc, s_to, side="right"), i + 1)
-    best, arg = np.inf, i
-    for k in range(i, j):
-        d = (points[k, 0] - tip[0]) ** 2 + (points[k, 1] - tip[1]) ** 2 + (points[k, 2] - tip[2]) ** 2
-        if d < best:
-            best, arg = d, k
-    return arc[arg]
 
 
 @kernel

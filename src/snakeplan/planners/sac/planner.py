@@ -1,0 +1,220 @@
+"""Learned planners `sac-her`, `sac-per`, `sac` (paper 000): a deterministic roll-out of a trained actor (mm, rad, s).
+
+The planners roll the policy out from the entrance (compiled whole, :func:`rollout`: about a millisecond) until
+every target is reached; the smoothest of the roll-out and its Gaussian smoothings (``SMOOTHING_SIGMAS_MM``) that
+passes the planning-time crawl check (the ``PLANNING`` profile of :class:`~snakeplan.world.ValidityChecker`) is
+planned; when none passes, the policy is rolled out again with seeded action noise, up to ``PLAN_ATTEMPTS`` times
+within the budget; the path goes to the judge.
+
+The planner registry's built-in entries name these classes through the package (``snakeplan.planners.sac:SacPlanner``)
+and register them when first asked for; ``@register_planner`` here would clash with those entries, which name the
+package, not this module.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+from snakeplan.evaluation.metrics import path_smoothness
+from snakeplan.geometry import polyline
+from snakeplan.planners.base import Planner, Problem, Status
+from snakeplan.planners.sac.guide import GUIDE_MARGIN_MAX_MM, GUIDE_MARGIN_MM, GUIDE_MARGIN_STEP_MM, guide_space
+from snakeplan.planners.sac.kernels import ROLL_OUTCOMES, Outcome, _roll
+from snakeplan.planners.sac.observation import action_dim, route_tables
+from snakeplan.planners.sac.policy import (
+    NumpyPolicy,
+    check_policy_fits,
+    generalist_path,
+    load_policy,
+    shipped_policy,
+)
+from snakeplan.robots import Chain
+from snakeplan.scenes import Scene, spec_for
+from snakeplan.scenes.routes.grid import FieldDeadline
+from snakeplan.scenes.routes.guide import RouteGuide, route_through
+from snakeplan.world import PLANNING, FullView, KnowledgeView, ValidityChecker
+
+#: Roll-outs a planner may try: the deterministic one, then ones with Gaussian action noise whose std cycles
+#: through ``RETRY_LEVELS`` values evenly spaced over ``RETRY_NOISE``.
+PLAN_ATTEMPTS = 16
+RETRY_NOISE = (0.2, 0.8)
+RETRY_LEVELS = 4
+#: Gaussian smoothing scales (mm of arc length) tried on a roll-out that reaches every target. The roll-out and
+#: its smoothings are ranked by the smoothness index of eq. 20 (curvature at the section length, the planner's
+#: own objective, as RRT* ranks by length) and the best that passes the crawl check is planned. The policy
+#: steers in ``STEP_MM`` steps with turns of up to its turning radius; spreading a turn over a few sections lowers
+#: the peak curvature towards the mean (fuel-tank), while a path whose turns are pinned at targets a cell apart
+#: only loses mean curvature by it (oil-tank), so the ranking, not the widest, decides.
+SMOOTHING_SIGMAS_MM = (480.0, 320.0, 240.0, 160.0, 120.0, 80.0)
+
+
+def rollout(policy: NumpyPolicy, scene: Scene, robot: Chain, deadline: float = math.inf,
+            max_steps: int | None = None, noise: float = 0.0, rng: np.random.Generator | None = None,
+            world: KnowledgeView | None = None, guide: RouteGuide | None = None) -> tuple[np.ndarray, Outcome]:
+    """Roll the policy out in ``scene``: (tip path, :class:`~.kernels.Outcome`), every target reached, a failure
+    (out of bounds, insertion), out of steps, or timeout (``deadline``, a perf_counter value, passed before it
+    began). The crawl of :meth:`NumpyPolicy.crawler` without its body check (planning: the path is checked
+    afterwards), compiled whole (:func:`_roll`). Deterministic unless ``noise`` (std of Gaussian action noise
+    from ``rng``, one draw per step taken, as a step-by-step loop would draw it). The crawler senses through ``world``
+    (default: the whole scene) and, in the ``guide`` design, follows ``guide`` (default: the route guide of what
+    ``world`` knows)."""
+    crawler = policy.crawler(robot, check_body=False)
+    world = FullView(scene) if world is None else world
+    crawler.reset(scene, world, guide)
+    if time.perf_counter() > deadline:
+        return crawler.tip_path(), Outcome.TIMEOUT
+    limit = max_steps or math.ceil(robot.total_length / crawler.step_mm) + 1
+    adim = action_dim(policy.mode)
+    if noise > 0.0:
+        start = rng.bit_generator.state
+        shake = noise * rng.standard_normal((limit, adim))
+    else:
+        shake = np.zeros((limit, adim))
+    path = np.empty((limit + 1, 3))
+    path[0] = scene.entrance.position
+    sensor = world.sensor()
+    count, outcome = _roll(crawler.code, crawler.lookahead, crawler.residual, crawler.step_mm, crawler.max_turn,
+                           crawler.capture_mm, crawler.tank_scale, float(robot.total_length),
+                           np.array(scene.bounds_min, dtype=float), np.array(scene.bounds_max, dtype=float),
+                           crawler.targets, np.array(scene.entrance.direction, dtype=float), crawler.rays,
+                           *crawler.guide_arrays, policy.graph is not None, *route_tables(policy.graph),
+                           policy.weights, policy.biases, policy.shapes,
+                           sensor.packed, sensor.known, sensor.range_mm, sensor.stats, shake, path)
+    if noise > 0.0:  # leave ``rng`` where drawing each step's noise as it is taken would (the same plans)
+        rng.bit_generator.state = start
+        rng.standard_normal((count - 1, adim))
+    return path[:count].copy(), ROLL_OUTCOMES[outcome]
+
+
+class SacPlanner(Planner):
+    """`sac`: a plain-SAC policy rolled out deterministically; ``policy=`` a file (``"generalist"``: the shipped
+    generalist), else the one that ships for the scene (:func:`shipped_policy`). A roll-out that reaches every
+    target is planned as the smoothest of itself and its ``smoothing`` scales (:data:`SMOOTHING_SIGMAS_MM`) that
+    passes the planning-time crawl check (the ``PLANNING`` profile of
+    :class:`~snakeplan.world.ValidityChecker`); when none passes, it is rolled out again with seeded action noise,
+    up to ``attempts`` roll-outs within the budget; when none passes, the plan is ``approximate``: the reaching
+    roll-out whose crawl failed deepest, else the first roll-out. It plans with ``knowledge="sensed"`` too: its
+    rays and every crawl check then see only what the tip sensor has revealed along its roll-outs
+    (``problem.world``), so a retry re-plans within what has been sensed; a ``guide`` policy's route guide is
+    made again from what has been sensed when a retry knows more than the last guide did."""
+
+    name = "sac"
+    needs_full_scene = False
+    takes_policy = True
+
+    def __init__(self, policy: str | Path | NumpyPolicy | None = None, attempts: int = PLAN_ATTEMPTS,
+                 retry_noise: tuple[float, float] = RETRY_NOISE,
+                 smoothing: tuple[float, ...] = SMOOTHING_SIGMAS_MM):
+        self.policy = policy
+        self.attempts = int(attempts)
+        self.smoothing = tuple(float(s) for s in smoothing)
+        self.noise_levels = np.linspace(retry_noise[0], retry_noise[1], RETRY_LEVELS)
+
+    def _policy(self, scene: Scene) -> NumpyPolicy:
+        if isinstance(self.policy, NumpyPolicy):
+            return self.policy
+        if self.policy == "generalist":
+            path = generalist_path()
+            if path is None:
+                raise ValueError("policy: the generalist policy is not installed (rl/data/generalist.npz)")
+            return load_policy(path)
+        path = Path(self.policy) if self.policy else shipped_policy(spec_for(scene), self.name)
+        if path is None:
+            raise ValueError(f"policy: no {self.name} policy ships for scene family {scene.name}; train one "
+                             f"('snakeplan train rl') and pass its policy.npz")
+        return load_policy(path)
+
+    def warm_up(self, problem: Problem) -> None:
+        """The validity checker's kernels, the policy, one roll-out step (rays, actor), a smoothing and a crawl
+        check, outside the timed plan."""
+        super().warm_up(problem)
+        policy = self._policy(problem.scene)
+        path, _ = rollout(policy, problem.scene, problem.robot, max_steps=2, world=problem.world)
+        if len(path) > 2:
+            smoothed = polyline.smooth(path, self.smoothing[0], pins=path[-1:]) if self.smoothing else path
+            path_smoothness(smoothed, float(np.mean(problem.robot.lengths)), problem.robot.k_ul)
+            ValidityChecker(problem.world, problem.robot, PLANNING).first_failure(smoothed)
+
+    def _smoothest(self, path: np.ndarray, problem: Problem, model: ValidityChecker
+                   ) -> tuple[np.ndarray | None, float, float]:
+        """The smoothest of ``path`` and its smoothings (targets kept) that passes the crawl check, with its
+        smoothing scale (mm; 0 for the roll-out itself); when none passes, (None, 0, depth (mm) at which the
+        roll-out's own crawl fails)."""
+        step, k_ul = float(np.mean(problem.robot.lengths)), problem.robot.k_ul
+        candidates = [(path, 0.0)] + list(zip(polyline.smoothings(path, self.smoothing, pins=problem.goals),
+                                              self.smoothing))
+        candidates.sort(key=lambda c: -path_smoothness(c[0], step, k_ul))
+        raw_failure = 0.0
+        for candidate, sigma in candidates:
+            if candidate is not path:
+                if model.feasible(candidate):
+                    return candidate, sigma, 0.0
+                continue
+            failure = model.first_failure(path)
+            if failure is None:
+                return path, 0.0, 0.0
+            raw_failure = failure.depth_mm
+        return None, 0.0, raw_failure
+
+    def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float
+               ) -> tuple[Status, np.ndarray | None, dict]:
+        policy = self._policy(problem.scene)
+        check_policy_fits(policy, problem.scene, problem.robot)
+        model = ValidityChecker(problem.world, problem.robot, PLANNING)
+        details = {"policy": policy.meta.get("name", str(self.policy or self.name))}
+        best, best_reach, path = None, -1.0, None
+        guide, known, margin, routed, widest = None, -1, GUIDE_MARGIN_MM, GUIDE_MARGIN_MM, GUIDE_MARGIN_MAX_MM
+        space, radius = None, float(np.max(problem.robot.radii))
+        for attempt in range(self.attempts):
+            noise = self.noise_levels[(attempt - 1) % RETRY_LEVELS] if attempt else 0.0
+            if policy.mode == "guide" and (len(problem.world.obstacle_set) != known or margin != routed):
+                known = len(problem.world.obstacle_set)  # re-route on what was sensed, or farther from it
+                try:
+                    space = guide_space(problem.scene, problem.world, radius, deadline, space)
+                except FieldDeadline:
+                    details.update(outcome=Outcome.TIMEOUT, attempts=attempt)
+                    break
+                wider = route_through(space, problem.scene.entrance, problem.scene.targets, radius + margin)
+                if guide is None or wider.complete:
+                    guide, routed = wider, margin
+                else:  # too wide for an opening: keep the last guide, and try no wider
+                    margin = widest = routed
+            path, outcome = rollout(policy, problem.scene, problem.robot, deadline, noise=noise, rng=rng,
+                                    world=problem.world, guide=guide)
+            details.update(outcome=outcome, attempts=attempt + 1, steps=len(path) - 1)
+            if outcome == Outcome.TIMEOUT:
+                break
+            if outcome == Outcome.REACHED:
+                chosen, sigma, failure = self._smoothest(path, problem, model)
+                if chosen is not None:
+                    details["smoothing_sigma_mm"] = sigma
+                    if policy.mode == "guide":
+                        details["guide_margin_mm"] = routed
+                    return Status.FOUND, chosen, details
+                margin = min(margin + GUIDE_MARGIN_STEP_MM, widest)
+                if failure > best_reach:
+                    best, best_reach = path, failure
+            elif best is None:
+                best = path
+        stopped = Status.TIMEOUT if details["outcome"] == Outcome.TIMEOUT else Status.FAILED
+        best = best if best is not None else path
+        if best is None or len(best) < 2:
+            return stopped, None, details
+        details["stopped"] = stopped
+        return Status.APPROXIMATE, best, details
+
+
+class SacHerPlanner(SacPlanner):
+    """`sac-her`: the SAC + hindsight-replay policy (paper 000's multi-obstacle planner)."""
+
+    name = "sac-her"
+
+
+class SacPerPlanner(SacPlanner):
+    """`sac-per`: the SAC + prioritised-replay policy (paper 000's multi-target planner)."""
+
+    name = "sac-per"
