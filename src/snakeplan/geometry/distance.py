@@ -5,6 +5,10 @@ into float rows (:meth:`Obstacle.pack`) and evaluated by exact signed-distance k
 by branch-and-bound on the 1-Lipschitz signed distance: the distance at an interval's midpoint minus the
 interval's half-length bounds the whole interval from below, so most links are cleared by one evaluation and
 no collision is missed (the bound is exact, not a sampling heuristic). Distances in mm.
+
+The packed row layout is defined here, next to the kernels that read it; obstacles are used only through their
+rows and methods (``pack``, ``aabb``, ``kind``, a mesh's ``distance_data``), so this module imports no obstacle
+class and :mod:`snakeplan.geometry.primitives` builds on it (:meth:`Obstacle.signed_distance`).
 """
 
 from __future__ import annotations
@@ -13,6 +17,7 @@ import math
 import threading
 from collections import OrderedDict
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -25,18 +30,16 @@ from snakeplan.geometry.mesh_distance import (
     point_on,
     triangle_balls,
 )
-from snakeplan.geometry.primitives import (
-    _P,
-    KIND_BOX,
-    KIND_CYLINDER,
-    KIND_MESH,
-    KIND_PIPE,
-    KIND_SPHERE,
-    PACK_WIDTH,
-    Mesh,
-    Obstacle,
-)
 from snakeplan.jit import inlined, kernel, leaf
+
+if TYPE_CHECKING:
+    from snakeplan.geometry.primitives import Obstacle
+
+#: The packed row of an obstacle (:meth:`Obstacle.pack` writes it, the kernels below read it):
+#: ``[kind, center(3), R row-major(9), params...]``, its kinds, and where the type-specific parameters start.
+PACK_WIDTH = 24
+KIND_BOX, KIND_SPHERE, KIND_CYLINDER, KIND_PLATE, KIND_PIPE, KIND_MESH = range(6)
+_P = 13
 
 #: Accuracy (mm) of the minimum clearance reported for a segment.
 CLEARANCE_TOLERANCE_MM = 0.05
@@ -661,7 +664,7 @@ _MESH_GRIDS_LOCK = threading.Lock()
 
 def _split_meshes(obstacles: Sequence[Obstacle]) -> tuple[np.ndarray, np.ndarray]:
     """(the indices of the meshes among ``obstacles``, the indices of the rest)."""
-    is_mesh = np.array([isinstance(o, Mesh) for o in obstacles], dtype=bool)
+    is_mesh = np.array([o.kind == KIND_MESH for o in obstacles], dtype=bool)
     return np.flatnonzero(is_mesh), np.flatnonzero(~is_mesh)
 
 
@@ -700,7 +703,7 @@ class ObstacleSet:
         tris, normals, nodes, links, ranges = [], [], [], [], []
         tri_start = node_start = 0
         for o, row in zip(self.obstacles, rows):
-            if isinstance(o, Mesh):
+            if o.kind == KIND_MESH:
                 t, nrm, nd, lk = o.distance_data()
                 lk = lk.copy()
                 inner = lk[:, 1] > 0
