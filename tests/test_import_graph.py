@@ -1,24 +1,24 @@
 """The import graph of ``src/snakeplan``: no upward import between layers and no import cycle.
 
 Every ``.py`` file under ``src/snakeplan`` is parsed with :mod:`ast` (nothing is imported), and every import
-statement in it counts, wherever it stands: module level, inside functions and methods, inside ``try`` blocks.
+statement in it counts, wherever it stands: module level, inside functions and methods, inside ``try`` blocks
+and under ``if TYPE_CHECKING:`` (an import for annotations only still states a dependency).
 ``import a.b``, ``from a import b`` (an edge to the submodule ``a.b`` where one exists, else to ``a``) and
 relative imports (``from . import x``, ``from .m import y``) are resolved to the snakeplan modules they name.
 A package's ``__init__`` importing its own submodules is an edge like any other (``snakeplan.robots`` ->
 ``snakeplan.robots.chain``), so a submodule that imports a name back from its package's ``__init__`` forms a
 cycle.
 
-Exempt: imports inside ``if TYPE_CHECKING:`` blocks. They never run, so they make neither an import-order
-cycle nor a dependency at run time; they only name types for annotations. Names in lazy registry entries
-(``"snakeplan.planners.sac:SacPlanner"`` strings) are not imports either.
+Names in lazy registry entries (``"snakeplan.planners.sac:SacPlanner"`` strings) are not imports.
 
 (a) Layers: :data:`LAYERS` (docs/ARCHITECTURE.md's table, lowest first) is the one map from modules to layers.
 A module imports only modules of its own layer and of lower layers (the base utilities are the lowest). A
 module that no entry covers fails the test: add its package to :data:`LAYERS`.
 
-(b) Cycles: the strongly connected components of the module graph (in-function imports included, as the
-layering rule counts them: an in-function import that closes a cycle still ties two modules to each other).
-Each cycle is printed as its edges, ``a -> b`` lines.
+(b) Cycles: the strongly connected components of the module graph, in-function imports included as the layering
+rule counts them (deferring an import to a function hides a cycle from the interpreter, not from the design: the
+two modules still need each other). Each cycle is printed as its edges, ``a -> b`` lines, an edge that exists only
+inside functions marked ``(in a function)``.
 
 ``python tests/test_import_graph.py`` prints the current violations.
 """
@@ -80,24 +80,6 @@ def layer_of(module: str) -> int | None:
     return rank
 
 
-def _is_type_checking(test: ast.expr) -> bool:
-    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or \
-        (isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING")
-
-
-def _import_nodes(tree: ast.AST) -> Iterator[ast.Import | ast.ImportFrom]:
-    """Every import statement in ``tree``, at any depth, except the bodies of ``if TYPE_CHECKING:``."""
-    stack = [tree]
-    while stack:
-        node = stack.pop()
-        if isinstance(node, ast.Import | ast.ImportFrom):
-            yield node
-        if isinstance(node, ast.If) and _is_type_checking(node.test):
-            stack.extend(node.orelse)
-            continue
-        stack.extend(ast.iter_child_nodes(node))
-
-
 def _resolve(name: str, known: dict[str, Path]) -> str | None:
     """The longest snakeplan module that ``name`` names or lies in (None outside snakeplan)."""
     parts = name.split(".")
@@ -109,14 +91,25 @@ def _resolve(name: str, known: dict[str, Path]) -> str | None:
     return None
 
 
-def imports(module: str, path: Path, known: dict[str, Path]) -> set[str]:
-    """The snakeplan modules that ``module`` (its source at ``path``) imports, itself excluded."""
+def _statements(tree: ast.AST, in_functions: bool) -> Iterator[ast.AST]:
+    """Every node of ``tree``; without ``in_functions``, none inside a function (what runs at import)."""
+    stack = [tree]
+    while stack:
+        node = stack.pop()
+        yield node
+        if in_functions or not isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef | ast.Lambda):
+            stack.extend(ast.iter_child_nodes(node))
+
+
+def imports(module: str, path: Path, known: dict[str, Path], in_functions: bool = True) -> set[str]:
+    """The snakeplan modules that ``module`` (its source at ``path``) imports, itself excluded; without
+    ``in_functions``, only those imported when it is imported."""
     package = module if path.name == "__init__.py" else module.rpartition(".")[0]
     out = set()
-    for node in _import_nodes(ast.parse(path.read_text(encoding="utf-8"), str(path))):
+    for node in _statements(ast.parse(path.read_text(encoding="utf-8"), str(path)), in_functions):
         if isinstance(node, ast.Import):
             targets = [_resolve(alias.name, known) for alias in node.names]
-        else:
+        elif isinstance(node, ast.ImportFrom):
             if node.level:
                 base = package.split(".")
                 base = base[:len(base) - (node.level - 1)]
@@ -127,14 +120,16 @@ def imports(module: str, path: Path, known: dict[str, Path]) -> set[str]:
             for alias in node.names:
                 sub = f"{source}.{alias.name}"
                 targets.append(sub if sub in known else _resolve(source, known))
+        else:
+            continue
         out.update(t for t in targets if t is not None and t != module)
     return out
 
 
-def graph(src: Path = SRC) -> dict[str, set[str]]:
-    """Module -> the snakeplan modules it imports."""
+def graph(src: Path = SRC, in_functions: bool = True) -> dict[str, set[str]]:
+    """Module -> the snakeplan modules it imports (without ``in_functions``: when it is imported)."""
     known = modules(src)
-    return {m: imports(m, p, known) for m, p in known.items()}
+    return {m: imports(m, p, known, in_functions) for m, p in known.items()}
 
 
 def unmapped(g: dict[str, set[str]]) -> list[str]:
@@ -188,23 +183,26 @@ def cycles(g: dict[str, set[str]]) -> list[list[str]]:
     return sorted(out)
 
 
-def cycle_edges(g: dict[str, set[str]]) -> list[str]:
-    """``a -> b`` for every edge inside a cycle, one block per strongly connected component."""
+def cycle_edges(g: dict[str, set[str]], at_import: dict[str, set[str]]) -> list[str]:
+    """``a -> b`` for every edge inside a cycle of ``g``, one block per strongly connected component; an edge
+    missing from ``at_import`` (:func:`graph` without in-function imports) is marked ``(in a function)``."""
     out = []
     for component in cycles(g):
         members = set(component)
         out.append(f"cycle among {', '.join(component)}:")
-        out.extend(f"  {a} -> {b}" for a in component for b in sorted(g[a] & members))
+        out.extend(f"  {a} -> {b}" + ("" if b in at_import[a] else "  (in a function)")
+                   for a in component for b in sorted(g[a] & members))
     return out
 
 
-def report(g: dict[str, set[str]]) -> str:
+def report(src: Path = SRC) -> str:
     """Every violation, one ``a -> b`` line each, under a heading per kind; empty when there is none."""
+    g = graph(src)
     parts = []
     for title, lines in (("modules without a layer (add them to LAYERS in tests/test_import_graph.py)",
                           unmapped(g)),
                          ("upward imports", upward(g)),
-                         ("import cycles", cycle_edges(g))):
+                         ("import cycles", cycle_edges(g, graph(src, in_functions=False)))):
         if lines:
             parts.append(f"{title}:\n" + "\n".join(lines))
     return "\n".join(parts)
@@ -222,13 +220,13 @@ def test_no_upward_import():
 
 
 def test_no_import_cycle():
-    lines = cycle_edges(graph())
+    lines = cycle_edges(graph(), graph(in_functions=False))
     assert not lines, "import cycles:\n" + "\n".join(lines)
 
 
 def test_the_graph_sees_every_kind_of_import(tmp_path):
-    """The parser itself: absolute, from-, relative and in-function imports become edges; TYPE_CHECKING ones
-    do not; an upward import and a cycle are found."""
+    """The parser itself: absolute, from-, relative, in-function and TYPE_CHECKING imports become edges (only
+    snakeplan's); an upward import and a cycle are found."""
     pkg = tmp_path / ROOT
     (pkg / "geometry").mkdir(parents=True)
     (pkg / "robots").mkdir()
@@ -238,7 +236,7 @@ def test_the_graph_sees_every_kind_of_import(tmp_path):
     (pkg / "geometry" / "a.py").write_text("import snakeplan.jit\n\ndef f():\n    from .b import x\n")
     (pkg / "geometry" / "b.py").write_text(
         "from typing import TYPE_CHECKING\nfrom snakeplan.geometry import a\n"
-        "if TYPE_CHECKING:\n    from snakeplan.robots import chain\n"
+        "if TYPE_CHECKING:\n    from snakeplan import robots\n"
         "def g():\n    import snakeplan.robots.chain\n")
     (pkg / "robots" / "__init__.py").write_text("")
     (pkg / "robots" / "chain.py").write_text("from snakeplan.geometry.a import f\nimport numpy\n")
@@ -248,12 +246,19 @@ def test_the_graph_sees_every_kind_of_import(tmp_path):
         "snakeplan.jit": set(),
         "snakeplan.geometry": {"snakeplan.geometry.a"},
         "snakeplan.geometry.a": {"snakeplan.jit", "snakeplan.geometry.b"},
-        "snakeplan.geometry.b": {"snakeplan.geometry.a", "snakeplan.robots.chain"},
+        "snakeplan.geometry.b": {"snakeplan.geometry.a", "snakeplan.robots", "snakeplan.robots.chain"},
         "snakeplan.robots": set(),
         "snakeplan.robots.chain": {"snakeplan.geometry.a"},
     }
-    assert upward(g) == ["snakeplan.geometry.b -> snakeplan.robots.chain  (geometry imports robots)"]
+    assert upward(g) == ["snakeplan.geometry.b -> snakeplan.robots  (geometry imports robots)",
+                         "snakeplan.geometry.b -> snakeplan.robots.chain  (geometry imports robots)"]
     assert cycles(g) == [["snakeplan.geometry.a", "snakeplan.geometry.b", "snakeplan.robots.chain"]]
+    assert cycle_edges(g, graph(tmp_path, in_functions=False)) == [
+        "cycle among snakeplan.geometry.a, snakeplan.geometry.b, snakeplan.robots.chain:",
+        "  snakeplan.geometry.a -> snakeplan.geometry.b  (in a function)",
+        "  snakeplan.geometry.b -> snakeplan.geometry.a",
+        "  snakeplan.geometry.b -> snakeplan.robots.chain  (in a function)",
+        "  snakeplan.robots.chain -> snakeplan.geometry.a"]
     assert layer_of("snakeplan.planners.sac.agent") == layer_of("snakeplan.planners")
     assert layer_of("snakeplan.commands.plan") == layer_of("snakeplan.cli")
     assert layer_of("snakeplan.nowhere") is None
@@ -261,6 +266,6 @@ def test_the_graph_sees_every_kind_of_import(tmp_path):
 
 
 if __name__ == "__main__":
-    text = report(graph())
+    text = report()
     print(text or "no violations")
     sys.exit(1 if text else 0)

@@ -7,8 +7,8 @@ interval's half-length bounds the whole interval from below, so most links are c
 no collision is missed (the bound is exact, not a sampling heuristic). Distances in mm.
 
 The packed row layout is defined here, next to the kernels that read it; obstacles are used only through their
-rows and methods (``pack``, ``aabb``, ``kind``, a mesh's ``distance_data``), so this module imports no obstacle
-class and :mod:`snakeplan.geometry.primitives` builds on it (:meth:`Obstacle.signed_distance`).
+rows and methods (:class:`Packable`), so this module imports no obstacle class and
+:mod:`snakeplan.geometry.primitives` builds on it (:meth:`Obstacle.signed_distance`).
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import math
 import threading
 from collections import OrderedDict
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 
@@ -31,9 +31,6 @@ from snakeplan.geometry.mesh_distance import (
     triangle_balls,
 )
 from snakeplan.jit import inlined, kernel, leaf
-
-if TYPE_CHECKING:
-    from snakeplan.geometry.primitives import Obstacle
 
 #: The packed row of an obstacle (:meth:`Obstacle.pack` writes it, the kernels below read it):
 #: ``[kind, center(3), R row-major(9), params...]``, its kinds, and where the type-specific parameters start.
@@ -662,7 +659,22 @@ MESH_GRID_CELLS = 4_000_000
 _MESH_GRIDS_LOCK = threading.Lock()
 
 
-def _split_meshes(obstacles: Sequence[Obstacle]) -> tuple[np.ndarray, np.ndarray]:
+class Packable(Protocol):
+    """What an :class:`ObstacleSet` uses of an obstacle (:class:`~snakeplan.geometry.primitives.Obstacle`): its
+    kind, its packed row and its world box; a mesh (``KIND_MESH``) also its triangles' data and a digest."""
+
+    kind: int
+
+    def pack(self) -> np.ndarray: ...
+
+    def aabb(self) -> tuple[np.ndarray, np.ndarray]: ...
+
+    def distance_data(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]: ...
+
+    def fingerprint(self) -> str: ...
+
+
+def _split_meshes(obstacles: Sequence[Packable]) -> tuple[np.ndarray, np.ndarray]:
     """(the indices of the meshes among ``obstacles``, the indices of the rest)."""
     is_mesh = np.array([o.kind == KIND_MESH for o in obstacles], dtype=bool)
     return np.flatnonzero(is_mesh), np.flatnonzero(~is_mesh)
@@ -697,7 +709,7 @@ class ObstacleSet:
     and boxes, mesh triangles and their trees, and a tree over the obstacles' boxes (the broad phase).
     """
 
-    def __init__(self, obstacles: Sequence[Obstacle]):
+    def __init__(self, obstacles: Sequence[Packable]):
         self.obstacles = tuple(obstacles)
         rows = [o.pack() for o in self.obstacles]
         tris, normals, nodes, links, ranges = [], [], [], [], []

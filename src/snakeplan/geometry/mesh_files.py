@@ -11,14 +11,11 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from snakeplan import inputs
-
-if TYPE_CHECKING:
-    from snakeplan.geometry.primitives import Mesh
 
 #: Millimetres per unit a mesh file may be written in.
 UNITS_MM = {"m": 1000.0, "cm": 10.0, "mm": 1.0, "in": 25.4}
@@ -118,12 +115,3 @@ def read_mesh_spec(d: dict, where: str, base_dir: str | os.PathLike | None
     if "thickness" in d:
         source["thickness"] = inputs.length(d["thickness"], f"{where}.thickness")
     return vertices, faces, source
-
-
-def open_mesh_note(mesh: Mesh) -> str | None:
-    """What the loader warns about a mesh (None for a closed one, or an open one given its ``thickness``)."""
-    if mesh.closed or mesh.thickness is not None:
-        return None
-    return (f"the mesh is open (not watertight); it is taken as a shell {mesh.shell_thickness:g} mm thick "
-            f"(give \"thickness\" in mm to choose)")
-

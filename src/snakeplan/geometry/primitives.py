@@ -3,7 +3,8 @@
 Each primitive is a small frozen dataclass that round-trips through the ``snakeplan.scene/1`` JSON of
 docs/ARCHITECTURE.md (``to_dict`` / :func:`obstacle_from_dict`) and packs itself into a fixed-width float row
 (:meth:`Obstacle.pack`, the layout of :mod:`snakeplan.geometry.distance`) so that its numba kernels can evaluate
-whole scenes without Python in the loop. A mesh given by a CAD file is read by :mod:`snakeplan.geometry.mesh_files`. Signed distance is negative inside the material.
+whole scenes without Python in the loop. Signed distance is negative inside the material. A mesh given by a CAD
+file is read by :mod:`snakeplan.geometry.mesh_files`.
 """
 
 from __future__ import annotations
@@ -379,6 +380,14 @@ class Mesh(Obstacle):
         if self.thickness is not None:
             out["thickness"] = self.thickness
         return out
+
+
+def open_mesh_note(mesh: Mesh) -> str | None:
+    """What the loader warns about a mesh (None for a closed one, or an open one given its ``thickness``)."""
+    if mesh.closed or mesh.thickness is not None:
+        return None
+    return (f"the mesh is open (not watertight); it is taken as a shell {mesh.shell_thickness:g} mm thick "
+            f"(give \"thickness\" in mm to choose)")
 
 
 OBSTACLE_TYPES: dict[str, type[Obstacle]] = {c.type: c for c in (Box, Sphere, Cylinder, Pipe, Plate, Mesh)}

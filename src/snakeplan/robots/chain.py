@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike
 
 from snakeplan.geometry.transforms import normalize, rot_x, rot_y, rot_z
 from snakeplan.jit import kernel
-from snakeplan.robots.cables import CableRouting
+from snakeplan.robots.cable_routing import CableRouting
 from snakeplan.robots.limits import DEFAULT_LIMITS, MotionLimits
 
 SCHEMA = "snakeplan.robot/1"
@@ -410,7 +410,7 @@ class Chain:
     circle through three joints at maximum bend, ``max_i 2 sin(max_bend_i / 2) / length_i``. ``limits``
     (:class:`~snakeplan.robots.limits.MotionLimits`, default ``DEFAULT_LIMITS``) bound a trajectory's feed speed
     and acceleration and its joint rates and accelerations; ``cables`` (a
-    :class:`~snakeplan.robots.cables.CableRouting`, one entry per section) makes the arm cable-driven.
+    :class:`~snakeplan.robots.cable_routing.CableRouting`, one entry per section) makes the arm cable-driven.
     Chains are immutable; :meth:`with_base` returns a moved copy.
     """
 

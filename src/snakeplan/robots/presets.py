@@ -34,7 +34,7 @@ from pathlib import Path
 
 from snakeplan.inputs import load_json
 from snakeplan.registry import Registry
-from snakeplan.robots.cables import CableRouting
+from snakeplan.robots.cable_routing import CableRouting
 from snakeplan.robots.chain import Chain, Section
 from snakeplan.robots.dh import load_dh
 from snakeplan.robots.limits import MotionLimits
@@ -152,8 +152,9 @@ ROBOT_FILES = {".urdf": "URDF", ".xml": "URDF", ".yaml": "DH YAML", ".yml": "DH 
 
 def load_robot(spec: str) -> Chain:
     """A robot by preset name, or from a file by its suffix: ``.urdf``/``.xml`` (:func:`~snakeplan.robots.urdf.
-    from_urdf`), ``.yaml``/``.yml`` (a DH table, :func:`~snakeplan.robots.dh.load_dh`) or ``.json`` (``snakeplan.robot/1``,
-    :meth:`Chain.from_dict`). ValueError with one line naming what is wrong (an unknown name lists the presets)."""
+    from_urdf`), ``.yaml``/``.yml`` (a DH table, :func:`~snakeplan.robots.dh.load_dh`) or ``.json``
+    (``snakeplan.robot/1``, :meth:`Chain.from_dict`). ValueError with one line naming what is wrong (an unknown name
+    lists the presets)."""
     if spec in ROBOTS:
         return get_robot(spec)
     path = Path(spec)

@@ -27,5 +27,5 @@ from snakeplan.world.validity import (
 )
 
 __all__ = ["DEFAULT_SENSOR_RANGE_MM", "ENTRANCE_TOLERANCE_MM", "JUDGE", "PLANNING", "REACH_TOLERANCE_MM", "ROLLOUT",
-           "CrawlCheck", "Failure", "FailureKind", "FullView", "KnowledgeView", "SensedView", "Tolerances", "UnsensedObstacleError",
-           "ValidityChecker", "guarded", "min_turn_radius", "targets_reached", "view_for"]
+           "CrawlCheck", "Failure", "FailureKind", "FullView", "KnowledgeView", "SensedView", "Tolerances",
+           "UnsensedObstacleError", "ValidityChecker", "guarded", "min_turn_radius", "targets_reached", "view_for"]
