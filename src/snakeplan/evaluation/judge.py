@@ -31,7 +31,6 @@ from snakeplan.world import (
 CRAWL_STEP_MM = JUDGE.step_mm
 
 
-
 class Reason(str, Enum):
     """The judge's verdict (:attr:`Report.reason`): the kind of the first failure in depth (a
     :class:`~snakeplan.world.FailureKind`), else ``reached`` when every target was reached, else ``not_reached``.
@@ -108,7 +107,7 @@ def evaluate(scene: Scene, robot: Chain, path, settings: JudgeSettings = JudgeSe
     reached = reached_count == len(scene.targets)
     failure = check.failure
     if failure is not None:
-        reason = Reason(failure.kind.value)
+        reason = Reason(failure.kind)
     else:
         reason = Reason.REACHED if reached else Reason.NOT_REACHED
 

@@ -47,7 +47,6 @@ from snakeplan.world.tolerances import (
 )
 
 
-
 class FailureKind(str, Enum):
     """What makes a crawl infeasible (see the module). A ``str`` so that JSON and printed output hold the plain
     value (``"collision"``), and it compares equal to it."""
