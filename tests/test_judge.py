@@ -1,14 +1,16 @@
 """The judge against hand-built scenes whose verdicts are known in advance."""
 
+import json
 import math
 
 import numpy as np
 import pytest
 
-from snakeplan.evaluation import JudgeSettings, evaluate
+from snakeplan.evaluation import JudgeSettings, Reason, evaluate
 from snakeplan.geometry.primitives import Box
 from snakeplan.robots import get_robot
 from snakeplan.scenes import Entrance, Scene
+from snakeplan.world import FailureKind, FullView, ValidityChecker
 
 ROBOT = get_robot("sjtu-snake-iii")  # 12 x 177.5 mm, radius 27.5 mm, bend <= 50.7 deg
 
@@ -94,3 +96,18 @@ def test_path_must_start_at_the_entrance():
         evaluate(corridor([[500, 0, 0]]), ROBOT, line([5, 0, 0], [500, 0, 0]))
     with pytest.raises(ValueError):
         evaluate(corridor([[500, 0, 0]]), ROBOT, [[0, 0, 0], [np.nan, 0, 0]])
+
+
+def test_reasons_and_failure_kinds_are_typed_and_print_their_plain_value():
+    wall = Box([1050, 0, 0], [100, 2000, 2000])
+    scene = corridor([[1500, 0, 0]], [wall])
+    path = line([0, 0, 0], [1500, 0, 0])
+    report = evaluate(scene, ROBOT, path)
+    failure = ValidityChecker(FullView(scene), ROBOT).first_failure(path)
+    assert report.reason is Reason.COLLISION and failure.kind is FailureKind.COLLISION
+    for value in (report.reason, failure.kind):
+        assert value == "collision" and str(value) == f"{value}" == "%s" % value == "collision"
+        assert json.dumps({"reason": value}) == '{"reason": "collision"}'
+    assert [str(r) for r in Reason] == ["reached", "collision", "bend_limit", "insertion", "out_of_bounds",
+                                        "not_reached"]
+    assert {str(k) for k in FailureKind} < {str(r) for r in Reason}

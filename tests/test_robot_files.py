@@ -12,7 +12,7 @@ import yaml
 
 from snakeplan.cli import main
 from snakeplan.geometry.transforms import pose, rot_x, rot_y
-from snakeplan.robots import DEFAULT_LIMITS, Chain, from_urdf, get_robot, load_robot, robot_names
+from snakeplan.robots import DEFAULT_LIMITS, Chain, from_urdf, get_robot, load_robot, robot_names, to_urdf
 
 ARM6 = Path(__file__).parent / "data" / "arm6.urdf"
 
@@ -28,7 +28,7 @@ def run(capsys, *argv):
 @pytest.mark.parametrize("base", [np.eye(4), pose(rot_x(0.4) @ rot_y(-1.1), [100.0, -20.0, 35.0])])
 def test_urdf_round_trip_of_every_preset_keeps_fk_to_1e_9_mm(name, base):
     chain = get_robot(name).with_base(base)
-    back = from_urdf(chain.to_urdf())
+    back = from_urdf(to_urdf(chain))
     assert back.joint_names == chain.joint_names
     assert back.feed_range == chain.feed_range
     np.testing.assert_allclose(back.radii, chain.radii, rtol=0, atol=1e-12)

@@ -404,10 +404,10 @@ def test_hsr_yaml_loads_from_path_and_mapping(tmp_path):
     path = files("snakeplan.robots").joinpath("data", "hsr-10.yaml")
     data = yaml.safe_load(path.read_text())
     q = get_robot("hsr-10").random_q(2)
-    np.testing.assert_allclose(Chain.from_dh(data).fk(q), get_robot("hsr-10").fk(q))
+    np.testing.assert_allclose(load_dh(data).fk(q), get_robot("hsr-10").fk(q))
     copy = tmp_path / "hsr.yaml"
     copy.write_text(path.read_text())
-    np.testing.assert_allclose(Chain.from_dh(copy).fk(q), get_robot("hsr-10").fk(q))
+    np.testing.assert_allclose(load_dh(copy).fk(q), get_robot("hsr-10").fk(q))
 
 
 @pytest.mark.parametrize(
@@ -478,7 +478,7 @@ def test_urdf_parses_and_matches_fk(name):
 
 
 def test_urdf_defaults_to_metres():
-    root = ElementTree.fromstring(get_robot("sjtu-snake-iii").to_urdf())
+    root = ElementTree.fromstring(to_urdf(get_robot("sjtu-snake-iii")))
     cylinder = root.find("link/visual/geometry/cylinder")
     assert float(cylinder.get("length")) == pytest.approx(0.1775)
     assert float(cylinder.get("radius")) == pytest.approx(0.0275)

@@ -9,6 +9,7 @@ stays inside the scene's bounds and passes the targets in order. Planners never 
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
+from enum import Enum
 
 import numpy as np
 
@@ -29,7 +30,21 @@ from snakeplan.world import (
 #: Arc-length step (mm) between judged crawl configurations.
 CRAWL_STEP_MM = JUDGE.step_mm
 
-REASONS = ("reached", "collision", "bend_limit", "insertion", "out_of_bounds", "not_reached")
+
+class Reason(str, Enum):
+    """The judge's verdict (:attr:`Report.reason`): the kind of the first failure in depth (a
+    :class:`~snakeplan.world.FailureKind`), else ``reached`` when every target was reached, else ``not_reached``.
+    A ``str`` so that JSON and printed output hold the plain value, and it compares equal to it."""
+
+    REACHED = "reached"
+    COLLISION = "collision"
+    BEND_LIMIT = "bend_limit"
+    INSERTION = "insertion"
+    OUT_OF_BOUNDS = "out_of_bounds"
+    NOT_REACHED = "not_reached"
+
+    def __str__(self) -> str:
+        return self.value
 
 
 @dataclass(frozen=True)
@@ -46,7 +61,7 @@ class Report:
     """The judge's verdict on one tip path; ``metrics()`` is the ``snakeplan.plan/1`` metrics block."""
 
     success: bool
-    reason: str
+    reason: Reason
     reached: bool
     targets_reached: int
     collision_free: bool
@@ -91,7 +106,10 @@ def evaluate(scene: Scene, robot: Chain, path, settings: JudgeSettings = JudgeSe
     reached_count = targets_reached(p, scene.targets, settings.reach_tolerance_mm)
     reached = reached_count == len(scene.targets)
     failure = check.failure
-    reason = failure.kind if failure is not None else ("reached" if reached else "not_reached")
+    if failure is not None:
+        reason = Reason(failure.kind)
+    else:
+        reason = Reason.REACHED if reached else Reason.NOT_REACHED
 
     s_k, kappa = curvature_profile(p, h)
     k_max = float(kappa.max()) if kappa.size else 0.0
@@ -99,7 +117,7 @@ def evaluate(scene: Scene, robot: Chain, path, settings: JudgeSettings = JudgeSe
     inserted = states.joint_arclength[:, 1:] > 0.0  # links whose tip end is past the entrance
     deviation = states.deviation[inserted] if inserted.any() else np.zeros(1)
     return Report(
-        success=reason == "reached",
+        success=reason is Reason.REACHED,
         reason=reason,
         reached=reached,
         targets_reached=reached_count,

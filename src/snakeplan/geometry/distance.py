@@ -5,6 +5,10 @@ into float rows (:meth:`Obstacle.pack`) and evaluated by exact signed-distance k
 by branch-and-bound on the 1-Lipschitz signed distance: the distance at an interval's midpoint minus the
 interval's half-length bounds the whole interval from below, so most links are cleared by one evaluation and
 no collision is missed (the bound is exact, not a sampling heuristic). Distances in mm.
+
+The packed row layout is defined here, next to the kernels that read it; obstacles are used only through their
+rows and methods (:class:`Packable`), so this module imports no obstacle class and
+:mod:`snakeplan.geometry.primitives` builds on it (:meth:`Obstacle.signed_distance`).
 """
 
 from __future__ import annotations
@@ -13,6 +17,7 @@ import math
 import threading
 from collections import OrderedDict
 from collections.abc import Sequence
+from typing import Protocol
 
 import numpy as np
 
@@ -25,18 +30,13 @@ from snakeplan.geometry.mesh_distance import (
     point_on,
     triangle_balls,
 )
-from snakeplan.geometry.primitives import (
-    _P,
-    KIND_BOX,
-    KIND_CYLINDER,
-    KIND_MESH,
-    KIND_PIPE,
-    KIND_SPHERE,
-    PACK_WIDTH,
-    Mesh,
-    Obstacle,
-)
 from snakeplan.jit import inlined, kernel, leaf
+
+#: The packed row of an obstacle (:meth:`Obstacle.pack` writes it, the kernels below read it):
+#: ``[kind, center(3), R row-major(9), params...]``, its kinds, and where the type-specific parameters start.
+PACK_WIDTH = 24
+KIND_BOX, KIND_SPHERE, KIND_CYLINDER, KIND_PLATE, KIND_PIPE, KIND_MESH = range(6)
+_P = 13
 
 #: Accuracy (mm) of the minimum clearance reported for a segment.
 CLEARANCE_TOLERANCE_MM = 0.05
@@ -659,9 +659,24 @@ MESH_GRID_CELLS = 4_000_000
 _MESH_GRIDS_LOCK = threading.Lock()
 
 
-def _split_meshes(obstacles: Sequence[Obstacle]) -> tuple[np.ndarray, np.ndarray]:
+class Packable(Protocol):
+    """What an :class:`ObstacleSet` uses of an obstacle (:class:`~snakeplan.geometry.primitives.Obstacle`): its
+    kind, its packed row and its world box; a mesh (``KIND_MESH``) also its triangles' data and a digest."""
+
+    kind: int
+
+    def pack(self) -> np.ndarray: ...
+
+    def aabb(self) -> tuple[np.ndarray, np.ndarray]: ...
+
+    def distance_data(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]: ...
+
+    def fingerprint(self) -> str: ...
+
+
+def _split_meshes(obstacles: Sequence[Packable]) -> tuple[np.ndarray, np.ndarray]:
     """(the indices of the meshes among ``obstacles``, the indices of the rest)."""
-    is_mesh = np.array([isinstance(o, Mesh) for o in obstacles], dtype=bool)
+    is_mesh = np.array([o.kind == KIND_MESH for o in obstacles], dtype=bool)
     return np.flatnonzero(is_mesh), np.flatnonzero(~is_mesh)
 
 
@@ -694,13 +709,13 @@ class ObstacleSet:
     and boxes, mesh triangles and their trees, and a tree over the obstacles' boxes (the broad phase).
     """
 
-    def __init__(self, obstacles: Sequence[Obstacle]):
+    def __init__(self, obstacles: Sequence[Packable]):
         self.obstacles = tuple(obstacles)
         rows = [o.pack() for o in self.obstacles]
         tris, normals, nodes, links, ranges = [], [], [], [], []
         tri_start = node_start = 0
         for o, row in zip(self.obstacles, rows):
-            if isinstance(o, Mesh):
+            if o.kind == KIND_MESH:
                 t, nrm, nd, lk = o.distance_data()
                 lk = lk.copy()
                 inner = lk[:, 1] > 0

@@ -1,4 +1,5 @@
-"""Mesh obstacles read from CAD files (STL, OBJ, PLY, GLB/GLTF, OFF) with trimesh, in a stated unit and pose.
+"""Meshes read from CAD files (STL, OBJ, PLY, GLB/GLTF, OFF) with trimesh, in a stated unit and pose: vertex
+(mm) and face arrays, of which :mod:`snakeplan.geometry.primitives` makes the :class:`Mesh` obstacle.
 
 The scene form is ``{"type": "mesh", "file": "parts/tank.stl", "units": "m", "transform": 4x4, "thickness": t}``:
 the file is read relative to the scene file's folder, its coordinates are scaled to mm by ``units``, then moved by
@@ -15,7 +16,6 @@ from typing import Any
 import numpy as np
 
 from snakeplan import inputs
-from snakeplan.geometry.primitives import Mesh
 
 #: Millimetres per unit a mesh file may be written in.
 UNITS_MM = {"m": 1000.0, "cm": 10.0, "mm": 1.0, "in": 25.4}
@@ -81,8 +81,12 @@ def rigid_transform(value: Any, name: str) -> np.ndarray:
     return T
 
 
-def mesh_from_file_spec(d: dict, where: str, base_dir: str | os.PathLike | None) -> Mesh:
-    """The :class:`Mesh` of a scene's ``{"type": "mesh", "file": ...}`` object (see the module)."""
+def read_mesh_spec(d: dict, where: str, base_dir: str | os.PathLike | None
+                   ) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
+    """(vertices in mm, faces, source) of a scene's ``{"type": "mesh", "file": ...}`` object (see the module):
+    the file read and moved; ``source`` is the object as written back (the file's absolute path, ``units``, and
+    ``transform`` and ``thickness`` where given). :func:`snakeplan.geometry.primitives.obstacle_from_dict` makes
+    the :class:`Mesh` of them."""
     d = inputs.mapping(d, where, required=("type", "file", "units"),
                        allowed=("type", "file", "units", "transform", "thickness"))
     file = d["file"]
@@ -110,17 +114,4 @@ def mesh_from_file_spec(d: dict, where: str, base_dir: str | os.PathLike | None)
         source["transform"] = T.tolist()
     if "thickness" in d:
         source["thickness"] = inputs.length(d["thickness"], f"{where}.thickness")
-    try:
-        return Mesh(vertices, faces, source.get("thickness"), source=source)
-    except ValueError as exc:
-        msg = str(exc)
-        raise ValueError(f"{where}.file: {msg.split(': ', 1)[1] if ': ' in msg else msg}") from None
-
-
-def open_mesh_note(mesh: Mesh) -> str | None:
-    """What the loader warns about a mesh (None for a closed one, or an open one given its ``thickness``)."""
-    if mesh.closed or mesh.thickness is not None:
-        return None
-    return (f"the mesh is open (not watertight); it is taken as a shell {mesh.shell_thickness:g} mm thick "
-            f"(give \"thickness\" in mm to choose)")
-
+    return vertices, faces, source

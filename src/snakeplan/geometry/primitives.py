@@ -2,8 +2,9 @@
 
 Each primitive is a small frozen dataclass that round-trips through the ``snakeplan.scene/1`` JSON of
 docs/ARCHITECTURE.md (``to_dict`` / :func:`obstacle_from_dict`) and packs itself into a fixed-width float row
-(:meth:`Obstacle.pack`) so that the numba kernels in :mod:`snakeplan.geometry.distance` can evaluate whole
-scenes without Python in the loop. Signed distance is negative inside the material.
+(:meth:`Obstacle.pack`, the layout of :mod:`snakeplan.geometry.distance`) so that its numba kernels can evaluate
+whole scenes without Python in the loop. Signed distance is negative inside the material. A mesh given by a CAD
+file is read by :mod:`snakeplan.geometry.mesh_files`.
 """
 
 from __future__ import annotations
@@ -17,12 +18,20 @@ import numpy as np
 
 from snakeplan import inputs
 from snakeplan.geometry import mesh_distance
+from snakeplan.geometry.distance import (
+    _P,
+    KIND_BOX,
+    KIND_CYLINDER,
+    KIND_MESH,
+    KIND_PIPE,
+    KIND_PLATE,
+    KIND_SPHERE,
+    PACK_WIDTH,
+    ObstacleSet,
+)
+from snakeplan.geometry.mesh_files import read_mesh_spec
 from snakeplan.geometry.transforms import any_perpendicular
 
-# Packed row layout shared with the numba kernels: [kind, center(3), R row-major(9), params...].
-PACK_WIDTH = 24
-KIND_BOX, KIND_SPHERE, KIND_CYLINDER, KIND_PLATE, KIND_PIPE, KIND_MESH = range(6)
-_P = 13  # first type-specific parameter
 #: A plate's ``up`` must make an angle with its ``normal`` whose sine is at least this.
 MIN_UP_SINE = 1e-6
 
@@ -72,8 +81,6 @@ class Obstacle:
 
     def signed_distance(self, points: np.ndarray) -> np.ndarray:
         """Exact signed distance (mm) from points ``(..., 3)`` to this obstacle."""
-        from snakeplan.geometry.distance import ObstacleSet
-
         return ObstacleSet([self]).signed_distance(points)
 
 
@@ -375,6 +382,14 @@ class Mesh(Obstacle):
         return out
 
 
+def open_mesh_note(mesh: Mesh) -> str | None:
+    """What the loader warns about a mesh (None for a closed one, or an open one given its ``thickness``)."""
+    if mesh.closed or mesh.thickness is not None:
+        return None
+    return (f"the mesh is open (not watertight); it is taken as a shell {mesh.shell_thickness:g} mm thick "
+            f"(give \"thickness\" in mm to choose)")
+
+
 OBSTACLE_TYPES: dict[str, type[Obstacle]] = {c.type: c for c in (Box, Sphere, Cylinder, Pipe, Plate, Mesh)}
 
 
@@ -389,9 +404,12 @@ def obstacle_from_dict(d: Any, where: str = "obstacle", base_dir: str | None = N
     if cls is None:
         raise ValueError(f"{where}.type: unknown obstacle type {inputs.show(kind)} (known: {', '.join(OBSTACLE_TYPES)})")
     if cls is Mesh and "file" in d:
-        from snakeplan.geometry.mesh_files import mesh_from_file_spec
-
-        return mesh_from_file_spec(d, where, base_dir)
+        vertices, faces, source = read_mesh_spec(d, where, base_dir)
+        try:
+            return Mesh(vertices, faces, source.get("thickness"), source=source)
+        except ValueError as exc:
+            msg = str(exc)
+            raise ValueError(f"{where}.file: {msg.split(': ', 1)[1] if ': ' in msg else msg}") from None
     names = [f.name for f in fields(cls) if f.name != "source"]
     required = tuple(f.name for f in fields(cls) if f.default is MISSING and f.default_factory is MISSING)
     inputs.mapping(d, where, required=required, allowed=("type", *names))

@@ -2,7 +2,8 @@
 projector, IK), motion limits, cable routing and lengths, presets by name, robots from files (DH tables, URDF,
 robot/1 JSON) and URDF export. Units: mm, rad, s."""
 
-from snakeplan.robots.cables import CableRouting, SectionCables, cable_lengths, joint_angles_from_cables
+from snakeplan.robots.cable_routing import CableRouting, SectionCables
+from snakeplan.robots.cables import cable_lengths, joint_angles_from_cables
 from snakeplan.robots.chain import ET, SCHEMA, Chain, IKResult, Kinematics, Section, default_kinematics
 from snakeplan.robots.dh import load_dh
 from snakeplan.robots.limits import DEFAULT_LIMITS, MotionLimits

@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike
 
 from snakeplan.geometry.transforms import normalize, rot_x, rot_y, rot_z
 from snakeplan.jit import kernel
-from snakeplan.robots.cables import CableRouting
+from snakeplan.robots.cable_routing import CableRouting
 from snakeplan.robots.limits import DEFAULT_LIMITS, MotionLimits
 
 SCHEMA = "snakeplan.robot/1"
@@ -403,12 +403,14 @@ class Chain:
     """A snake arm: ``n`` sections joined by universal joints, an optional feed axis, a base pose (4x4).
 
     Build one from sections (default structure ``Rx(a)·Ry(b)·Tz(l)`` per section), from a DH table
-    (:meth:`from_dh`), from a ``snakeplan.robot/1`` dict (:meth:`from_dict`) or with explicit ``kinematics``.
+    (:func:`snakeplan.robots.dh.load_dh`), from a ``snakeplan.robot/1`` dict (:meth:`from_dict`), from a URDF
+    (:func:`snakeplan.robots.urdf.from_urdf`) or with explicit ``kinematics``; the loaders build on this class,
+    which imports none of them. :func:`snakeplan.robots.urdf.to_urdf` writes a chain as URDF.
     ``k_ul`` (1/mm) is the curvature upper limit of the smoothness index; by default the curvature of the
     circle through three joints at maximum bend, ``max_i 2 sin(max_bend_i / 2) / length_i``. ``limits``
     (:class:`~snakeplan.robots.limits.MotionLimits`, default ``DEFAULT_LIMITS``) bound a trajectory's feed speed
     and acceleration and its joint rates and accelerations; ``cables`` (a
-    :class:`~snakeplan.robots.cables.CableRouting`, one entry per section) makes the arm cable-driven.
+    :class:`~snakeplan.robots.cable_routing.CableRouting`, one entry per section) makes the arm cable-driven.
     Chains are immutable; :meth:`with_base` returns a moved copy.
     """
 
@@ -906,20 +908,6 @@ class Chain:
             if abs(total - chain.total_length) > _LENGTH_TOL * (1.0 + total):
                 raise ValueError(f"total_length: {total} differs from the sum of section lengths {chain.total_length}")
         return chain
-
-    @classmethod
-    def from_dh(cls, source: Any) -> Chain:
-        """Chain from a YAML (modified or standard) DH table: a path or a parsed mapping. See
-        :mod:`snakeplan.robots.dh` for the format."""
-        from snakeplan.robots.dh import load_dh
-
-        return load_dh(source)
-
-    def to_urdf(self, length_scale: float = 1e-3) -> str:
-        """URDF XML text of this chain (lengths times ``length_scale``: metres by default)."""
-        from snakeplan.robots.urdf import to_urdf
-
-        return to_urdf(self, length_scale=length_scale)
 
 
 def _wrap(a: np.ndarray | float) -> np.ndarray:

@@ -42,7 +42,7 @@ from typing import Any
 
 import yaml
 
-from snakeplan.robots.cables import CableRouting
+from snakeplan.robots.cable_routing import CableRouting
 from snakeplan.robots.chain import ET, Chain, Kinematics, Section, _check_section_fields, _number, measure_lengths
 from snakeplan.robots.limits import DEFAULT_LIMITS, MotionLimits
 

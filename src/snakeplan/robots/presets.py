@@ -34,8 +34,9 @@ from pathlib import Path
 
 from snakeplan.inputs import load_json
 from snakeplan.registry import Registry
-from snakeplan.robots.cables import CableRouting
+from snakeplan.robots.cable_routing import CableRouting
 from snakeplan.robots.chain import Chain, Section
+from snakeplan.robots.dh import load_dh
 from snakeplan.robots.limits import MotionLimits
 
 SJTU_SECTIONS = 12
@@ -100,7 +101,7 @@ def sscc(n_joints: int) -> Chain:
 
 def hsr_10() -> Chain:
     """HSR-10 (paper 002) from its shipped DH table."""
-    return Chain.from_dh(str(files("snakeplan.robots").joinpath("data", HSR_DH_FILE)))
+    return load_dh(str(files("snakeplan.robots").joinpath("data", HSR_DH_FILE)))
 
 
 def sscc_16() -> Chain:
@@ -151,8 +152,9 @@ ROBOT_FILES = {".urdf": "URDF", ".xml": "URDF", ".yaml": "DH YAML", ".yml": "DH 
 
 def load_robot(spec: str) -> Chain:
     """A robot by preset name, or from a file by its suffix: ``.urdf``/``.xml`` (:func:`~snakeplan.robots.urdf.
-    from_urdf`), ``.yaml``/``.yml`` (a DH table, :meth:`Chain.from_dh`) or ``.json`` (``snakeplan.robot/1``,
-    :meth:`Chain.from_dict`). ValueError with one line naming what is wrong (an unknown name lists the presets)."""
+    from_urdf`), ``.yaml``/``.yml`` (a DH table, :func:`~snakeplan.robots.dh.load_dh`) or ``.json``
+    (``snakeplan.robot/1``, :meth:`Chain.from_dict`). ValueError with one line naming what is wrong (an unknown name
+    lists the presets)."""
     if spec in ROBOTS:
         return get_robot(spec)
     path = Path(spec)
@@ -168,7 +170,7 @@ def load_robot(spec: str) -> Chain:
 
         return from_urdf(path)
     if kind == "DH YAML":
-        return Chain.from_dh(path)
+        return load_dh(path)
     try:
         text = path.read_text()
     except (OSError, UnicodeDecodeError) as exc:

@@ -19,8 +19,7 @@ import numpy as np
 
 from snakeplan import inputs
 from snakeplan.geometry.distance import CONTACT_RESOLUTION_MM, ObstacleSet
-from snakeplan.geometry.mesh_files import open_mesh_note
-from snakeplan.geometry.primitives import Mesh, Obstacle, obstacle_from_dict
+from snakeplan.geometry.primitives import Mesh, Obstacle, obstacle_from_dict, open_mesh_note
 
 SCHEMA = "snakeplan.scene/1"
 #: How deep (mm) a scene file's entrance may lie inside an obstacle's surface (it may sit on a wall's port).

@@ -20,6 +20,7 @@ from snakeplan.files import atomic_write, check_output
 from snakeplan.inputs import load_json
 from snakeplan.geometry.polyline import validate_path
 from snakeplan.jsonable import jsonable
+from snakeplan.robots.urdf import to_urdf
 from snakeplan.trajectory.build import Trajectory
 from snakeplan.trajectory.timing import DISCRETISATION, METHOD
 from snakeplan.world import JUDGE
@@ -66,7 +67,7 @@ def to_dict(traj: Trajectory) -> dict[str, Any]:
         "schema": SCHEMA,
         "units": {"length": "mm", "angle": "rad", "time": "s"},
         "robot": robot.name,
-        "urdf": robot.with_base(np.eye(4)).to_urdf(),
+        "urdf": to_urdf(robot.with_base(np.eye(4))),
         "base_pose": traj.base_pose + 0.0,  # no -0.0
         "tip_link": f"s{robot.n_sections - 1}_end",
         "body_links": _body_links(robot.n_sections),

@@ -18,7 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from snakeplan import ftl
-from snakeplan.robots.cables import CableRouting, joint_angles_from_cables, lengths_from_rotations
+from snakeplan.robots.cable_routing import CableRouting
+from snakeplan.robots.cables import joint_angles_from_cables, lengths_from_rotations
 from snakeplan.robots.chain import Chain
 from snakeplan.robots.urdf import from_urdf
 

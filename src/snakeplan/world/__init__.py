@@ -17,8 +17,15 @@ from snakeplan.world.tolerances import (
     ROLLOUT,
     Tolerances,
 )
-from snakeplan.world.validity import CrawlCheck, Failure, ValidityChecker, min_turn_radius, targets_reached
+from snakeplan.world.validity import (
+    CrawlCheck,
+    Failure,
+    FailureKind,
+    ValidityChecker,
+    min_turn_radius,
+    targets_reached,
+)
 
 __all__ = ["DEFAULT_SENSOR_RANGE_MM", "ENTRANCE_TOLERANCE_MM", "JUDGE", "PLANNING", "REACH_TOLERANCE_MM", "ROLLOUT",
-           "CrawlCheck", "Failure", "FullView", "KnowledgeView", "SensedView", "Tolerances", "UnsensedObstacleError",
-           "ValidityChecker", "guarded", "min_turn_radius", "targets_reached", "view_for"]
+           "CrawlCheck", "Failure", "FailureKind", "FullView", "KnowledgeView", "SensedView", "Tolerances",
+           "UnsensedObstacleError", "ValidityChecker", "guarded", "min_turn_radius", "targets_reached", "view_for"]

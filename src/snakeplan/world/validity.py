@@ -23,7 +23,8 @@ import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Literal, NamedTuple
+from enum import Enum
+from typing import NamedTuple
 
 import numpy as np
 
@@ -46,9 +47,22 @@ from snakeplan.world.tolerances import (
     Tolerances,
 )
 
-FailureKind = Literal["collision", "bend_limit", "insertion", "out_of_bounds"]
+
+class FailureKind(str, Enum):
+    """What makes a crawl infeasible (see the module). A ``str`` so that JSON and printed output hold the plain
+    value (``"collision"``), and it compares equal to it."""
+
+    COLLISION = "collision"
+    BEND_LIMIT = "bend_limit"
+    INSERTION = "insertion"
+    OUT_OF_BOUNDS = "out_of_bounds"
+
+    def __str__(self) -> str:
+        return self.value
+
+
 #: Failure kinds in the order that breaks a tie at one depth.
-FAILURE_KINDS: tuple[FailureKind, ...] = ("collision", "bend_limit", "insertion", "out_of_bounds")
+FAILURE_KINDS: tuple[FailureKind, ...] = tuple(FailureKind)
 
 
 @dataclass(frozen=True)
@@ -302,13 +316,13 @@ class ValidityChecker:
         if i < 0:
             return None
         if i == 0:
-            return Failure(0.0, "out_of_bounds", 0)
+            return Failure(0.0, FailureKind.OUT_OF_BOUNDS, 0)
         a, d = p[i - 1], p[i] - p[i - 1]
         lo, hi = self.spec.lo, self.spec.hi
         with np.errstate(divide="ignore", invalid="ignore"):
             t = np.where(d > 0, (hi - a) / d, np.where(d < 0, (lo - a) / d, np.inf))
         depth = float(cum[i - 1] + min(float(t.min()), 1.0) * (cum[i] - cum[i - 1]))
-        return Failure(max(depth, start), "out_of_bounds", i)
+        return Failure(max(depth, start), FailureKind.OUT_OF_BOUNDS, i)
 
     def first_failure(self, path, from_depth: float = 0.0, to_depth: float | None = None) -> Failure | None:
         """The first failure of the crawl at depths in (``from_depth``, ``to_depth``] (mm; depth 0 included when
@@ -359,19 +373,20 @@ class ValidityChecker:
         bend_bad = bends.any(axis=1)
         insertion_bad = ~states.insertion_ok
         found = [self._bounds_failure(p, cum, 0.0, float(cum[-1]))]
-        for kind, bad in (("collision", collides), ("bend_limit", bend_bad), ("insertion", insertion_bad)):
+        for kind, bad in ((FailureKind.COLLISION, collides), (FailureKind.BEND_LIMIT, bend_bad),
+                          (FailureKind.INSERTION, insertion_bad)):
             rows = np.flatnonzero(bad)
             if rows.size:
                 i = int(rows[0])
-                link = _last(bends[i]) if kind == "bend_limit" else None
-                if kind == "collision":
+                link = _last(bends[i]) if kind is FailureKind.BEND_LIMIT else None
+                if kind is FailureKind.COLLISION:
                     hit = self.obstacles.first_hit(states.joints[i:i + 1], self.radii)
                     link = None if hit is None else hit[1]
                 found.append(Failure(float(depths[i]), kind, link))
         found = [f for f in found if f is not None]
         failure = min(found, key=lambda f: (f.depth_mm, FAILURE_KINDS.index(f.kind))) if found else None
         return CrawlCheck(states, least, closest, collides, bend_bad, insertion_bad,
-                          not any(f.kind == "out_of_bounds" for f in found), failure)
+                          not any(f.kind is FailureKind.OUT_OF_BOUNDS for f in found), failure)
 
     # --- joint motions ------------------------------------------------------------------------------------------
     def joint_motions(self) -> JointMotionCheck:
