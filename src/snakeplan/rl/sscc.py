@@ -41,7 +41,8 @@ EVAL_EPISODES = 40
 EVAL_TARGETS = 8
 #: Redraws of an episode's start (target, module count, inverse kinematics) before accepting a solved one.
 RESET_TRIES = 50
-#: The trainer's name in its state folders' run identity.
+#: The trainer's name in its state folders' run identity: this module. A state folder written before the trainer
+#: moved here (``snakeplan.planners.sscc.training``, whose environments its ``envs.pkl`` pickled) is another run's.
 TRAINER = "snakeplan.rl.sscc"
 
 
