@@ -18,7 +18,7 @@ from snakeplan.planners.sscc.swinging import (
     inner_module_counts,
     observation_size,
 )
-from snakeplan.planners.sscc.training import SwingEnv
+from snakeplan.rl.sscc import SwingEnv
 from snakeplan.robots import get_robot
 from snakeplan.scenes import Entrance, Scene, make_scene
 from snakeplan.world import FullView
@@ -99,7 +99,7 @@ def test_shipped_agent_is_plain_data_and_its_numpy_actor_matches_torch(robot):
     with np.load(shipped_agent_path(robot), allow_pickle=False) as data:
         assert all(data[k].dtype == np.float32 for k in data.files)
     agent = SwingAgent.load(robot)
-    from snakeplan.planners.sscc.training import _ddpg, _Spaces
+    from snakeplan.planners.sscc.ddpg import ddpg_model as _ddpg, spaces_env as _Spaces
 
     model = _ddpg(_Spaces(get_robot(robot).n_sections), seed=0)
     model.policy.load_state_dict({k: torch.as_tensor(v) for k, v in agent.weights.items()})

@@ -445,7 +445,7 @@ SSCC = {"steps": 150, "seed": 1, "scenes": ("pipe",), "targets": 2, "checkpoint_
 
 
 def test_sscc_training_stopped_mid_run_resumes_to_the_same_agent(tmp_path, monkeypatch):
-    from snakeplan.planners.sscc import training
+    from snakeplan.rl import sscc as training
 
     whole = training.train_agent("sscc-16", tmp_path / "whole.npz", **SSCC)
     calls = []

@@ -654,7 +654,7 @@ def cmd_bench_sscc(args: argparse.Namespace) -> int:
 def cmd_train(args: argparse.Namespace) -> int:
     """Interrupted (SIGINT, SIGTERM), it saves a checkpoint; main() says so in one line, exit 130."""
     require_training("train sscc")
-    from snakeplan.planners.sscc.training import train_agent
+    from snakeplan.rl.sscc import train_agent
 
     check_output(args.out, "--out")
     if args.steps < 1:

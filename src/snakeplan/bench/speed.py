@@ -104,7 +104,8 @@ def _stats(times: list[float]) -> dict:
 
 def station_rows(seeds: int, baseline_seeds: int, progress: Callable[[str], None]) -> dict:
     """Informative planning compute per mission under a competing load, now and before."""
-    from snakeplan.planners.inspection import InspectionProblem, get_inspection_planner
+    from snakeplan.episode import run_mission
+    from snakeplan.planners.inspection import InspectionProblem
     from snakeplan.robots import get_robot
     from snakeplan.scenes import make_scene
 
@@ -119,7 +120,7 @@ def station_rows(seeds: int, baseline_seeds: int, progress: Callable[[str], None
                                                        else [])
             for label, ctx in runs:
                 with ctx():
-                    res = get_inspection_planner("informative").plan(problem, seed=seed)
+                    res = run_mission(problem, "informative", seed=seed).result
                 out[label].append(res.compute_time_s)
                 cpu[label].append(res.compute_cpu_s)
                 progress(f"station seed {seed} {label}: {res.compute_time_s:.2f} s (load {load():.2f})")
@@ -129,8 +130,9 @@ def station_rows(seeds: int, baseline_seeds: int, progress: Callable[[str], None
 def planner_rows(name: str, scene: str, seeds: int, baseline: Callable[[], contextlib.AbstractContextManager],
                  factory: Callable[[], object], base_factory: Callable[[], object],
                  progress: Callable[[str], None]) -> dict:
-    """Compute per plan (warm) and judged success of a planner on ``scene`` seeds 0..seeds-1, now and baseline."""
-    from snakeplan.evaluation import evaluate
+    """Compute per plan (warm; the planner's ``compute_time_s``, not the judge's time) and judged success of a
+    planner on ``scene`` seeds 0..seeds-1 (:func:`snakeplan.episode.run_episode`), now and baseline."""
+    from snakeplan.episode import run_episode
     from snakeplan.planners import Problem
     from snakeplan.robots import get_robot
     from snakeplan.scenes import make_scene, scene_spec
@@ -140,12 +142,12 @@ def planner_rows(name: str, scene: str, seeds: int, baseline: Callable[[], conte
     out = {}
     for label, ctx, make in (("now", contextlib.nullcontext, factory), ("before", baseline, base_factory)):
         with ctx():
-            make().plan(Problem(make_scene(scene, 10_000), robot), seed=10_000)  # warm: compilation, caches
+            run_episode(Problem(make_scene(scene, 10_000), robot), make(), seed=10_000)  # warm: compilation, caches
             times, ok = [], 0
             for seed, problem in enumerate(problems):
-                plan = make().plan(problem, seed=seed)
-                times.append(plan.compute_time_s)
-                ok += plan.path is not None and evaluate(problem.scene, robot, plan.path).success
+                episode = run_episode(problem, make(), seed=seed)
+                times.append(episode.plan.compute_time_s)
+                ok += episode.success
         out[label] = {**_stats(times), "success": ok}
         progress(f"{name} {scene} {label}: median {out[label]['median_s'] * 1e3:.1f} ms, success {ok}/{seeds} "
                  f"(load {load():.2f})")

@@ -47,9 +47,7 @@ import json
 import math
 import multiprocessing
 import shlex
-import signal
 import sys
-import time
 from collections import deque
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -57,26 +55,12 @@ from pathlib import Path
 import numpy as np
 import torch as th
 from stable_baselines3.common.buffers import DictReplayBuffer
-from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import DummyVecEnv
 
-from snakeplan.checkpoints import (
-    Generation,
-    StateError,
-    StateFolder,
-    checkpoint_interval,
-    sb3_files,
-    sb3_restore,
-)
+from snakeplan.checkpoints import Generation, StateFolder, checkpoint_interval, sb3_files, sb3_restore
 from snakeplan.episode import run_episode
 from snakeplan.files import atomic_path, atomic_write
-from snakeplan.interrupt import (
-    Interrupted,
-    StopRequest,
-    interruptible,
-    interruption,
-    report,
-)
+from snakeplan.interrupt import StopRequest, interruption, report
 from snakeplan.parallel import ProgressDisplay, usable_cores
 from snakeplan.planners import Problem
 from snakeplan.planners.sac.crawler import CAPTURE_STEPS, TURN_RADIUS_MM
@@ -104,6 +88,7 @@ from snakeplan.rl.extractor import GoalRouteExtractor
 from snakeplan.rl.her import FastHerReplayBuffer
 from snakeplan.rl.per import ALPHA, BETA_START, PerSAC, PrioritizedDictReplayBuffer
 from snakeplan.rl.policy import from_sb3
+from snakeplan.rl.resumable import Best, CheckpointCallback, ResumableRun
 from snakeplan.rl.rewards import GUIDE_WEIGHT
 from snakeplan.robots import get_robot
 from snakeplan.scenes import make_scene, scene_names, scene_spec
@@ -261,24 +246,15 @@ def build_model(scene: str, algorithm: str, config: TrainConfig, seed: int, env,
     return EpsilonGreedySAC(replay_buffer_class=DictReplayBuffer, **common), graph
 
 
-class _Monitor(BaseCallback):
+class _Monitor(CheckpointCallback):
     """Rolling training success, periodic validation and progress at each step; checkpoints and stops at the
-    start of each rollout, where the last step's transition is stored and trained on (a consistent state)."""
+    start of each rollout (:class:`snakeplan.rl.resumable.CheckpointCallback`)."""
 
-    def __init__(self, run: _Run, stop: StopRequest):
-        super().__init__()
-        self.run, self.stop = run, stop
+    run: _Run
 
     def _on_training_start(self) -> None:
         self.run.start_bar()
         self.run.start_prefetch(self.model.num_timesteps)
-
-    def _on_rollout_start(self) -> None:
-        run, n = self.run, self.model.num_timesteps
-        if self.stop.requested:
-            run.interrupt(n, self.stop)
-        if n - run.last_checkpoint >= run.checkpoint_every:
-            run.checkpoint(n)
 
     def _on_step(self) -> bool:
         run = self.run
@@ -292,31 +268,28 @@ class _Monitor(BaseCallback):
         return True
 
 
-class _Run:
-    """One training run's files and bookkeeping."""
+#: The manifest's ``best`` before any validation.
+NO_BEST = -1.0
+
+
+class _Run(ResumableRun):
+    """One training run's files and bookkeeping; its state folder is ``out`` itself."""
 
     def __init__(self, scene: str, algorithm: str, steps: int, seed: int, out: Path, config: TrainConfig,
                  progress: bool, command: str):
+        super().__init__(StateFolder(out, run_identity(scene, algorithm, seed, config)),
+                         config.checkpoint_every or checkpoint_interval(steps))
         self.scene, self.algorithm, self.steps, self.seed, self.out = scene, algorithm, steps, seed, out
         self.config, self.progress, self.command = config, progress, command
-        self.checkpoint_every = config.checkpoint_every or checkpoint_interval(steps)
-        self.state = StateFolder(out, run_identity(scene, algorithm, seed, config))
         self.history: list[dict] = []
         self.episodes: deque[bool] = deque(maxlen=ROLLING_EPISODES)
-        self.last_eval = self.last_checkpoint = 0
-        self.wall_before = 0.0
-        self.t0 = time.perf_counter()
-        self.best = -1.0
-        self.best_policy: NumpyPolicy | None = None
-        self.model = None
+        self.last_eval = 0
+        #: The best validation success rate so far and its policy.
+        self.best: Best[NumpyPolicy] | None = None
         self.graph: RoomGraph | None = None
         self._bar: ProgressDisplay | None = None
         self._prefetch: ScenePrefetch | None = None
         self.seeds = range(VALIDATION_SEED, VALIDATION_SEED + config.eval_episodes)
-
-    @property
-    def wall(self) -> float:
-        return self.wall_before + time.perf_counter() - self.t0
 
     def meta(self, n: int) -> dict:
         crawler = self.model.env.envs[0].crawler
@@ -342,42 +315,33 @@ class _Run:
                              "success": result["success_rate"], "train_success": rolling,
                              "median_time_s": result["median_time_s"], "smoothness": result["smoothness_index"]})
         self.last_eval = n
-        if result["success_rate"] > self.best:
-            self.best = result["success_rate"]
-            policy.meta["validation_success"] = self.best
-            self.best_policy = policy
+        success = result["success_rate"]
+        if self.best is None or self.best.beaten_by(success):
+            policy.meta["validation_success"] = success
+            self.best = Best(n, success, policy)
             _save_policy(policy, self.out / "policy.npz")
         self.write_curve()
 
-    def checkpoint(self, n: int) -> None:
-        """Save generation ``n`` (see the module doc): model, replay buffer, environments, RNG states, best
-        policy; the manifest records the evaluation history and the counters."""
+    def snapshot(self, n: int) -> tuple[dict, dict]:
+        """Generation ``n`` (see the module doc): model, replay buffer, environments, RNG states, best policy; the
+        manifest records the evaluation history and the counters."""
         writers = sb3_files(self.model)
-        if self.best_policy is not None:
-            writers["best.npz"] = self.best_policy.save
+        if self.best is not None:
+            writers["best.npz"] = self.best.item.save
         record = {"env_steps": n, "history": self.history, "last_eval": self.last_eval, "wall_s": self.wall,
-                  "best": self.best, "episodes": list(self.episodes)}
-        self.state.save(n, writers, record)
-        self.last_checkpoint = n
-
-    def interrupt(self, n: int, stop: StopRequest) -> None:
-        """Save step ``n`` unless saved already, and stop with the one line that says how to go on."""
-        if self.state.current is None or n > self.state.current.step:
-            self.checkpoint(n)
-        raise Interrupted(f"interrupted at step {n}; checkpoint saved in {self.out}; rerun the same command to "
-                          f"resume", stop.signum or signal.SIGINT)
+                  "best": NO_BEST if self.best is None else self.best.key, "episodes": list(self.episodes)}
+        return writers, record
 
     def restore(self, generation: Generation) -> None:
         """Continue from ``generation``: the model, its replay buffer, environments and RNG states as saved, so the
         run goes on as if never stopped; the top-level policy and curve are rewritten to match it."""
         self.model = sb3_restore({"sac-per": PerSAC}.get(self.algorithm, EpsilonGreedySAC), generation)
         record = generation.record
-        self.last_eval, self.last_checkpoint = record["last_eval"], generation.step
-        self.wall_before, self.best, self.history = record["wall_s"], record["best"], record["history"]
+        self.last_eval, self.wall_before, self.history = record["last_eval"], record["wall_s"], record["history"]
         self.episodes.extend(record["episodes"])
         if "best.npz" in generation.files:
-            self.best_policy = NumpyPolicy.load(generation.path("best.npz"))
-            _save_policy(self.best_policy, self.out / "policy.npz")
+            self.best = Best(None, record["best"], NumpyPolicy.load(generation.path("best.npz")))
+            _save_policy(self.best.item, self.out / "policy.npz")
         if self.history:
             self.write_curve()
 
@@ -508,19 +472,11 @@ def train(scene: str, algorithm: str, steps: int, seed: int, out_dir: str | Path
     out.mkdir(parents=True, exist_ok=True)
     command = _command(scene, algorithm, steps, seed, out, config)
     run = _Run(scene, algorithm, steps, seed, out, config, progress, command)
-    try:
-        with run.state.locked(), interruptible() as stop:
-            return _train(run, stop, resume)
-    except StateError as exc:
-        raise ValueError(f"--out: {exc}; {exc.advice}") from None
+    with run.session(resume) as (stop, generation):
+        return _train(run, stop, generation)
 
 
-def _train(run: _Run, stop: StopRequest, resume: bool) -> TrainResult:
-    if not resume:
-        run.state.clear()
-    generation = run.state.load()
-    for warning in run.state.warnings:
-        sys.stderr.write(f"snakeplan: warning: {warning}\n")
+def _train(run: _Run, stop: StopRequest, generation: Generation | None) -> TrainResult:
     if generation is None:
         env = DummyVecEnv([make_env(run.scene, run.config)] * run.config.n_envs)
         env.seed(run.seed)
@@ -528,23 +484,17 @@ def _train(run: _Run, stop: StopRequest, resume: bool) -> TrainResult:
     else:
         run.graph = route_graph(run.scene, run.config)
         run.restore(generation)
-    remaining = run.steps - run.model.num_timesteps
     try:
         try:
-            if remaining > 0:
-                run.model.learn(remaining, callback=_Monitor(run, stop), reset_num_timesteps=generation is None)
+            n = run.learn(run.steps, _Monitor(run, stop), fresh=generation is None)
         finally:
             run.stop_bar()
-        n = run.model.num_timesteps
         if run.last_eval < n:
             run.validate(n)
     finally:
         run.stop_prefetch()  # after the last validation, whose scenes it may be making
     _save_policy(run.export(n), run.out / "last.npz")
-    if run.state.current is None or n > run.state.current.step:
-        run.checkpoint(n)
-    if stop.requested:
-        run.interrupt(n, stop)
+    run.finish(n, stop)
     return TrainResult(run.out, run.out / "policy.npz", run.history)
 
 

@@ -10,8 +10,8 @@ Options: ``search`` = ``"agent"`` (the shipped DDPG agent of the problem's robot
 ``"gradient"``, said in the plan's details), ``"random"`` or ``"gradient"``; ``learning`` (the agent keeps learning
 from every task, as in the paper: each search's transitions train it right after the plan is returned, while the
 arm crawls, so the update is not in ``compute_time_s``; its cost is in the details as ``learning_time_s``);
-``agent_path`` (an ``.npz`` from :func:`.training.train_agent` instead of the shipped agent; ``policy``, the name
-every planner that rolls out a trained policy takes, and ``snakeplan plan --policy``, is the same). An agent is
+``agent_path`` (an ``.npz`` from :func:`snakeplan.rl.sscc.train_agent` instead of the shipped agent; ``policy``,
+the name every planner that rolls out a trained policy takes, and ``snakeplan plan --policy``, is the same). An agent is
 trained for one registered arm (``sscc-16``, ``sscc-24``) and fits no other: its file's shapes are checked against
 the problem's robot, and a robot that is not registered cannot use a given agent.
 

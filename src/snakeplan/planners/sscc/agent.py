@@ -1,11 +1,12 @@
 """The Swinging Search's DDPG agent (paper 001): shipped weights, the NumPy actor that plans, online learning.
 
-The agent is Stable-Baselines3's DDPG (actor-critic, target networks, Gaussian exploration noise) on the
-Swinging Search as an environment (:class:`.training.SwingEnv`), whose state, action and reward are those of
-:mod:`snakeplan.planners.sscc.swinging`. One agent per arm (``sscc-16``, ``sscc-24``), trained on targets of both
-pipe scenes drawn from seeds ``TRAIN_SEED_OFFSET`` onwards, disjoint from the benchmark's and the tests' seeds.
-Episodes whose inverse-kinematics start is already a solution are redrawn: they teach nothing. This module holds
-the settings; :mod:`.training` trains with them.
+The agent is Stable-Baselines3's DDPG (actor-critic, target networks, Gaussian exploration noise; :mod:`.ddpg`)
+on the Swinging Search as an environment (:class:`snakeplan.rl.sscc.SwingEnv`), whose state, action and reward
+are those of :mod:`snakeplan.planners.sscc.swinging`. One agent per arm (``sscc-16``, ``sscc-24``), trained on
+targets of both pipe scenes drawn from seeds :data:`snakeplan.rl.sscc.TRAIN_SEED_OFFSET` onwards, disjoint from
+the benchmark's and the tests' seeds. Episodes whose inverse-kinematics start is already a solution are redrawn:
+they teach nothing. This module holds the settings of planning and of online learning; :mod:`.ddpg` those of
+DDPG, and :mod:`snakeplan.rl.sscc` trains with them.
 
 Shipped weights are the policy's ``state_dict`` as a plain ``.npz`` (``data/<robot>.npz``, read with
 ``allow_pickle=False``). An agent file is checked before use (:func:`agent_shapes`): exactly the arrays of the
@@ -15,10 +16,11 @@ of its arm, so an agent for another section count is refused by its shapes. A fi
 ValueError ``agent_path: ...``. Planning runs the actor in NumPy (a two-layer MLP), so this module imports neither
 torch, Stable-Baselines3 nor Gymnasium; learning (the ``train`` extra) does. As in the paper, the agent can keep
 learning from every task: with ``learning`` on, each search's transitions go to its replay buffer and up to
-``ONLINE_GRADIENT_STEPS`` updates follow.
+``ONLINE_GRADIENT_STEPS`` updates follow, on the model of :func:`.ddpg.online_model`: it lives in this package,
+so the planner's online learning imports nothing of the learning layer (``snakeplan.rl``).
 
 Training keeps the best checkpoint on held-out targets, not the last: on this task DDPG's actor peaks after a few
-thousand updates and then drifts (see :func:`.training.train_agent`'s history).
+thousand updates and then drifts (see :func:`snakeplan.rl.sscc.train_agent`'s history).
 """
 
 from __future__ import annotations
@@ -32,37 +34,16 @@ from typing import Any
 import numpy as np
 
 from snakeplan.files import atomic_path
+from snakeplan.planners.sscc.ddpg import BATCH_SIZE, NET_ARCH, model_weights, online_model
 from snakeplan.planners.sscc.swinging import SwingEpisode, Transition, action_size, observation_size
 from snakeplan.planners.weights import read_npz, read_weights_file
 from snakeplan.robots import get_robot
 
-#: Training targets: scenes and their seeds (``TRAIN_TARGETS`` per scene from ``TRAIN_SEED_OFFSET``).
-TRAIN_SCENES = ("pipe", "concentric-pipe")
-TRAIN_SEED_OFFSET = 10_000
-TRAIN_TARGETS = 48
-#: Training length (environment steps) and DDPG settings.
-TRAIN_STEPS = 12_000
-NET_ARCH = (128, 128)
-LEARNING_RATE = 3e-4
-BUFFER_SIZE = 100_000
-LEARNING_STARTS = 1_000
-BATCH_SIZE = 128
-TAU = 0.005
-GAMMA = 0.95
-ACTION_NOISE = 0.3
-#: Checkpoint selection: every EVAL_EVERY steps, EVAL_EPISODES starts from EVAL_TARGETS held-out targets per scene.
-EVAL_EVERY = 1_000
-EVAL_EPISODES = 40
-EVAL_TARGETS = 8
-#: Redraws of an episode's start (target, module count, inverse kinematics) before accepting a solved one.
-RESET_TRIES = 50
 #: Online learning after each plan: gradient steps per task (at most one per new transition), smallest buffer,
-#: and a learning rate a tenth of training's (longer DDPG training drifted away from its best, see train_agent).
+#: and torch CPU threads (small networks: one thread avoids contention). Its learning rate and replay buffer size
+#: are :mod:`.ddpg`'s.
 ONLINE_GRADIENT_STEPS = 32
 ONLINE_MIN_BUFFER = BATCH_SIZE
-ONLINE_LEARNING_RATE = LEARNING_RATE / 10
-#: Online learning: replay buffer size and torch CPU threads (small networks: one thread avoids contention).
-ONLINE_BUFFER_SIZE = 20_000
 ONLINE_THREADS = 1
 #: Exploration noise (std of the action) when the agent plans.
 PLAN_NOISE = 0.1
@@ -115,11 +96,6 @@ def _weights_problem(robot: str, n_sections: int, weights: dict) -> str | None:
         if np.any(np.abs(values) > MAX_WEIGHT):
             return f"{key}: values must be within +-{MAX_WEIGHT:g}"
     return None
-
-
-def model_weights(model) -> dict[str, np.ndarray]:
-    """The policy weights of a Stable-Baselines3 model as NumPy arrays (its ``state_dict``)."""
-    return {k: v.detach().cpu().numpy().copy() for k, v in model.policy.state_dict().items()}
 
 
 class SwingAgent:
@@ -187,8 +163,6 @@ class SwingAgent:
         import torch
 
         if self._model is None:
-            from snakeplan.planners.sscc.training import online_model
-
             self._model = online_model(self.n_sections, self.seed, self.weights)
         buffer = self._model.replay_buffer
         for obs, action, reward, next_obs, done in transitions:

@@ -1,6 +1,7 @@
-"""Training the Swinging Search's DDPG agent (paper 001): the search as a Gymnasium environment, and
-Stable-Baselines3's DDPG trained on it offline (:func:`train_agent`) or online after each plan
-(:func:`online_model`). The settings are :mod:`.agent`'s.
+"""Training the Swinging Search's DDPG agent (paper 001) offline: the search as a Gymnasium environment
+(:class:`SwingEnv`) and Stable-Baselines3's DDPG (:mod:`snakeplan.planners.sscc.ddpg`) trained on it, resumably
+(:func:`train_agent`, a :class:`snakeplan.rl.resumable.ResumableRun`). The agent's online learning after each
+plan uses the same model but not this module (:mod:`snakeplan.planners.sscc.agent`).
 
 This module needs the ``train`` extra (torch, Stable-Baselines3, Gymnasium); planning with a trained agent does
 not import it.
@@ -9,75 +10,43 @@ not import it.
 from __future__ import annotations
 
 import math
-import signal
-import sys
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
+import torch
+from stable_baselines3 import DDPG
 
-from snakeplan.checkpoints import (
-    Generation,
-    StateError,
-    StateFolder,
-    checkpoint_interval,
-    sb3_files,
-    sb3_restore,
-)
+from snakeplan.checkpoints import Generation, StateFolder, checkpoint_interval, sb3_files, sb3_restore
 from snakeplan.files import atomic_path
-from snakeplan.interrupt import Interrupted, interruptible
-from snakeplan.planners.sscc.agent import (
-    ACTION_NOISE,
-    BATCH_SIZE,
-    BUFFER_SIZE,
-    EVAL_EPISODES,
-    EVAL_EVERY,
-    EVAL_TARGETS,
-    GAMMA,
-    LEARNING_RATE,
-    LEARNING_STARTS,
-    NET_ARCH,
-    ONLINE_BUFFER_SIZE,
-    ONLINE_LEARNING_RATE,
-    RESET_TRIES,
-    TAU,
-    TRAIN_SCENES,
-    TRAIN_SEED_OFFSET,
-    TRAIN_STEPS,
-    TRAIN_TARGETS,
-    SwingAgent,
-    model_weights,
-)
-from snakeplan.planners.sscc.swinging import (
-    InnerArm,
-    SwingEpisode,
-    SwingSettings,
-    action_size,
-    inner_module_counts,
-    observation_size,
-)
+from snakeplan.interrupt import StopRequest
+from snakeplan.planners.sscc.agent import SwingAgent
+from snakeplan.planners.sscc.ddpg import BUFFER_SIZE, LEARNING_STARTS, agent_spaces, ddpg_model, model_weights
+from snakeplan.planners.sscc.swinging import InnerArm, SwingEpisode, SwingSettings, inner_module_counts
+from snakeplan.rl.resumable import Best, CheckpointCallback, ResumableRun
 from snakeplan.robots import Chain, get_robot
 from snakeplan.scenes import Scene, make_scene
 from snakeplan.world import FullView
 
+#: Training targets: scenes and their seeds (``TRAIN_TARGETS`` per scene from ``TRAIN_SEED_OFFSET``).
+TRAIN_SCENES = ("pipe", "concentric-pipe")
+TRAIN_SEED_OFFSET = 10_000
+TRAIN_TARGETS = 48
+#: Training length (environment steps).
+TRAIN_STEPS = 12_000
+#: Checkpoint selection: every EVAL_EVERY steps, EVAL_EPISODES starts from EVAL_TARGETS held-out targets per scene.
+EVAL_EVERY = 1_000
+EVAL_EPISODES = 40
+EVAL_TARGETS = 8
+#: Redraws of an episode's start (target, module count, inverse kinematics) before accepting a solved one.
+RESET_TRIES = 50
+#: The trainer's name in its state folders' run identity: this module. A state folder written before the trainer
+#: moved here (``snakeplan.planners.sscc.training``, whose environments its ``envs.pkl`` pickled) is another run's.
+TRAINER = "snakeplan.rl.sscc"
 
-class _Spaces(gym.Env):
-    """Just the state and action spaces of an arm, for building a DDPG model without an environment to run."""
 
-    def __init__(self, n_sections: int):
-        self.observation_space = gym.spaces.Box(-np.inf, np.inf, (observation_size(n_sections),), np.float32)
-        self.action_space = gym.spaces.Box(-1.0, 1.0, (action_size(n_sections),), np.float32)
-
-    def reset(self, *, seed: int | None = None, options: dict | None = None):
-        raise NotImplementedError("a spaces-only environment cannot run")
-
-    def step(self, action):
-        raise NotImplementedError("a spaces-only environment cannot run")
-
-
-class SwingEnv(_Spaces):
+class SwingEnv(gym.Env):
     """The Swinging Search as a Gymnasium environment: one episode swings one inner arm about one target.
 
     Each reset draws a training scene (uniformly among ``scenes`` and their ``targets`` seeds), a number of inner
@@ -89,7 +58,7 @@ class SwingEnv(_Spaces):
                  targets: int = TRAIN_TARGETS, seed_offset: int = TRAIN_SEED_OFFSET,
                  settings: SwingSettings = SwingSettings()):
         self.chain: Chain = get_robot(robot)
-        super().__init__(self.chain.n_sections)
+        self.observation_space, self.action_space = agent_spaces(self.chain.n_sections)
         self.settings = settings
         self._keys = [(name, seed_offset + i) for name in scenes for i in range(targets)]
         self._scenes: dict[tuple[str, int], Scene] = {}
@@ -108,7 +77,7 @@ class SwingEnv(_Spaces):
         return self._scenes[key]
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
-        super(_Spaces, self).reset(seed=seed)
+        super().reset(seed=seed)
         rng = self.np_random
         self.episode = None
         for _ in range(RESET_TRIES):
@@ -136,31 +105,6 @@ class SwingEnv(_Spaces):
         self.successes += int(status.feasible)
         truncated = self.episode.steps >= self.settings.episode_steps and not status.feasible
         return self.episode.observation(), float(status.reward), status.feasible, truncated, {}
-
-
-def _ddpg(env: gym.Env, seed: int, learning_rate: float = LEARNING_RATE, buffer_size: int = BUFFER_SIZE,
-          learning_starts: int = LEARNING_STARTS):
-    """A fresh Stable-Baselines3 DDPG model with this module's settings."""
-    from stable_baselines3 import DDPG
-    from stable_baselines3.common.noise import NormalActionNoise
-
-    n_act = env.action_space.shape[0]
-    noise = NormalActionNoise(np.zeros(n_act), ACTION_NOISE * np.ones(n_act))
-    return DDPG("MlpPolicy", env, learning_rate=learning_rate, buffer_size=buffer_size,
-                learning_starts=learning_starts, batch_size=BATCH_SIZE, tau=TAU, gamma=GAMMA,
-                action_noise=noise, policy_kwargs={"net_arch": list(NET_ARCH)}, seed=seed, device="cpu")
-
-
-def online_model(n_sections: int, seed: int, weights: dict[str, np.ndarray]):
-    """A DDPG model for online learning (:meth:`.agent.SwingAgent.learn`): the online learning rate and buffer,
-    its policy set to ``weights``, logging off."""
-    import torch
-    from stable_baselines3.common.logger import Logger
-
-    model = _ddpg(_Spaces(n_sections), seed, ONLINE_LEARNING_RATE, ONLINE_BUFFER_SIZE)
-    model.policy.load_state_dict({k: torch.as_tensor(v) for k, v in weights.items()})
-    model.set_logger(Logger(None, []))
-    return model
 
 
 def evaluate_agent(agent: SwingAgent, env: SwingEnv, episodes: int = EVAL_EPISODES) -> tuple[float, float]:
@@ -217,120 +161,85 @@ def train_agent(robot: str, out: str | Path, steps: int = TRAIN_STEPS, seed: int
     step). With ``resume`` a call continues from there exactly as if never stopped (without, the state is
     deleted first); a finished run's state stays, so calling again only rewrites ``out``. SIGINT or SIGTERM
     saves a checkpoint and raises :class:`snakeplan.interrupt.Interrupted`."""
-    import torch
-
     torch.set_num_threads(threads)
-    identity = {"trainer": "snakeplan.planners.sscc.training", "robot": robot, "seed": seed, "scenes": list(scenes),
-                "targets": targets, "eval_episodes": eval_episodes, "learning_starts": learning_starts}
+    identity = {"trainer": TRAINER, "robot": robot, "seed": seed, "scenes": list(scenes), "targets": targets,
+                "eval_episodes": eval_episodes, "learning_starts": learning_starts}
     run = _SwingRun(robot, Path(out), steps, seed, StateFolder(state_folder(out), identity),
                     checkpoint_every or checkpoint_interval(steps), eval_every,
                     SwingEnv(robot, scenes, EVAL_TARGETS, seed_offset=TRAIN_SEED_OFFSET + targets), eval_episodes)
-    try:
-        with run.state.locked(), interruptible() as stop:
-            if not resume:
-                run.state.clear()
-            generation = run.state.load()
-            for warning in run.state.warnings:
-                sys.stderr.write(f"snakeplan: warning: {warning}\n")
-            if generation is None:
-                run.model = _ddpg(SwingEnv(robot, scenes, targets), seed, buffer_size=min(BUFFER_SIZE, steps),
-                                  learning_starts=learning_starts)
-            else:
-                run.restore(generation)
-            return run.train(stop, fresh=generation is None)
-    except StateError as exc:
-        raise ValueError(f"--out: {exc}; {exc.advice}") from None
+    with run.session(resume) as (stop, generation):
+        if generation is None:
+            run.model = ddpg_model(SwingEnv(robot, scenes, targets), seed, buffer_size=min(BUFFER_SIZE, steps),
+                                   learning_starts=learning_starts)
+        else:
+            run.restore(generation)
+        return run.train(stop, fresh=generation is None)
 
 
-class _SwingRun:
+class _Evaluations(CheckpointCallback):
+    """Checkpoints and stops at the start of each rollout; scores the agent every ``eval_every`` steps."""
+
+    run: _SwingRun
+
+    def _on_step(self) -> bool:
+        if self.num_timesteps % self.run.eval_every == 0:
+            self.run.evaluate(self.num_timesteps)
+        return True
+
+
+class _SwingRun(ResumableRun):
     """One :func:`train_agent` run: the model, the evaluation history, the best agent, checkpoints."""
 
     def __init__(self, robot: str, out: Path, steps: int, seed: int, state: StateFolder, checkpoint_every: int,
                  eval_every: int, held_out: SwingEnv, eval_episodes: int):
-        self.robot, self.out, self.steps, self.seed, self.state = robot, out, steps, seed, state
-        self.checkpoint_every, self.eval_every, self.eval_episodes = checkpoint_every, eval_every, eval_episodes
+        super().__init__(state, checkpoint_every)
+        self.robot, self.out, self.steps, self.seed = robot, out, steps, seed
+        self.eval_every, self.eval_episodes = eval_every, eval_episodes
         self.held_out = held_out
-        self.model = None
         self.history: list[tuple[int, float, float]] = []
         #: The best agent so far: its step, (share solved, -mean steps) and the agent.
-        self.best: tuple[int, tuple[float, float], SwingAgent] | None = None
-        self.seconds_before = 0.0
-        self.t0 = time.perf_counter()
-
-    @property
-    def seconds(self) -> float:
-        return self.seconds_before + time.perf_counter() - self.t0
+        self.best: Best[SwingAgent] | None = None
 
     def evaluate(self, n: int) -> None:
         agent = SwingAgent(self.robot, model_weights(self.model))
         solved, mean_steps = evaluate_agent(agent, self.held_out, self.eval_episodes)
         self.history.append((n, solved, mean_steps))
-        if self.best is None or (solved, -mean_steps) > self.best[1]:
-            self.best = (n, (solved, -mean_steps), agent)
+        if self.best is None or self.best.beaten_by((solved, -mean_steps)):
+            self.best = Best(n, (solved, -mean_steps), agent)
 
-    def checkpoint(self, n: int) -> None:
+    def snapshot(self, n: int) -> tuple[dict, dict]:
+        """Generation ``n``: :func:`snakeplan.checkpoints.sb3_files` and the best agent's ``best.npz``; the record
+        holds the evaluation history, the best step with its score, and the seconds trained."""
         writers = sb3_files(self.model)
         best = None
         if self.best is not None:
-            step, (solved, neg_steps), agent = self.best
+            (solved, neg_steps), agent = self.best.key, self.best.item
             writers["best.npz"] = lambda path: _save_weights(agent.weights, path)
-            best = {"step": step, "solved": solved, "mean_steps": -neg_steps}
-        self.state.save(n, writers, {"env_steps": n, "history": self.history, "best": best,
-                                     "seconds": self.seconds})
-
-    def interrupt(self, n: int, stop) -> None:
-        """Save step ``n`` unless saved already, and stop with the one line that says how to go on."""
-        if self.state.current is None or n > self.state.current.step:
-            self.checkpoint(n)
-        raise Interrupted(f"interrupted at step {n}; checkpoint saved in {self.state.root}; rerun the same command "
-                          f"to resume", stop.signum or signal.SIGINT)
+            best = {"step": self.best.step, "solved": solved, "mean_steps": -neg_steps}
+        return writers, {"env_steps": n, "history": self.history, "best": best, "seconds": self.wall}
 
     def restore(self, generation: Generation) -> None:
-        from stable_baselines3 import DDPG
-
         self.model = sb3_restore(DDPG, generation)
         record = generation.record
         self.history = [tuple(h) for h in record["history"]]
-        self.seconds_before = record["seconds"]
+        self.wall_before = record["seconds"]
         if record["best"] is not None:
             b = record["best"]
             weights = SwingAgent.load(self.robot, generation.path("best.npz")).weights
-            self.best = (b["step"], (b["solved"], -b["mean_steps"]), SwingAgent(self.robot, weights))
+            self.best = Best(b["step"], (b["solved"], -b["mean_steps"]), SwingAgent(self.robot, weights))
 
-    def train(self, stop, fresh: bool) -> TrainingResult:
-        from stable_baselines3.common.callbacks import BaseCallback
-
-        run = self
-
-        class _Callback(BaseCallback):
-            def _on_rollout_start(self) -> None:  # the last step is stored and trained on: a consistent state
-                n = self.num_timesteps
-                if stop.requested:
-                    run.interrupt(n, stop)
-                if n - (run.state.current.step if run.state.current else 0) >= run.checkpoint_every:
-                    run.checkpoint(n)
-
-            def _on_step(self) -> bool:
-                if self.num_timesteps % run.eval_every == 0:
-                    run.evaluate(self.num_timesteps)
-                return True
-
-        self.t0 = time.perf_counter()
-        remaining = self.steps - self.model.num_timesteps
-        if remaining > 0:
-            self.model.learn(total_timesteps=remaining, callback=_Callback(), reset_num_timesteps=fresh)
-        n = self.model.num_timesteps
-        if self.state.current is None or n > self.state.current.step:
-            self.checkpoint(n)
-        if stop.requested:
-            self.interrupt(n, stop)
+    def train(self, stop: StopRequest, fresh: bool) -> TrainingResult:
+        """Learn up to ``steps``, checkpoint, and write the best agent to ``out``."""
+        self.start_clock()
+        n = self.learn(self.steps, _Evaluations(self, stop), fresh)
+        self.finish(n, stop)
         if self.best is None:
             step, key, agent = self.steps, (math.nan, math.nan), SwingAgent(self.robot, model_weights(self.model))
         else:
-            step, key, agent = self.best
+            step, key, agent = self.best.step, self.best.key, self.best.item
         self.out.parent.mkdir(parents=True, exist_ok=True)
         _save_weights(agent.weights, self.out)
-        return TrainingResult(self.robot, self.steps, self.seed, self.seconds,
+        return TrainingResult(self.robot, self.steps, self.seed, self.wall,
                               self.model.env.envs[0].unwrapped.episodes, step, key[0], -key[1], self.history,
                               str(self.out))
 
