@@ -70,9 +70,10 @@ def competing_load() -> Iterator[None]:
 
 @contextlib.contextmanager
 def previous_informative() -> Iterator[None]:
-    """The station planner as it was: the full product P W P per gain evaluator, default BLAS threads."""
+    """The station planner as it was: the full product P W P per gain evaluator (its missions flown with the default
+    BLAS threads by :func:`station_rows`)."""
     from snakeplan.mapping import kalman
-    from snakeplan.planners import informative, inspection
+    from snakeplan.planners import informative
 
     class FullProductGain(kalman.GainEvaluator):
         """The gain evaluator that forms P W P whole on construction (n^3), as before."""
@@ -82,8 +83,7 @@ def previous_informative() -> Iterator[None]:
             WP = cov if weights is None else np.asarray(weights, dtype=float)[:, None] * cov
             self._PWP = cov @ WP
 
-    with (mock.patch.object(informative, "GainEvaluator", FullProductGain),
-          mock.patch.object(inspection, "single_threaded", contextlib.nullcontext)):
+    with mock.patch.object(informative, "GainEvaluator", FullProductGain):
         yield
 
 
@@ -104,23 +104,24 @@ def _stats(times: list[float]) -> dict:
 
 def station_rows(seeds: int, baseline_seeds: int, progress: Callable[[str], None]) -> dict:
     """Informative planning compute per mission under a competing load, now and before."""
-    from snakeplan.episode import run_mission
-    from snakeplan.planners.inspection import InspectionProblem
+    from snakeplan.planners import Problem, get_planner
     from snakeplan.robots import get_robot
     from snakeplan.scenes import make_scene
+    from snakeplan.threads import single_threaded
 
     robot = get_robot("hsr-10")
     out: dict = {"now": [], "before": []}
     cpu: dict = {"now": [], "before": []}
     with competing_load():
         for seed in range(seeds):
-            problem = InspectionProblem(make_scene("station", seed), robot)
-            problem.world()  # the world (library, distance field, prior) is built outside the planner's time
-            runs = [("now", contextlib.nullcontext)] + ([("before", previous_informative)] if seed < baseline_seeds
-                                                       else [])
-            for label, ctx in runs:
-                with ctx():
-                    res = run_mission(problem, "informative", seed=seed).result
+            problem = Problem(make_scene("station", seed), robot)
+            planner = get_planner("informative")
+            planner.survey(problem)  # the survey (library, distance field, prior) is built outside the planner's time
+            runs = [("now", contextlib.nullcontext, single_threaded)] + (
+                [("before", previous_informative, contextlib.nullcontext)] if seed < baseline_seeds else [])
+            for label, ctx, threads in runs:
+                with ctx(), threads():
+                    res = planner.fly(problem, seed=seed)
                 out[label].append(res.compute_time_s)
                 cpu[label].append(res.compute_cpu_s)
                 progress(f"station seed {seed} {label}: {res.compute_time_s:.2f} s (load {load():.2f})")
