@@ -22,7 +22,7 @@ import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field, replace
 from enum import Enum
-from typing import ClassVar, Literal
+from typing import ClassVar
 
 import numpy as np
 
@@ -30,14 +30,21 @@ from snakeplan.geometry.polyline import validate_path
 from snakeplan.robots import Chain
 from snakeplan.scenes import Scene, Task, as_task, spec_for
 from snakeplan.threads import single_threaded
-from snakeplan.world import DEFAULT_SENSOR_RANGE_MM, PLANNING, KnowledgeView, ValidityChecker, view_for
+from snakeplan.world import (
+    DEFAULT_SENSOR_RANGE_MM,
+    PLANNING,
+    Knowledge,
+    KnowledgeView,
+    ValidityChecker,
+    as_knowledge,
+    view_for,
+)
 from snakeplan.world import mission as missions
 from snakeplan.world.mission import InspectionSettings, Mission, inspected_surface
 
 #: Default planning budget (s), the same for every planner in a comparison.
 DEFAULT_TIME_LIMIT_S = 30.0
 
-Knowledge = Literal["full", "sensed"]
 
 
 class Status(str, Enum):
@@ -75,7 +82,7 @@ class Problem:
     scene: Scene
     robot: Chain
     time_limit_s: float = DEFAULT_TIME_LIMIT_S
-    knowledge: Knowledge = "full"
+    knowledge: Knowledge | str = Knowledge.FULL
     sensor_range_mm: float = DEFAULT_SENSOR_RANGE_MM
     world: KnowledgeView | None = None
     task: Task | None = None
@@ -84,8 +91,7 @@ class Problem:
     def __post_init__(self) -> None:
         if not _positive(self.time_limit_s):
             raise ValueError(f"time_limit_s: must be a positive number of seconds, got {self.time_limit_s!r}")
-        if self.knowledge not in ("full", "sensed"):
-            raise ValueError(f"knowledge: must be 'full' or 'sensed', got {self.knowledge!r}")
+        object.__setattr__(self, "knowledge", as_knowledge(self.knowledge))
         if not isinstance(self.scene, Scene):
             raise ValueError(f"scene: must be a Scene, got {type(self.scene).__name__}")
         object.__setattr__(self, "task", spec_for(self.scene).task if self.task is None else as_task(self.task))
@@ -187,7 +193,7 @@ class Planner(ABC):
         if problem.task not in self.tasks:
             raise ValueError(f"task: planner {self.name} does not {problem.task} (it does: "
                              f"{', '.join(sorted(t.value for t in self.tasks))})")
-        if self.needs_full_scene and problem.knowledge != "full":
+        if self.needs_full_scene and problem.knowledge is not Knowledge.FULL:
             raise ValueError(f"knowledge: planner {self.name} needs the whole scene ('full')")
         problem = replace(problem, world=problem.world.fresh())  # every plan starts knowing only the prior
         with single_threaded():

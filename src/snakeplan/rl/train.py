@@ -93,6 +93,7 @@ from snakeplan.rl.rewards import GUIDE_WEIGHT
 from snakeplan.robots import get_robot
 from snakeplan.scenes import make_scene, scene_names, scene_spec
 from snakeplan.scenes.prefetch import ScenePrefetch
+from snakeplan.world import Knowledge
 
 ALGORITHMS = ("sac-her", "sac-per", "sac")
 #: Shortest episode (steps) the scene prefetch plans for: enough draws whatever the episodes' lengths.
@@ -442,7 +443,7 @@ def train(scene: str, algorithm: str, steps: int, seed: int, out_dir: str | Path
     if config.observation == "local" and len(families(scene)) > 1:
         raise ValueError(f"scene: the local observation reads one family's rooms; train {scene} with "
                          f"--observation guide")
-    if config.knowledge not in ("full", "sensed"):
+    if config.knowledge not in tuple(Knowledge):
         raise ValueError(f"--knowledge: must be full or sensed, got {config.knowledge!r}")
     if config.knowledge == "sensed" and config.observation == "paper":
         raise ValueError("--knowledge: the paper observation has no range sensor, so nothing would be sensed; "

@@ -3,9 +3,11 @@
 from snakeplan.world.knowledge import (
     DEFAULT_SENSOR_RANGE_MM,
     FullView,
+    Knowledge,
     KnowledgeView,
     SensedView,
     UnsensedObstacleError,
+    as_knowledge,
     guarded,
     view_for,
 )
@@ -28,4 +30,4 @@ from snakeplan.world.validity import (
 
 __all__ = ["DEFAULT_SENSOR_RANGE_MM", "ENTRANCE_TOLERANCE_MM", "JUDGE", "PLANNING", "REACH_TOLERANCE_MM", "ROLLOUT",
            "CrawlCheck", "Failure", "FailureKind", "FullView", "KnowledgeView", "SensedView", "Tolerances",
-           "UnsensedObstacleError", "ValidityChecker", "guarded", "min_turn_radius", "targets_reached", "view_for"]
+           "UnsensedObstacleError", "ValidityChecker", "as_knowledge", "guarded", "min_turn_radius", "targets_reached", "view_for"]

@@ -6,9 +6,9 @@ Between two samples every point of the body moves at most
     B = |dp| + (feed + L) * theta + L * sum |dq_revolute| + sum |dq_prismatic|
 
 (dp, theta: the base's translation and rotation angle; L: the arm's length; feed: its largest stroke), so the
-clearance along a step is certified without sampling it: when both ends clear the obstacles by B / 2 (the
-tolerance of the clearance search below that), no state in between touches them; otherwise the step is halved,
-down to the contact resolution. Bends, joint limits and the tip's bounds are checked at states no more than the
+clearance along a step is certified without sampling it: when both ends clear the obstacles by B / 2 (plus the
+clearance search's tolerance), no state in between touches them; otherwise the step is halved, down to the
+contact resolution. Bends, joint limits and the tip's bounds are checked at states no more than the
 profile's step of tip motion apart (by the same bound), as the crawl check checks every step of insertion.
 """
 
@@ -134,32 +134,33 @@ class JointMotionCheck:
         return "out_of_bounds", None
 
     def _clear(self, bases: np.ndarray, q: np.ndarray) -> np.ndarray:
-        """Certified clearance (mm, the search's tolerance taken off) of states (k, ...)."""
-        c = self.obstacles.chain_clearance(self.bodies(bases, q), self.radii)
-        return np.atleast_1d(c) - CLEARANCE_TOLERANCE_MM
+        """Clearance (mm) of states (k, ...): at most CLEARANCE_TOLERANCE_MM above the true value, and below
+        -CONTACT_RESOLUTION_MM exactly when the state collides."""
+        return np.atleast_1d(self.obstacles.chain_clearance(self.bodies(bases, q), self.radii))
 
     def _step_collision(self, bases: np.ndarray, q: np.ndarray, i: int, ca: float, cb: float) -> float | None:
         """The fraction in [0, 1] of the step from sample i to i+1 at which the body first penetrates an obstacle by
-        more than the contact resolution, or None (see the module)."""
+        more than the contact resolution (to within the contact resolution of body motion), or None (see the
+        module). Intervals are taken earliest first, and none after a penetration found."""
         B = self.bound(bases, q, i)
         stack = [(0.0, 1.0, ca, cb)]
-        hits: list[float] = []
+        first: float | None = None
         while stack:
             s0, s1, c0, c1 = stack.pop()
-            half = B * (s1 - s0) / 2.0
-            if c0 >= half and c1 >= half:
+            if first is not None and s0 >= first:
                 continue
-            if half <= CONTACT_RESOLUTION_MM or (s1 - s0) < 2.0 ** -MAX_HALVINGS:
-                continue  # the ends decide at the contact resolution
+            half = B * (s1 - s0) / 2.0 + CLEARANCE_TOLERANCE_MM
+            if (c0 >= half and c1 >= half) or half <= CONTACT_RESOLUTION_MM + CLEARANCE_TOLERANCE_MM or (s1 - s0) < 2.0 ** -MAX_HALVINGS:
+                continue  # certified clear, or settled by its ends at the contact resolution
             sm = (s0 + s1) / 2.0
             T, Q = interpolate(bases, q, i, np.array([sm]))
             cm = float(self._clear(T, Q)[0])
             if cm < -CONTACT_RESOLUTION_MM:
-                hits.append(sm)
-                continue
-            stack.append((sm, s1, cm, c1))
+                first = sm if first is None else min(first, sm)
+            else:
+                stack.append((sm, s1, cm, c1))
             stack.append((s0, sm, c0, cm))
-        return min(hits) if hits else None
+        return first
 
     def first_failure(self, times: np.ndarray, bases: np.ndarray, q: np.ndarray) -> MotionFailure | None:
         """The first failure in time of the motion through samples (times (k,) s, bases, q), or None."""
@@ -187,7 +188,7 @@ class JointMotionCheck:
                 break
             if c[i] < -CONTACT_RESOLUTION_MM:
                 return self._collision(bases[i:i + 1], q[i:i + 1], float(times[i]), first)
-            if i + 1 < k and c[i + 1] >= -CONTACT_RESOLUTION_MM:
+            if i + 1 < k:
                 s = self._step_collision(bases, q, i, float(c[i]), float(c[i + 1]))
                 if s is not None:
                     T, Q = interpolate(bases, q, i, np.array([s]))

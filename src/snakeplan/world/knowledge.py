@@ -20,6 +20,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass
+from enum import Enum
 from typing import NamedTuple
 
 import numpy as np
@@ -37,6 +38,25 @@ from snakeplan.scenes import Scene
 
 #: Default range (mm) of the tip sensor for planners that only know what they have sensed.
 DEFAULT_SENSOR_RANGE_MM = 400.0
+
+
+class Knowledge(str, Enum):
+    """What a planner may know of a scene: ``full``, every obstacle; ``sensed``, the prior obstacles and what its
+    tip sensor has revealed. A ``str`` so that JSON and the command line hold the plain value."""
+
+    FULL = "full"
+    SENSED = "sensed"
+
+    def __str__(self) -> str:
+        return self.value
+
+
+def as_knowledge(value, field: str = "knowledge") -> Knowledge:
+    """``value`` (a :class:`Knowledge` or its plain value) as Knowledge; ValueError naming ``field`` otherwise."""
+    try:
+        return Knowledge(value)
+    except ValueError:
+        raise ValueError(f"{field}: must be 'full' or 'sensed', got {value!r}") from None
 
 
 class UnsensedObstacleError(RuntimeError):
@@ -124,7 +144,7 @@ class KnowledgeView(ABC):
 class FullView(KnowledgeView):
     """Every obstacle of the scene."""
 
-    kind = "full"
+    kind = Knowledge.FULL
 
     def __init__(self, scene: Scene, obstacles: ObstacleSet | None = None):
         super().__init__(scene)
@@ -149,7 +169,7 @@ class SensedView(KnowledgeView):
     before the job (default: none). The view's ``scene`` is the structure alone (:func:`guarded`).
     """
 
-    kind = "sensed"
+    kind = Knowledge.SENSED
 
     def __init__(self, scene: Scene, truth: Sequence[Obstacle], sensor_range_mm: float = DEFAULT_SENSOR_RANGE_MM,
                  prior: Sequence[bool] | None = None, truth_set: ObstacleSet | None = None):
@@ -194,13 +214,12 @@ class SensedView(KnowledgeView):
         return SensedView(self.scene, self._truth_set.obstacles, self.sensor_range_mm, self._prior, self._truth_set)
 
 
-def view_for(scene: Scene, knowledge: str, sensor_range_mm: float = DEFAULT_SENSOR_RANGE_MM) -> KnowledgeView:
-    """The view a ``knowledge`` mode (``"full"`` or ``"sensed"``) gives of ``scene``."""
-    if knowledge == "full":
+def view_for(scene: Scene, knowledge: Knowledge | str, sensor_range_mm: float = DEFAULT_SENSOR_RANGE_MM
+             ) -> KnowledgeView:
+    """The view a ``knowledge`` mode gives of ``scene``."""
+    if as_knowledge(knowledge) is Knowledge.FULL:
         return FullView(scene)
-    if knowledge == "sensed":
-        return SensedView.of(scene, sensor_range_mm)
-    raise ValueError(f"knowledge: must be 'full' or 'sensed', got {knowledge!r}")
+    return SensedView.of(scene, sensor_range_mm)
 
 
 @dataclass(frozen=True, eq=False)

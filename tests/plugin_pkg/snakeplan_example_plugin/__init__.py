@@ -1,7 +1,7 @@
 """An example snakeplan plugin package: one planner, one scene family and one robot, named by entry points.
 
-The planner is a bare class found through its entry point; the scene registers itself with its spec as the
-module is imported; the robot is a bare factory. Units: mm, rad.
+The planner is a bare class found through its entry point, registered once for both tasks it does; the scene
+registers itself with its spec as the module is imported; the robot is a bare factory. Units: mm, rad.
 """
 
 import math
@@ -9,19 +9,35 @@ import math
 import numpy as np
 
 from snakeplan.geometry.primitives import Box
-from snakeplan.planners import Planner
+from snakeplan.planners.inspection import CameraPath, InspectionPlanner
 from snakeplan.robots import Chain, Section
-from snakeplan.scenes import Entrance, Scene, register_scene
+from snakeplan.scenes import Entrance, Scene, Task, register_scene
 
 
-class StraightPlanner(Planner):
-    """`example-straight`: the polyline from the entrance through the targets."""
+class StraightPlanner(InspectionPlanner):
+    """`example-straight`: to reach, the polyline from the entrance through the targets; to inspect, straight hops
+    to the nearest viewpoint the arm holds that it has not visited yet."""
 
     name = "example-straight"
+    tasks = frozenset({Task.REACH, Task.INSPECT})
     needs_full_scene = False
 
     def _solve(self, problem, rng, deadline):
-        return "found", np.vstack([problem.start, problem.goals]), {}
+        if problem.task is Task.REACH:
+            return "found", np.vstack([problem.start, problem.goals]), {}
+        self.visited = set()
+        return super()._solve(problem, rng, deadline)
+
+    def next_path(self, state):
+        lib = state.world.library
+        far = np.linalg.norm(lib.positions - state.position, axis=1) > 1.0
+        free = [k for k in np.flatnonzero(lib.reachable & far) if k not in self.visited]
+        ok = np.asarray(free)[state.world.segment_ok(state.position, lib.positions[free])] if free else []
+        if len(ok) == 0:
+            return None
+        k = int(ok[np.argmin(np.linalg.norm(lib.positions[ok] - state.position, axis=1))])
+        self.visited.add(k)
+        return CameraPath([state.position, lib.positions[k]], state.settings.speed_mm_s, "polyline")
 
 
 @register_scene("example-corridor", robot="example-arm", planner="example-straight")

@@ -12,11 +12,11 @@ planner again until the budget is spent. The plan carries the mission, which the
 from snakeplan.planners.inspection.arm import CARRIAGE_LEAD_MM, Follow, ReachReport, StationArm
 from snakeplan.planners.inspection.camera_path import CHECK_STEP_MM, SPLINE_SAMPLES, CameraPath, natural_spline_samples
 from snakeplan.planners.inspection.library import VIEW_STANDOFF_MM, ViewpointLibrary, library_positions
-from snakeplan.planners.inspection.mission import FOLLOW_STEP_MM, FlownMission, MissionState, fly
+from snakeplan.planners.inspection.mission import FOLLOW_STEP_MM, FlownMission, MissionEnd, MissionState, fly
 from snakeplan.planners.inspection.planner import N_CONTROL_POINTS, InspectionPlanner, mission_details
 from snakeplan.planners.inspection.survey import KEEP_OUT_MM, REACH_RADIUS_MM, Survey, survey_for
 
 __all__ = ["CARRIAGE_LEAD_MM", "CHECK_STEP_MM", "FOLLOW_STEP_MM", "KEEP_OUT_MM", "N_CONTROL_POINTS", "REACH_RADIUS_MM",
            "SPLINE_SAMPLES", "VIEW_STANDOFF_MM", "CameraPath", "FlownMission", "Follow", "InspectionPlanner",
-           "MissionState", "ReachReport", "StationArm", "Survey", "ViewpointLibrary", "fly", "library_positions",
+           "MissionEnd", "MissionState", "ReachReport", "StationArm", "Survey", "ViewpointLibrary", "fly", "library_positions",
            "mission_details", "natural_spline_samples", "survey_for"]

@@ -19,6 +19,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from enum import Enum
 
 import numpy as np
 
@@ -33,6 +34,19 @@ FOLLOW_STEP_MM = 250.0
 MAX_STUCK = 3
 
 Proposer = Callable[["MissionState"], CameraPath | None]
+
+
+class MissionEnd(str, Enum):
+    """Why a mission ended: its budget was flown; the planner had nothing more to fly; the arm could not follow
+    MAX_STUCK paths in a row; the planner's calls used up the time limit. A ``str``: JSON holds the plain value."""
+
+    BUDGET = "budget"
+    PLANNER = "planner"
+    ARM = "arm"
+    TIMEOUT = "timeout"
+
+    def __str__(self) -> str:
+        return self.value
 
 
 @dataclass
@@ -65,8 +79,7 @@ class MissionState:
 class FlownMission:
     """A flown mission as the planner saw it: the camera path (mm) and its times (s), the measurement poses and
     times, the map's RMSE (K) and covariance trace (K^2) after each, planning compute time (wall and process CPU,
-    s, summed over the planner's calls), the number of planner calls, the final map, why it stopped (``"budget"``,
-    ``"planner"``: nothing more to fly, ``"arm"``: the arm could not follow, ``"timeout"``), and the mission."""
+    s, summed over the planner's calls), the number of planner calls, the final map, why it ended, and the mission."""
 
     planner: str
     path: np.ndarray
@@ -79,7 +92,7 @@ class FlownMission:
     compute_cpu_s: float
     plans: int
     final_map: GaussianMap
-    stopped: str
+    stopped: MissionEnd
     mission: Mission
 
     def to_dict(self) -> dict:
@@ -129,14 +142,14 @@ def fly(name: str, propose: Proposer, settings: InspectionSettings, world: Surve
             on_measure(t, p, gmap)
 
     now, compute, cpu, plans, stuck = 0.0, 0.0, 0.0, 0, 0
-    stopped = "budget"
+    stopped = MissionEnd.BUDGET
     if not held:
-        stopped = "arm"
+        stopped = MissionEnd.ARM
     else:
         measure(pos, 0.0)
-    while stopped == "budget" and settings.budget_s - now > 1e-9:
+    while stopped is MissionEnd.BUDGET and settings.budget_s - now > 1e-9:
         if compute >= time_limit_s:
-            stopped = "timeout"
+            stopped = MissionEnd.TIMEOUT
             break
         state = MissionState(settings, world, gmap, pos.copy(), now)
         t0, c0 = time.perf_counter(), time.process_time()
@@ -145,7 +158,7 @@ def fly(name: str, propose: Proposer, settings: InspectionSettings, world: Surve
         cpu += time.process_time() - c0
         plans += 1
         if traj is None or traj.length < 1e-6:
-            stopped = "planner"
+            stopped = MissionEnd.PLANNER
             break
         fly_s = min(traj.duration, settings.budget_s - now)
         at = _follow_times(fly_s, settings.speed_mm_s, ticks - now)
@@ -153,7 +166,7 @@ def fly(name: str, propose: Proposer, settings: InspectionSettings, world: Surve
         if arm.held < len(at):
             fly_s = float(at[arm.held - 1]) if arm.held else 0.0
             at = at[:arm.held]
-            stopped = "arm"
+            stopped = MissionEnd.ARM
         for t in ticks[(ticks > now + 1e-9) & (ticks <= now + fly_s + 1e-9)]:
             measure(traj.at_time(t - now), float(t))
         m_times.extend(now + at)
@@ -166,10 +179,10 @@ def fly(name: str, propose: Proposer, settings: InspectionSettings, world: Surve
             pos = traj.at_time(fly_s)
             now += fly_s
         stuck = stuck + 1 if fly_s == 0.0 else 0
-        if stopped == "arm" and stuck < MAX_STUCK:
-            stopped = "budget"  # flown as far as the arm followed: ask again from there
-    if stopped == "budget" and settings.budget_s - now > 1e-9:
-        stopped = "planner"
+        if stopped is MissionEnd.ARM and stuck < MAX_STUCK:
+            stopped = MissionEnd.BUDGET  # flown as far as the arm followed: ask again from there
+    if stopped is MissionEnd.BUDGET and settings.budget_s - now > 1e-9:
+        stopped = MissionEnd.PLANNER
     if len(path) == 1:
         path.append(pos)
         path_t.append(now)

@@ -20,7 +20,7 @@ from snakeplan.mapping import GaussianMap, kalman
 from snakeplan.planners.base import Planner, Problem, Status
 from snakeplan.planners.inspection.camera_path import CameraPath
 from snakeplan.planners.inspection.library import VIEW_STANDOFF_MM
-from snakeplan.planners.inspection.mission import FlownMission, MissionState, fly
+from snakeplan.planners.inspection.mission import FlownMission, MissionEnd, MissionState, fly
 from snakeplan.planners.inspection.survey import Survey, survey_for
 from snakeplan.scenes import Task
 from snakeplan.world.mission import inspected_surface, mission_rngs
@@ -28,7 +28,7 @@ from snakeplan.world.mission import inspected_surface, mission_rngs
 #: Control points per planned camera path (paper 002 §4), the current position included.
 N_CONTROL_POINTS = 5
 #: Why a mission ended short of its budget -> the plan's ``details["stopped"]``.
-_STOPPED = {"planner": Status.FAILED, "arm": Status.FAILED, "timeout": Status.TIMEOUT}
+_STOPPED = {MissionEnd.PLANNER: Status.FAILED, MissionEnd.ARM: Status.FAILED, MissionEnd.TIMEOUT: Status.TIMEOUT}
 
 
 def mission_details(flown: FlownMission, survey: Survey) -> dict:
