@@ -113,6 +113,22 @@ def test_plugin_planner_scene_and_robot_plan_from_the_command_line():
     assert "example-arm" in listed and "sjtu-snake-iii" in listed
 
 
+def test_a_plugin_planner_that_does_both_tasks_registers_once_and_bench_run_runs_it_for_both(tmp_path):
+    """example-straight declares reach and inspect: one entry point, one class; bench run plans it in the corridor
+    (reach) and flies it round the station (inspect), each row judged by the task's rules."""
+    from snakeplan.bench.runner import read_rows
+
+    out = tmp_path / "both"
+    proc = snakeplan_cli("bench", "run", "--scenes", "example-corridor,station", "--planners", "example-straight",
+                         "--seeds", "0", "--workers", "1", "--out", str(out), plugins=[PLUGIN])
+    assert proc.returncode == 0, proc.stderr
+    rows = {r["task"]: r for r in read_rows(out)}
+    assert sorted(rows) == ["inspect", "reach"] and {r["planner"] for r in rows.values()} == {"example-straight"}
+    assert rows["reach"]["success"] and rows["reach"]["metrics"]["targets_reached"] == 1
+    assert rows["inspect"]["success"] and rows["inspect"]["reason"] == "inspected"
+    assert rows["inspect"]["robot"] == "hsr-10" and rows["inspect"]["metrics"]["reach_share"] == 1.0
+
+
 def test_a_plugin_that_takes_a_built_in_name_is_a_one_line_error():
     proc = snakeplan_cli("plan", "--scene", "oil-tank", "--planner", "sp-rrt", plugins=[DUPLICATE])
     assert proc.returncode == 2 and proc.stdout == "" and proc.stderr.count("\n") == 1

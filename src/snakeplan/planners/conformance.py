@@ -26,6 +26,12 @@ Rules (a :class:`ConformanceError` names the first one broken):
   NaN, infinite or non-numeric ``time_limit_s``, an unknown ``knowledge``, a non-positive ``sensor_range_mm``, a
   ``scene`` with no targets or that is not a Scene, a ``robot`` that is not a Chain, and, for a planner that
   ``needs_full_scene``, a ``knowledge="sensed"`` problem.
+
+A planner that does not reach (an inspection planner) is checked on inspect problems instead (the station, a
+short mission): ``runs``, ``status-path`` (a plan with a path carries its mission, with at least one view),
+``determinism`` (the same path and views), ``malformed`` (the fields above, a ``scene`` with nothing to inspect),
+and ``deadline`` on the planner's own calls (``details["planning_time_s"]``), which ``time_limit_s`` bounds for
+an inspect task. ``entrance`` and the walled-in target are reaching's and are listed as skipped.
 """
 
 from __future__ import annotations
@@ -43,7 +49,7 @@ from snakeplan.geometry.primitives import Box
 from snakeplan.planners.base import STOPPED, Plan, Planner, Problem, Status
 from snakeplan.planners.registry import get_planner
 from snakeplan.robots import get_robot
-from snakeplan.scenes import Scene, make_scene
+from snakeplan.scenes import Scene, Task, make_scene
 from snakeplan.world import (
     ENTRANCE_TOLERANCE_MM,
     REACH_TOLERANCE_MM,
@@ -52,12 +58,18 @@ from snakeplan.world import (
     guarded,
     targets_reached,
 )
+from snakeplan.world.mission import InspectionSettings
 
 #: The problems used when none are given: these scene families (seed ``scene_seed``) with this robot.
 DEFAULT_SCENES = ("fuel-tank", "oil-tank")
 DEFAULT_ROBOT = "sjtu-snake-iii"
 #: Time limit (s) of the default problems.
 DEFAULT_TIME_LIMIT_S = 5.0
+#: The inspect problem of a planner that does not reach: this family (seed ``scene_seed``), robot and mission
+#: budget (s).
+INSPECT_SCENE = "station"
+INSPECT_ROBOT = "hsr-10"
+INSPECT_BUDGET_S = 10.0
 #: Time limit (s) of the hard problems of the deadline rule.
 TINY_TIME_LIMIT_S = 0.05
 #: Allowed overrun of the time limit: the larger of this (s) and this fraction of the limit.
@@ -108,7 +120,10 @@ def check_planner(planner: Planner | str, problems: Sequence[Problem] | None = N
     the first rule broken; returns what it ran."""
     if isinstance(planner, str):
         planner = get_planner(planner)
-    if problems is None:
+    if problems is None and Task.REACH not in planner.tasks:
+        problems = [Problem(make_scene(INSPECT_SCENE, scene_seed), get_robot(INSPECT_ROBOT), time_limit_s,
+                            task=Task.INSPECT, inspection=InspectionSettings(budget_s=INSPECT_BUDGET_S))]
+    elif problems is None:
         problems = default_problems(scenes, robot, scene_seed, time_limit_s)
     if not problems:
         raise ValueError("problems: at least one problem is needed")
@@ -121,6 +136,10 @@ def check_planner(planner: Planner | str, problems: Sequence[Problem] | None = N
             skipped.append(f"determinism on {where}: a run stopped on the clock ({first.status}, {again.status})")
         else:
             _check_same(first, again, where)
+        if problem.task is not Task.REACH:
+            plans.append(f"{where}: {first.status}")
+            skipped.append(f"entrance and the walled-in target on {where}: rules of the reach task")
+            continue
         hard = dataclasses.replace(problem, scene=_enclose_last_target(problem.scene), time_limit_s=TINY_TIME_LIMIT_S,
                                    world=None)  # a view of the walled scene, not the old one
         tiny = _plan(planner, hard, seed, f"{where} with its last target walled in", timed=True)
@@ -159,6 +178,8 @@ def _plan(planner: Planner, problem: Problem, seed: int, where: str, timed: bool
     if plan.planner != planner.name:
         raise ConformanceError("runs", f"{planner.name} on {where} returned a plan named {plan.planner!r}")
     limit = problem.time_limit_s
+    if problem.task is not Task.REACH:
+        wall = float(plan.details.get("planning_time_s", wall))
     if timed and wall > limit + deadline_slack_s(limit):
         raise ConformanceError("deadline", f"{planner.name} on {where} took {wall:.3f} s, more than the time limit "
                                            f"{limit:g} s + {deadline_slack_s(limit):g} s slack")
@@ -179,6 +200,11 @@ def _check_status_path(plan: Plan, problem: Problem, where: str) -> None:
     if not (isinstance(path, np.ndarray) and path.ndim == 2 and path.shape[1] == 3 and len(path) >= 2
             and np.all(np.isfinite(path))):
         raise ConformanceError("status-path", f"{where}: the path is not a finite (m, 3) array with m >= 2")
+    if problem.task is not Task.REACH:
+        if plan.mission is None or len(plan.mission.views) == 0:
+            raise ConformanceError("status-path", f"{where}: an inspect plan with a path carries no mission with "
+                                                  f"a view")
+        return
     gap = float(np.linalg.norm(path[0] - problem.start))
     if gap > ENTRANCE_TOLERANCE_MM:
         raise ConformanceError("entrance", f"{where}: the path starts {gap:.3g} mm from the entrance")
@@ -206,6 +232,9 @@ def _check_same(first: Plan, again: Plan, where: str) -> None:
             first.path is not None and (first.path.shape != again.path.shape
                                         or first.path.tobytes() != again.path.tobytes())):
         raise ConformanceError("determinism", f"{name} on {where}: the same seed gave two different paths")
+    if first.mission is not None and (again.mission is None or first.mission.views.positions.tobytes()
+                                      != again.mission.views.positions.tobytes()):
+        raise ConformanceError("determinism", f"{name} on {where}: the same seed gave two different missions")
 
 
 def _enclose_last_target(scene: Scene) -> Scene:
@@ -227,11 +256,14 @@ def _malformed(problem: Problem, needs_full_scene: bool) -> list[tuple[str, obje
     """(field, value, builder) for each malformed problem derived from ``problem``."""
     scene = problem.scene
     fields = {"scene": scene, "robot": problem.robot, "time_limit_s": problem.time_limit_s,
-              "knowledge": problem.knowledge, "sensor_range_mm": problem.sensor_range_mm}
+              "knowledge": problem.knowledge, "sensor_range_mm": problem.sensor_range_mm, "task": problem.task,
+              "inspection": problem.inspection}
+    empty = (dataclasses.replace(scene, targets=np.zeros((0, 3))) if problem.task is Task.REACH
+             else dataclasses.replace(scene, metadata={}))
     cases: list[tuple[str, object]] = [
         ("time_limit_s", 0.0), ("time_limit_s", -1.0), ("time_limit_s", math.nan), ("time_limit_s", math.inf),
         ("time_limit_s", "1"), ("knowledge", "psychic"), ("sensor_range_mm", 0.0), ("sensor_range_mm", math.nan),
-        ("scene", dataclasses.replace(scene, targets=np.zeros((0, 3)))), ("scene", scene.name),
+        ("scene", empty), ("scene", scene.name),
         ("robot", problem.robot.name)]
     if needs_full_scene:
         cases.append(("knowledge", "sensed"))
@@ -241,7 +273,7 @@ def _malformed(problem: Problem, needs_full_scene: bool) -> list[tuple[str, obje
 
 def _check_malformed(planner: Planner, problem: Problem, seed: int) -> None:
     for name, value, build in _malformed(problem, planner.needs_full_scene):
-        shown = f"{value.name} with no targets" if isinstance(value, Scene) else repr(value)
+        shown = f"{value.name} with nothing to {problem.task}" if isinstance(value, Scene) else repr(value)
         what = f"{planner.name} given {name} = {shown}"
         try:
             planner.plan(build(), seed=seed)
