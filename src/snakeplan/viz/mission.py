@@ -51,6 +51,24 @@ def station_mesh(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(meshes[0].vertices, dtype=float), np.asarray(meshes[0].faces, dtype=int)
 
 
+def mission_title(problem, result) -> str:
+    """The title of a flown mission's pictures: scene, robot, planner, the final map's RMSE (K) and covariance
+    trace (K^2)."""
+    return (f"{problem.scene.label}, {problem.robot.name}, {result.planner}: final RMSE "
+            f"{result.rmse[-1]:.2f} K, covariance trace {result.trace[-1]:.0f} K^2")
+
+
+def save_mission_maps(filename: str | Path, problem, result, title: str) -> None:
+    """The maps of a flown mission (paper 002, Figs. 6-8) as a PNG: the true field, the final map's mean with the
+    camera path, its variance."""
+    from snakeplan.viz.figures import save_figure
+    from snakeplan.viz.maps import inspection_figure
+
+    nodes, _ = station_mesh(problem.scene)
+    save_figure(inspection_figure(nodes, problem.truth, result.final_map.mean, np.diag(result.final_map.cov),
+                                  result.path, title), filename)
+
+
 def _camera_at(path: np.ndarray, path_times: np.ndarray, t: np.ndarray) -> np.ndarray:
     return np.stack([np.interp(t, path_times, path[:, k]) for k in range(3)], axis=-1)
 

@@ -62,6 +62,15 @@ from snakeplan.robots import Chain, get_robot
 from snakeplan.scenes import Scene, make_scene
 from snakeplan.world import FullView
 
+#: The arms an agent is trained for (one agent per arm; the search's inner modules are theirs).
+AGENT_ROBOTS = ("sscc-16", "sscc-24")
+
+
+def check_agent_robot(robot: str, field: str = "robot") -> None:
+    """ValueError naming ``field`` unless ``robot`` is one of :data:`AGENT_ROBOTS`."""
+    if robot not in AGENT_ROBOTS:
+        raise ValueError(f"{field}: the sscc agent is trained for {' or '.join(AGENT_ROBOTS)}, got {robot!r}")
+
 
 class _Spaces(gym.Env):
     """Just the state and action spaces of an arm, for building a DDPG model without an environment to run."""
