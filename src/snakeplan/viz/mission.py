@@ -1,5 +1,7 @@
 """Inspection missions seen as they fly: the camera's path round the station, and the map's mean and variance
-filling in measurement by measurement (a video, and an interactive page with a slider over mission time).
+filling in measurement by measurement (a video, and an interactive page with a slider over mission time); and a
+flown mission's maps as a picture (:func:`save_mission_maps`) under the title its pictures share
+(:func:`mission_title`).
 
 :class:`MissionRecord` is handed to ``run_mission(..., on_measure=record)`` and keeps, after every fused
 measurement, its time, the camera pose and the map's mean and per-node variance.
