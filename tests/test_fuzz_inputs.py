@@ -35,7 +35,10 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from snakeplan import inputs
-from snakeplan.cli import UsageError, _load_scene, load_path_file, main
+from snakeplan.cli import main
+from snakeplan.commands.common import UsageError
+from snakeplan.commands.inputs import load_path_file
+from snakeplan.commands.inputs import load_scene as _load_scene
 from snakeplan.evaluation import evaluate
 from snakeplan.geometry.primitives import Plate, obstacle_from_dict
 from snakeplan.robots import get_robot

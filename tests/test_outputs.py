@@ -84,12 +84,13 @@ def _wrapped_interrupt(args):
 def test_a_ctrl_c_wrapped_by_a_c_callback_is_still_one_line_and_exit_130(monkeypatch, capsys):
     """CI once sent SIGINT while numba was unpickling a cached kernel: a SystemError traceback and exit 1."""
     from snakeplan import cli
+    from snakeplan.commands import scene
     from snakeplan.interrupt import interruption
 
     assert interruption(ValueError("plain")) is None
-    monkeypatch.setattr(cli, "cmd_scene_entry", _wrapped_interrupt)
+    monkeypatch.setattr(scene, "cmd_scene_entry", _wrapped_interrupt)
     assert cli.main(["scene", "--list"]) == 130
     assert capsys.readouterr().err == "snakeplan: interrupted\n"
-    monkeypatch.setattr(cli, "cmd_scene_entry", lambda args: (_ for _ in ()).throw(SystemError("a real bug")))
+    monkeypatch.setattr(scene, "cmd_scene_entry", lambda args: (_ for _ in ()).throw(SystemError("a real bug")))
     with pytest.raises(SystemError, match="a real bug"):
         cli.main(["scene", "--list"])

@@ -9,15 +9,16 @@ ahead-of-time compiler, ``numba.pycc``, for this CPU; a C compiler is needed), w
 process whose sources match loads it (:mod:`snakeplan.jit`); an edit to any of snakeplan's Python files retires it
 until the next compile.
 
-``snakeplan compile [--scene NAME ...]`` (or ``python -m snakeplan.precompile``) records in a fresh interpreter,
-since the recording must start before any kernel is defined; ``snakeplan compile --remove`` deletes the module.
+``snakeplan compile [--scene NAME ...]`` records in a fresh interpreter (``python -m snakeplan.cli compile`` with
+``SNAKEPLAN_KERNELS=record``), since the recording must start before any kernel is defined; there the command hands
+:func:`main` its entry point to run the workload through, so this module imports no other command-line module.
+``snakeplan compile --remove`` deletes the module.
 The recording compiles each kernel afresh (numba's cache may hold a callee's code from before an edit of its
 module), and the sources must not change until the module is written.
 """
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import copy
 import io
@@ -30,7 +31,7 @@ import tempfile
 import time
 import uuid
 import warnings
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 from snakeplan import jit
 from snakeplan.files import atomic_write
@@ -61,18 +62,17 @@ def workload(scenes: list[str] | None = None) -> list[list[str]]:
     return commands
 
 
-def record(commands: list[list[str]]) -> tuple[list[jit.Kernel], list[str]]:
-    """Run ``commands`` (their output discarded); the kernels they called from Python, and a line for each command
-    that failed (exit status other than 0, or 1 for an infeasible plan)."""
-    from snakeplan.cli import main
-
+def record(commands: list[list[str]], run: Callable[[list[str]], int]) -> tuple[list[jit.Kernel], list[str]]:
+    """Run ``commands`` through ``run`` (the command line's entry point; their output discarded); the kernels they
+    called from Python, and a line for each command that failed (exit status other than 0, or 1 for an infeasible
+    plan)."""
     if not jit.RECORDING:
         raise RuntimeError(f"recording needs {jit.ENV_MODE}=record before snakeplan's kernels are defined")
     failed = []
     for argv in commands:
         sink = io.StringIO()
         with contextlib.redirect_stdout(sink), contextlib.redirect_stderr(sink):
-            status = main(argv)
+            status = run(argv)
         if status == EXIT_INTERRUPTED:
             raise KeyboardInterrupt
         if status not in (0, 1):
@@ -163,18 +163,26 @@ def remove(folder=None) -> bool:
     return found
 
 
-def main(scenes: list[str] | None = None) -> int:
-    """Record the workload of ``scenes`` (default: all families) and compile it; in a fresh interpreter unless
-    this one is recording. Returns the exit status."""
+def main(scenes: list[str] | None, run: Callable[[list[str]], int]) -> int:
+    """Record the workload of ``scenes`` (None: all families), running its commands through ``run`` (the command
+    line's entry point), and compile it; in a fresh interpreter (``snakeplan compile`` again) unless this one is
+    recording. Returns the exit status."""
     if not jit.RECORDING:
-        command = [sys.executable, "-m", "snakeplan.precompile"]
+        command = [sys.executable, "-m", "snakeplan.cli", "compile"]
         for name in scenes or []:
             command += ["--scene", name]
         return subprocess.run(command, env={**os.environ, jit.ENV_MODE: "record"}).returncode
+    try:
+        return _record_and_build(scenes, run)
+    except KeyboardInterrupt:  # Ctrl-C reaches the parent 'snakeplan compile' too, which says so; the table is
+        return EXIT_INTERRUPTED  # written last, so the module in use before stays in use
+
+
+def _record_and_build(scenes: list[str] | None, run: Callable[[list[str]], int]) -> int:
     start = time.perf_counter()
     sources = jit.source_digest([])
     commands = workload(scenes)
-    kernels, failed = record(commands)
+    kernels, failed = record(commands, run)
     recorded = time.perf_counter() - start
     for line in failed:
         sys.stderr.write(f"snakeplan: warning: {line}; its kernels are compiled only as far as it ran\n")
@@ -191,12 +199,3 @@ def main(scenes: list[str] | None = None) -> int:
                      f"{len(commands)} commands into {summary['folder']}/{summary['file']}: recording "
                      f"{recorded:.0f} s, compiling {summary['compile_s']:.0f} s\n")
     return 0
-
-
-if __name__ == "__main__":
-    parser = argparse.ArgumentParser(prog="python -m snakeplan.precompile", description=__doc__.split("\n")[0])
-    parser.add_argument("--scene", action="append", help="only this scene family's commands (may be repeated)")
-    try:
-        sys.exit(main(parser.parse_args().scene))
-    except KeyboardInterrupt:  # Ctrl-C reaches ``snakeplan compile`` too, which says so; the table is written
-        sys.exit(EXIT_INTERRUPTED)  # last, so the module in use before stays in use

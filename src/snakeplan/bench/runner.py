@@ -100,6 +100,16 @@ class Run:
         return f"{self.scene} seed {self.seed} {self.planner}"
 
 
+def check_robot(name: str, field: str = "robot") -> None:
+    """A sweep's robot (when one is given) is a registered preset: rows name it and every worker makes it by name.
+    ValueError naming ``field`` otherwise."""
+    from snakeplan.robots import robot_names
+
+    if name not in robot_names():
+        raise ValueError(f"{field}: bench run takes a robot preset (known: {', '.join(robot_names())}); "
+                         f"register your robot to benchmark it (docs/ARCHITECTURE.md, 'Your robot')")
+
+
 @dataclass(frozen=True)
 class Sweep:
     """Episodes x planners: every ``scenes`` entry (a family name, or a ``.json`` scene file) with every seed,

@@ -386,6 +386,17 @@ def speed_markdown(summary: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def run_speed_table(out: Path, progress: Callable[[str], None] | None = None, **settings) -> dict:
+    """:func:`run_speed_bench` with ``settings``, each finished row saved in ``out``'s ``.partial.json`` (a rerun
+    of an interrupted run measures only the rows it lacks), then the table and figures written
+    (:func:`write_speed`) and the partial file removed; the summary."""
+    state = out.with_suffix(".partial.json")
+    summary = run_speed_bench(progress=progress, state=state, **settings)
+    write_speed(summary, out)
+    state.unlink(missing_ok=True)
+    return summary
+
+
 def write_speed(summary: dict, out: Path) -> None:
     """The table to ``out`` (markdown) and the figures beside it (same name, .json)."""
     atomic_write(out, speed_markdown(summary))

@@ -82,6 +82,12 @@ class Table2Config:
         families (paper 000 pairs each learned planner with the scene it was trained in; elsewhere no row)."""
         return tuple(p for p in self.planners if scene in policy_scenes(p) or not policy_scenes(p))
 
+    def check(self, field: str = "planners") -> None:
+        """ValueError naming ``field`` when no planner is compared in any of the scenes (:meth:`planners_in`)."""
+        if not any(self.planners_in(s) for s in self.scenes):
+            raise ValueError(f"{field}: none is compared in {', '.join(self.scenes)} (a planner whose policy ships "
+                             f"for some scene families is compared only in those)")
+
     def entries_in(self, scene: str) -> tuple[tuple[str, str, dict], ...]:
         """(label, planner, options) of each row group in ``scene``: :meth:`planners_in`, then the generalist."""
         rows = [(p, p, {}) for p in self.planners_in(scene)]

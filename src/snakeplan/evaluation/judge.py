@@ -83,6 +83,13 @@ class Report:
     #: The body at the last judged depth: joints ``(n+1, 3)`` (mm), base first.
     body_mm: np.ndarray = field(repr=False)
 
+    def lines(self) -> list[str]:
+        """The verdict and the metrics as console lines, one per metric."""
+        lines = [f"verdict: {'feasible' if self.success else 'infeasible'} ({self.reason})"]
+        for key, value in self.metrics().items():
+            lines.append(f"  {key:24s} {value:.6g}" if isinstance(value, float) else f"  {key:24s} {value}")
+        return lines
+
     def metrics(self) -> dict:
         """JSON-ready metrics (finite floats, or None where undefined)."""
         skip = ("curvature_s", "curvature", "body_mm", "success", "reason")

@@ -190,9 +190,7 @@ class Planner(ABC):
     def plan(self, problem: Problem, seed: int = 0) -> Plan:
         """Plan within ``problem.time_limit_s``; the wall time is measured here, the same way for all planners,
         with BLAS/OpenMP on one thread (:mod:`snakeplan.threads`)."""
-        if problem.task not in self.tasks:
-            raise ValueError(f"task: planner {self.name} does not {problem.task} (it does: "
-                             f"{', '.join(sorted(t.value for t in self.tasks))})")
+        self.check_task(problem.task)
         if self.needs_full_scene and problem.knowledge is not Knowledge.FULL:
             raise ValueError(f"knowledge: planner {self.name} needs the whole scene ('full')")
         problem = replace(problem, world=problem.world.fresh())  # every plan starts knowing only the prior
@@ -205,6 +203,12 @@ class Planner(ABC):
                                                           t0 + problem.time_limit_s)
             elapsed = time.perf_counter() - t0
         return Plan(self.name, status, path, elapsed, details, *mission)
+
+    def check_task(self, task: Task | str) -> None:
+        """ValueError naming ``task`` (and the tasks this planner does) unless it does ``task``."""
+        if as_task(task) not in self.tasks:
+            raise ValueError(f"task: planner {self.name} does not {as_task(task)} (it does: "
+                             f"{', '.join(sorted(t.value for t in self.tasks))})")
 
     def warm_up(self, problem: Problem) -> None:
         """Load, before a process's first plan of this class is timed, what that plan would otherwise load

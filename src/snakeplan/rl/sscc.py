@@ -44,6 +44,14 @@ RESET_TRIES = 50
 #: The trainer's name in its state folders' run identity: this module. A state folder written before the trainer
 #: moved here (``snakeplan.planners.sscc.training``, whose environments its ``envs.pkl`` pickled) is another run's.
 TRAINER = "snakeplan.rl.sscc"
+#: The arms an agent is trained for (one agent per arm; the search's inner modules are theirs).
+AGENT_ROBOTS = ("sscc-16", "sscc-24")
+
+
+def check_agent_robot(robot: str, field: str = "robot") -> None:
+    """ValueError naming ``field`` unless ``robot`` is one of :data:`AGENT_ROBOTS`."""
+    if robot not in AGENT_ROBOTS:
+        raise ValueError(f"{field}: the sscc agent is trained for {' or '.join(AGENT_ROBOTS)}, got {robot!r}")
 
 
 class SwingEnv(gym.Env):

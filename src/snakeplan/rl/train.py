@@ -46,6 +46,7 @@ import importlib.util
 import json
 import math
 import multiprocessing
+import os
 import shlex
 import sys
 from collections import deque
@@ -60,7 +61,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 from snakeplan.checkpoints import Generation, StateFolder, checkpoint_interval, sb3_files, sb3_restore
 from snakeplan.episode import run_episode
 from snakeplan.files import atomic_path, atomic_write
-from snakeplan.interrupt import StopRequest, interruption, report
+from snakeplan.interrupt import StopRequest
 from snakeplan.parallel import ProgressDisplay, usable_cores
 from snakeplan.planners import Problem
 from snakeplan.planners.sac.crawler import CAPTURE_STEPS, TURN_RADIUS_MM
@@ -553,9 +554,9 @@ class _OptionParser(argparse.ArgumentParser):
         raise ValueError(f"trainer option: {message}")
 
 
-def _add_config_arguments(p: argparse.ArgumentParser) -> None:
+def add_config_arguments(p) -> None:
     """``--paper`` or ``--jax`` (the configuration to start from) and one ``--field-name`` flag per
-    :class:`TrainConfig` field."""
+    :class:`TrainConfig` field, on ``p`` (a parser or an argument group)."""
     p.add_argument("--paper", action="store_true", help="start from the paper's hyper-parameters (§4.1)")
     p.add_argument("--jax", action="store_true", help="start from JAX_CONFIG: JAX updates overlapping the roll-outs, "
                    "learning rate 1e-3 (fuel-tank to 0.9 in under three minutes on two cores)")
@@ -569,7 +570,7 @@ def _add_config_arguments(p: argparse.ArgumentParser) -> None:
             p.add_argument(flag, type=type(f.default), default=None)
 
 
-def _config(args: argparse.Namespace) -> TrainConfig:
+def config_from(args: argparse.Namespace) -> TrainConfig:
     """The options' configuration; from the command line, scenes are made ahead by default (``--scene-workers -1``:
     its entry points are guarded)."""
     if args.paper and args.jax:
@@ -584,42 +585,11 @@ def parse_config(options: list[str]) -> TrainConfig:
     """The configuration that trainer options (``--paper``, ``--turn-radius-mm 215``, ...) describe; ValueError
     naming the option on a bad one."""
     p = _OptionParser(prog="trainer options", add_help=False)
-    _add_config_arguments(p)
-    return _config(p.parse_args(options))
+    add_config_arguments(p)
+    return config_from(p.parse_args(options))
 
 
-def _parser() -> argparse.ArgumentParser:
-    p = _OptionParser(prog="python -m snakeplan.rl.train", description=__doc__.splitlines()[0])
-    p.add_argument("scene", help="a scene family with targets (fuel-tank, oil-tank, or one you registered)")
-    p.add_argument("algorithm", choices=ALGORITHMS)
-    p.add_argument("--steps", type=int, required=True)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--out", required=True)
-    p.add_argument("--fresh", action="store_true", help="ignore a checkpoint in --out")
-    p.add_argument("--no-progress", action="store_true")
-    _add_config_arguments(p)
-    return p
-
-
-def main(argv: list[str] | None = None) -> int:
-    """``python -m snakeplan.rl.train``: a bad option or value is one line and exit status 2, as from the
-    ``snakeplan`` command."""
-    try:
-        args = _parser().parse_args(argv)
-        result = train(args.scene, args.algorithm, args.steps, args.seed, args.out, _config(args),
-                       progress=not args.no_progress, resume=not args.fresh)
-    except BaseException as exc:
-        stop = interruption(exc)
-        if stop is not None:
-            return report(stop)
-        if isinstance(exc, ValueError):
-            sys.stderr.write(f"snakeplan: error: {exc}\n")
-            return 2
-        raise
-    last = result.history[-1] if result.history else {}
-    print(json.dumps({"policy": str(result.policy), "last": last}))
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+if __name__ == "__main__":  # the command shipped policies record: 'snakeplan train rl', trainer options listed
+    # run by the command line's own parser in this process's place: this layer imports no command line
+    os.execv(sys.executable, [sys.executable, "-c", "import sys; from snakeplan.cli import trainer_main; "
+                              "sys.exit(trainer_main())", *sys.argv[1:]])

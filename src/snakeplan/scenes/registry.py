@@ -83,6 +83,11 @@ class SceneSpec:
         object.__setattr__(self, "planner", self.planner or DEFAULT_PLANNER[self.task])
         object.__setattr__(self, "policies", MappingProxyType(dict(self.policies)))
 
+    def planner_for(self, task: Task | str) -> str:
+        """The planner used when none is named for ``task``: this family's for its own task, else the default."""
+        task = as_task(task)
+        return self.planner if task is self.task else DEFAULT_PLANNER[task]
+
     def policy_path(self, planner: str) -> Path | None:
         """The file of the policy that ships for ``planner`` in this family, or None when none ships."""
         ref = self.policies.get(planner)

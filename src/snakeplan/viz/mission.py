@@ -1,5 +1,7 @@
 """Inspection missions seen as they fly: the camera's path round the station, and the map's mean and variance
-filling in measurement by measurement (a video, and an interactive page with a slider over mission time).
+filling in measurement by measurement (a video, and an interactive page with a slider over mission time); and a
+flown mission's maps as a picture (:func:`save_mission_maps`) under the title its pictures share
+(:func:`mission_title`).
 
 :class:`MissionRecord` keeps, after every fused measurement, its time, the camera pose and the map's mean and
 per-node variance: handed to ``InspectionPlanner.fly(..., on_measure=record)`` it sees the planner's map, and
@@ -60,6 +62,47 @@ def station_mesh(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
     if "field" not in scene.metadata or len(meshes) != 1:
         raise ValueError(f"scene: {scene.name} has no inspected surface mesh with a field")
     return np.asarray(meshes[0].vertices, dtype=float), np.asarray(meshes[0].faces, dtype=int)
+
+
+@dataclass(frozen=True)
+class JudgedMission:
+    """What the pictures show of an inspect plan: the planner, the camera (tip) path (mm) and its times (s), and
+    the map as the judge measured it again: RMSE (K) and covariance trace (K^2) after each view, the final mean
+    (K) and node variances (K^2)."""
+
+    planner: str
+    path: np.ndarray
+    path_times: np.ndarray
+    rmse: np.ndarray
+    trace: np.ndarray
+    final_mean_k: np.ndarray
+    final_variance_k2: np.ndarray
+
+    @classmethod
+    def of(cls, episode) -> JudgedMission:
+        """The judged mission of an inspect episode."""
+        plan, report = episode.plan, episode.report
+        return cls(plan.planner, plan.path, np.asarray(plan.details["path_times_s"], dtype=float), report.rmse_k,
+                   report.trace_k2, report.final_mean_k, report.final_variance_k2)
+
+
+def mission_title(scene: Scene, robot_name: str, result) -> str:
+    """The title of a mission's pictures: scene, robot, planner, the final map's RMSE (K) and covariance trace
+    (K^2)."""
+    return (f"{scene.label}, {robot_name}, {result.planner}: final RMSE "
+            f"{result.rmse[-1]:.2f} K, covariance trace {result.trace[-1]:.0f} K^2")
+
+
+def save_mission_maps(filename: str | Path, scene: Scene, result, title: str) -> None:
+    """The maps of a mission (paper 002, Figs. 6-8) as a PNG: the true field, the final map's mean with the camera
+    path, its variance."""
+    from snakeplan.viz.figures import save_figure
+    from snakeplan.viz.maps import inspection_figure
+    from snakeplan.world.mission import inspected_surface
+
+    nodes, _ = station_mesh(scene)
+    save_figure(inspection_figure(nodes, inspected_surface(scene)[1], result.final_mean_k, result.final_variance_k2,
+                                  result.path, title), filename)
 
 
 def _camera_at(path: np.ndarray, path_times: np.ndarray, t: np.ndarray) -> np.ndarray:

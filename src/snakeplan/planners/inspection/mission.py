@@ -95,6 +95,14 @@ class FlownMission:
     stopped: MissionEnd
     mission: Mission
 
+    @property
+    def final_mean_k(self) -> np.ndarray:
+        return self.final_map.mean
+
+    @property
+    def final_variance_k2(self) -> np.ndarray:
+        return np.diag(self.final_map.cov)
+
     def to_dict(self) -> dict:
         """JSON-ready summary: planner, path (mm), measurement times (s) and poses (mm), RMSE (K) and
         covariance trace (K^2) curves, planning compute time (s), planner calls."""

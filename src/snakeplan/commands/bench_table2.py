@@ -1,0 +1,53 @@
+"""``snakeplan bench table2``: paper 000's Table 2, planners on the same seeded fuel-tank and oil-tank episodes
+(:mod:`snakeplan.bench.table2`)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from snakeplan.commands.bench_run import outcome_line
+from snakeplan.commands.common import EXIT_OK, UsageError, finite, name_list, print_json, seed
+from snakeplan.commands.options import backend, backend_args
+
+
+def add_parser(bsub) -> None:
+    p = bsub.add_parser("table2", help="paper 000's Table 2: planners on the same seeded episodes",
+                        description="Run planners on identical fuel-tank and oil-tank episodes, judge every plan, "
+                                    "and write runs.jsonl (resumable; one writer per folder), table2.md/csv with "
+                                    "the paper's figures, Appendix A statistics and fig7_*.png.")
+    p.add_argument("--planners", help="comma-separated planner names (default rrt-star,sp-rrt,as-rrt,sac-her,"
+                                      "sac-per; sac-her has rows in fuel-tank, sac-per in oil-tank)")
+    p.add_argument("--scenes", default="fuel-tank,oil-tank", help="comma-separated scene names")
+    p.add_argument("--runs", type=int, default=10, help="seeds per scene (default 10, as the paper)")
+    p.add_argument("--seed", type=seed, default=0, help="first seed (default 0)")
+    p.add_argument("--time-limit", type=finite, default=10.0, help="budget per plan in seconds (default 10)")
+    p.add_argument("--out", default="bench-table2", help="output folder (default bench-table2)")
+    p.add_argument("--fresh", action="store_true", help="discard earlier runs instead of resuming")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    backend_args(p)
+    p.set_defaults(func=cmd_bench_table2)
+
+
+def cmd_bench_table2(args: argparse.Namespace) -> int:
+    from snakeplan.bench.runner import run_sweep
+    from snakeplan.bench.table2 import DEFAULT_PLANNERS, SCENES, Table2Config, summary_markdown, table2_outputs
+    from snakeplan.planners import planner_names
+
+    if args.runs < 1:
+        raise UsageError(f"--runs: expected a positive integer, got {args.runs}")
+    planners = DEFAULT_PLANNERS if args.planners is None else name_list(args.planners, planner_names(), "--planners")
+    config = Table2Config(planners=planners,
+                          scenes=name_list(args.scenes, list(SCENES), "--scenes"),
+                          seeds=tuple(range(args.seed, args.seed + args.runs)),
+                          time_limit_s=args.time_limit)
+    config.check("--planners")
+    outcome = run_sweep(config.sweep(), args.out, backend(args), fresh=args.fresh, progress=not args.json)
+    summary = table2_outputs(config, outcome.rows, Path(args.out))
+    if args.json:
+        print_json({"summary": summary, "runner": outcome.to_dict()})
+    else:
+        sys.stdout.write(summary_markdown(summary, config) + f"\n\n{outcome_line(outcome)}\nwrote {args.out}/"
+                         f"table2.md, table2.csv, runs.jsonl, fig7_*.png\n")
+    return EXIT_OK

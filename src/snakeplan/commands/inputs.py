@@ -1,0 +1,95 @@
+"""The inputs a command reads from its options: scene, robot, tip path and planner; a mistake is a
+:class:`~snakeplan.commands.common.UsageError` naming the option."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from snakeplan.commands.common import UsageError
+
+
+def load_scene(args: argparse.Namespace):
+    """The scene of --scene-file, else of --scene and --seed."""
+    from snakeplan.scenes import Scene, make_scene
+
+    if getattr(args, "scene_file", None):
+        return Scene.from_json(read_text(args.scene_file, "--scene-file"), "--scene-file", scene_dir(args.scene_file))
+    try:
+        return make_scene(args.scene, args.seed)
+    except KeyError as exc:
+        raise UsageError(f"--scene: {exc.args[0]}") from None
+
+
+def scene_dir(filename: str) -> Path:
+    """The folder a scene file's mesh files are read relative to (the working directory for standard input)."""
+    return Path(".") if filename == "-" else Path(filename).parent
+
+
+def robot_for(args: argparse.Namespace, scene):
+    """The robot named by --robot (a preset or a robot file), else the one the scene's spec says it is sized for."""
+    from snakeplan.scenes import spec_for
+
+    return load_robot(args.robot or spec_for(scene).robot)
+
+
+def load_robot(spec: str, field: str = "--robot"):
+    """A robot preset or robot file."""
+    from snakeplan.robots import load_robot as load
+
+    try:
+        return load(spec)
+    except (KeyError, ValueError) as exc:
+        raise UsageError(f"{field}: {exc.args[0]}") from None
+
+
+def read_text(filename: str, field: str) -> str:
+    """The UTF-8 text of ``filename`` ('-': standard input), at most :data:`snakeplan.inputs.MAX_INPUT_BYTES`."""
+    from snakeplan.inputs import MAX_INPUT_BYTES
+
+    where = "standard input" if filename == "-" else filename if filename.isprintable() else repr(filename)
+    try:
+        if filename == "-":
+            data = sys.stdin.buffer.read(MAX_INPUT_BYTES + 1)
+        else:
+            with open(filename, "rb") as f:
+                data = f.read(MAX_INPUT_BYTES + 1)
+    except FileNotFoundError:
+        raise UsageError(f"{field}: file not found: {where}") from None
+    except OSError as exc:
+        raise UsageError(f"{field}: cannot read {where}: {exc.__class__.__name__}") from None
+    if len(data) > MAX_INPUT_BYTES:
+        raise UsageError(f"{field}: {where} is larger than the {MAX_INPUT_BYTES // 2**20} MiB limit")
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise UsageError(f"{field}: {where} is not UTF-8 text (byte {exc.start})") from None
+
+
+def load_path_file(filename: str) -> np.ndarray:
+    """Read ``{"path": [[x, y, z], ...]}`` (any plan file will do: other fields are ignored); at least 2 points of
+    real numbers. ValueError names the field (``path[3][1]``), or ``PATH`` for the file as a whole."""
+    from snakeplan.inputs import load_json, points, show
+
+    data = load_json(read_text(filename, "PATH"), "PATH")
+    if not isinstance(data, dict):
+        raise ValueError(f'PATH: expected an object with a "path" list of [x, y, z], got {show(data)}')
+    if "path" not in data:
+        raise ValueError('path: missing; PATH must hold an object with a "path" list of [x, y, z]')
+    return points(data["path"], "path", min_count=2)
+
+
+def load_planner(name: str, **options):
+    """The registered planner ``name`` made with ``options``."""
+    from snakeplan.planners.registry import PLANNERS
+
+    try:
+        cls = PLANNERS.get(name)
+    except KeyError as exc:
+        raise UsageError(f"--planner: {exc.args[0]}") from None
+    if "policy" in options and not cls.takes_policy:
+        raise UsageError(f"--policy: planner {name} rolls out no trained policy")
+    return cls(**options)

@@ -1,0 +1,100 @@
+"""``snakeplan plan``: plan the scene's task (reach its targets, or inspect its surface: station) with a planner
+and judge it (exit 0 feasible, 1 no feasible plan, 2 bad input)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import warnings
+
+from snakeplan.commands.common import (
+    EXIT_INFEASIBLE,
+    EXIT_OK,
+    UsageError,
+    as_option,
+    finite,
+    print_json,
+    seed,
+    status,
+    warning_line,
+)
+from snakeplan.commands.inputs import load_planner, load_scene, robot_for
+from snakeplan.commands.options import ROBOT_HELP, TRAJECTORY_HELP, scene_args, view_args
+from snakeplan.commands.trajectory import check_trajectories, write_trajectories
+from snakeplan.commands.views import check_picture, check_views, write_episode_views
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("plan", help="plan a tip path with a planner and judge it",
+                       description="Plan a path for a robot in a scene; the judge's verdict comes with it. "
+                                   "Exit 0 feasible, 1 no feasible plan, 2 bad input.")
+    scene_args(p)
+    p.add_argument("--robot", help=ROBOT_HELP)
+    p.add_argument("--planner", help="planner name (default: the best shipped planner for the scene)")
+    p.add_argument("--planner-seed", type=seed, default=0, help="the planner's random seed (default 0)")
+    p.add_argument("--policy", help="a trained policy file: .npz from 'snakeplan train rl' for sac-her, sac-per or "
+                                    "sac ('generalist': the shipped generalist), or from 'snakeplan train sscc' for "
+                                    "sscc (default: the shipped one for the scene and robot; the learned planners: "
+                                    "the generalist where the scene's family ships none)")
+    p.add_argument("--time-limit", type=finite, default=30.0, help="planning budget in seconds (default 30)")
+    p.add_argument("--knowledge", choices=("full", "sensed"), default="full",
+                   help="what the planner may know: the whole scene, or what its sensor revealed")
+    p.add_argument("--task", choices=("reach", "inspect"),
+                   help="reach the scene's targets, or inspect its surface (default: the scene's task)")
+    p.add_argument("--json", action="store_true", help="print snakeplan.plan/1 JSON")
+    p.add_argument("--plot", help="also write a PNG picture of the plan (an inspection mission: its maps)")
+    view_args(p, "the plan (an inspection mission: the camera's flight and the map filling in)")
+    p.add_argument("--trajectory", action="append", metavar="FILE", help=TRAJECTORY_HELP)
+    p.set_defaults(func=cmd_plan)
+
+
+def cmd_plan(args: argparse.Namespace) -> int:
+    from snakeplan.episode import run_episode
+    from snakeplan.planners import Problem
+    from snakeplan.scenes import spec_for
+
+    check_picture(args.plot, "--plot")
+    check_views(args)
+    check_trajectories(args.trajectory, "--trajectory")
+    scene = load_scene(args)
+    robot = robot_for(args, scene)
+    spec = spec_for(scene)
+    task = args.task or spec.task
+    options = {} if args.policy is None else {"policy": args.policy}
+    planner = load_planner(args.planner or spec.planner_for(task), **options)
+    blame = "--task" if args.task else "--planner"
+    try:
+        planner.check_task(task)
+    except ValueError as exc:
+        raise UsageError(f"{blame}: {str(exc).removeprefix('task: ')}; scene {scene.name}'s task is "
+                         f"{spec.task}") from None
+    try:
+        problem = Problem(scene, robot, time_limit_s=args.time_limit, knowledge=args.knowledge, task=task)
+    except ValueError as exc:
+        if args.task and str(exc).startswith("scene:"):
+            raise UsageError(f"--task: {str(exc).removeprefix('scene: ')}") from None
+        raise
+    with warnings.catch_warnings():
+        warnings.showwarning = warning_line
+        try:
+            episode = run_episode(problem, planner, seed=args.planner_seed)
+        except ValueError as exc:
+            raise ValueError(as_option(str(exc))) from None
+    plan = episode.plan
+    write_episode_views(args, episode, args.plot)
+    if args.json:
+        print_json(episode.to_dict())
+    else:
+        sys.stdout.write(f"{plan.planner} on {scene.name} (seed {scene.seed}) with {robot.name}: {status(plan)} "
+                         f"in {plan.compute_time_s:.3f} s\n")
+        if episode.report is not None:
+            sys.stdout.write("\n".join(episode.report.lines()) + "\n")
+    if args.trajectory:
+        if episode.report is None or plan.mission is not None:
+            sys.stderr.write("snakeplan: no trajectory: the planner returned no tip path to time"
+                             f"{' (a mission is its motions)' if plan.mission is not None else ''}\n")
+            return EXIT_INFEASIBLE
+        if write_trajectories(args.trajectory, scene, robot, plan.path, episode.report, plan.planner,
+                              planner_seed=args.planner_seed, status=str(plan.status)):
+            return EXIT_INFEASIBLE
+    return EXIT_OK if episode.success else EXIT_INFEASIBLE

@@ -1,0 +1,79 @@
+"""``snakeplan trajectory``: turn a plan file into the time-parameterised trajectory a controller runs; and the
+trajectory files of ``plan --trajectory``."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from snakeplan.commands.common import EXIT_INFEASIBLE, EXIT_OK, UsageError, seed
+from snakeplan.commands.inputs import load_robot, read_text, scene_dir
+from snakeplan.commands.options import TRAJECTORY_HELP
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("trajectory", help="turn a plan file into a trajectory a controller can run",
+                       description="Judge a plan (snakeplan.plan/1, as plan --json writes) and write its "
+                                   "time-parameterised trajectory: feed and joints (and cable lengths) at every "
+                                   "crawl step. Exit 0 written, 1 the plan is infeasible or the robot cannot "
+                                   "execute it, 2 bad input.")
+    p.add_argument("plan_file", metavar="PLAN.json", help="the plan file ('-' reads standard input)")
+    p.add_argument("--robot", help="robot preset or robot file (default: the plan's robot)")
+    p.add_argument("--scene", help="scene name (default: the plan's)")
+    p.add_argument("--seed", type=seed, help="scene seed (default: the plan's)")
+    p.add_argument("--scene-file", help="a scene JSON file (snakeplan.scene/1) instead of the plan's scene")
+    p.add_argument("-o", "--out", action="append", required=True, metavar="FILE", help=TRAJECTORY_HELP)
+    p.set_defaults(func=cmd_trajectory)
+
+
+def cmd_trajectory(args: argparse.Namespace) -> int:
+    from snakeplan.scenes import Scene, make_scene, spec_for
+    from snakeplan.trajectory import read_plan
+
+    check_trajectories(args.out, "-o")
+    plan = read_plan(read_text(args.plan_file, "PLAN"))
+    if args.scene_file:
+        scene = Scene.from_json(read_text(args.scene_file, "--scene-file"), "--scene-file",
+                                scene_dir(args.scene_file))
+    else:
+        name = args.scene or plan["scene"]["name"]
+        scene_seed = args.seed if args.seed is not None else plan["scene"]["seed"]
+        if name is None or scene_seed is None:
+            raise UsageError("--scene: the plan names no generated scene; give --scene and --seed, or --scene-file")
+        try:
+            scene = make_scene(name, scene_seed)
+        except KeyError as exc:
+            raise UsageError(f"--scene: {exc.args[0]}") from None
+    robot = load_robot(args.robot or plan["robot"] or spec_for(scene).robot)
+    return write_trajectories(args.out, scene, robot, plan["path"], None, plan["planner"],
+                              plan_file=Path(args.plan_file).name)
+
+
+def check_trajectories(filenames: list[str] | None, field: str) -> None:
+    """Refuse trajectory files that could not be written or whose name picks no format, before any work."""
+    if not filenames:
+        return
+    from snakeplan.trajectory import output_format
+
+    for filename in filenames or ():
+        output_format(filename, field)
+
+
+def write_trajectories(filenames: list[str], scene, robot, path, report, planner: str, **source) -> int:
+    """Build the trajectory of a judged path and write it to every file; exit status 1 (one line on stderr) when
+    the plan cannot become one. Its provenance: the scene, the planner and ``source`` (where the path came
+    from: the planner's seed and status, or the plan file)."""
+    from snakeplan.trajectory import InfeasiblePlan, build_trajectory, write
+
+    provenance = {"scene": {"name": scene.name, "seed": scene.seed}, "planner": planner, **source}
+    try:
+        traj = build_trajectory(scene, robot, path, provenance, report)
+    except InfeasiblePlan as exc:
+        sys.stderr.write(f"snakeplan: no trajectory: {exc}\n")
+        return EXIT_INFEASIBLE
+    for filename in filenames:
+        kind = write(traj, filename)
+        sys.stderr.write(f"wrote {filename} ({kind}: {len(traj.t)} points, {traj.timing.duration_s:.2f} s, "
+                         f"{traj.method})\n")
+    return EXIT_OK
