@@ -330,3 +330,16 @@ def test_bench_kernels_reports_each_kernel_beside_its_baseline(capsys):
     assert code == 0 and result["rollout_steps"] > 0
     for kernel in ("collision", "clearance", "ftl", "rollout"):
         assert result[f"{kernel}_speedup_vs_baseline"] > 0.0
+
+
+def test_a_task_the_scene_or_the_planner_does_not_do_is_one_line_exit_2_and_nothing_written(tmp_path, capsys):
+    png = tmp_path / "plan.png"
+    code, out, err = run(capsys, "plan", "--scene", "fuel-tank", "--task", "inspect", "--plot", str(png))
+    assert (code, out) == (2, "") and err == "snakeplan: error: --task: fuel-tank has no surface field to inspect\n"
+    code, out, err = run(capsys, "plan", "--scene", "station", "--task", "inspect", "--planner", "sp-rrt", "--plot",
+                         str(png))
+    assert (code, out) == (2, "") and err == ("snakeplan: error: --task: planner sp-rrt does not inspect (it does: "
+                                              "reach); scene station's task is inspect\n")
+    code, out, err = run(capsys, "plan", "--scene", "station", "--task", "reach", "--plot", str(png))
+    assert (code, out) == (2, "") and err == "snakeplan: error: --task: station has no targets to plan to\n"
+    assert not png.exists()

@@ -61,10 +61,10 @@ def write_views(args: argparse.Namespace, scene, robot, path, report, planner: s
 def write_episode_views(args: argparse.Namespace, episode, plot: str | None) -> None:
     """Write the picture, video and page a planning command was asked for, whatever the episode's task (each named
     on stderr, or why not)."""
-    from snakeplan import viz
+    from snakeplan.viz import episode as views
 
     if plot:
-        viz.episode.save_episode_plot(plot, episode)
+        views.save_episode_plot(plot, episode)
         sys.stderr.write(f"wrote {plot}\n")
     if args.animate is None and args.html is None:
         return
@@ -72,9 +72,9 @@ def write_episode_views(args: argparse.Namespace, episode, plot: str | None) -> 
         sys.stderr.write("snakeplan: no video or page: there is no path to show\n")
         return
     if args.animate is not None:
-        frames = viz.episode.save_episode_video(args.animate, episode, args.frames, args.fps, args.frame_size,
-                                                sys.stderr.isatty())
+        frames = views.save_episode_video(args.animate, episode, args.frames, args.fps, args.frame_size,
+                                          sys.stderr.isatty())
         sys.stderr.write(f"wrote {args.animate} ({frames} frames at {args.fps:g} fps)\n")
     if args.html is not None:
-        viz.episode.save_episode_page(args.html, episode, HTML_FRAMES)
+        views.save_episode_page(args.html, episode, HTML_FRAMES)
         sys.stderr.write(f"wrote {args.html}\n")

@@ -22,6 +22,7 @@ from snakeplan.mapping import GaussianMap, SurfaceCamera, surface_prior
 from snakeplan.mapping.camera import CameraModel
 from snakeplan.robots import Chain
 from snakeplan.scenes import Scene
+from snakeplan.threads import single_threaded
 from snakeplan.world import JUDGE, REACH_TOLERANCE_MM, FullView, ValidityChecker
 from snakeplan.world.joint_motion import MotionFailure, interpolate
 from snakeplan.world.mission import Crawl, JointMotion, Mission, inspected_surface, mission_rngs
@@ -165,7 +166,13 @@ def measure_views(scene: Scene, mission: Mission, on_measure: Callable[[float, n
 
 def evaluate_mission(scene: Scene, robot: Chain, mission: Mission) -> MissionReport:
     """Judge ``mission`` of ``robot`` in ``scene`` (see the module); ValueError for a scene with no surface to
-    inspect."""
+    inspect. BLAS runs on one thread (:mod:`snakeplan.threads`), as the mission did: the map's small updates are
+    faster so, and the same bits in any process."""
+    with single_threaded():
+        return _evaluate_mission(scene, robot, mission)
+
+
+def _evaluate_mission(scene: Scene, robot: Chain, mission: Mission) -> MissionReport:
     inspected_surface(scene)
     checker = ValidityChecker(FullView(scene), robot, JUDGE)
     failure: MissionFailure | None = None

@@ -75,8 +75,9 @@ class InspectionPlanner(Planner):
     def warm_up(self, problem: Problem) -> None:
         """Build the survey and load the map's kernels before the first mission's clock starts."""
         super().warm_up(problem)
-        self.survey(problem)
-        kalman.warm_up()
+        if problem.task is Task.INSPECT:
+            self.survey(problem)
+            kalman.warm_up()
 
     def fly(self, problem: Problem, seed: int = 0,
             on_measure: Callable[[float, np.ndarray, GaussianMap], None] | None = None) -> FlownMission:
