@@ -61,6 +61,8 @@ def write_views(args: argparse.Namespace, scene, robot, path, report, planner: s
 def write_episode_views(args: argparse.Namespace, episode, plot: str | None) -> None:
     """Write the picture, video and page a planning command was asked for, whatever the episode's task (each named
     on stderr, or why not)."""
+    if not plot and args.animate is None and args.html is None:
+        return
     from snakeplan.viz import episode as views
 
     if plot:

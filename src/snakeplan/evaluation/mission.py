@@ -18,8 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from snakeplan.geometry.polyline import cumulative_length
-from snakeplan.mapping import GaussianMap, SurfaceCamera, surface_prior
-from snakeplan.mapping.camera import CameraModel
+from snakeplan.mapping.models import CameraModel
 from snakeplan.robots import Chain
 from snakeplan.scenes import Scene
 from snakeplan.threads import single_threaded
@@ -88,11 +87,13 @@ class MissionReport:
                       f"final RMSE {self.rmse_k[-1]:.3f} K, min clearance {self.min_clearance_mm:.1f} mm"]
 
 
-_CAMERAS: dict[tuple, SurfaceCamera] = {}
+_CAMERAS: dict[tuple, object] = {}
 
 
-def _camera(mesh, model: CameraModel) -> SurfaceCamera:
-    """The camera bound to the inspected surface, kept per mesh content and camera model."""
+def _camera(mesh, model: CameraModel):
+    """The camera bound to the inspected surface (a ``SurfaceCamera``), kept per mesh content and camera model."""
+    from snakeplan.mapping import SurfaceCamera
+
     key = (mesh.fingerprint, model)
     if key not in _CAMERAS:
         _CAMERAS[key] = SurfaceCamera(mesh.vertices, mesh.faces, model)
@@ -139,12 +140,15 @@ def _ends(checker: ValidityChecker, motion) -> tuple[np.ndarray, np.ndarray]:
     return tips[0], tips[1]
 
 
-def measure_views(scene: Scene, mission: Mission, on_measure: Callable[[float, np.ndarray, GaussianMap], None]
-                  | None = None) -> tuple[GaussianMap, np.ndarray, list[float], list[float]]:
+def measure_views(scene: Scene, mission: Mission, on_measure: Callable[[float, np.ndarray, object], None] | None = None
+                  ) -> tuple[object, np.ndarray, list[float], list[float]]:
     """Measure again from every view of ``mission``: sightings by ray casts against the inspected surface, the
     simulated measurements drawn from the mission's measurement seed, fused into the map from its prior. Returns
-    (the final map, which surface nodes were seen, the RMSE (K) and covariance trace (K^2) after each view);
-    ``on_measure(t, position, map)`` sees the map after each."""
+    (the final map, a ``GaussianMap``; which surface nodes were seen; the RMSE (K) and covariance trace (K^2) after
+    each view); ``on_measure(t, position, map)`` sees the map after each. The mapping machinery loads here, for a
+    mission only."""
+    from snakeplan.mapping import GaussianMap, surface_prior
+
     surface, truth = inspected_surface(scene)
     s, views = mission.settings, mission.views
     prior = surface_prior(surface.vertices, surface.faces, s.prior_mean(scene.metadata), s.sigma_f, s.length_scale)

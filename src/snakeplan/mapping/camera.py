@@ -8,10 +8,7 @@ A node x (unit normal n) is measured by a camera at c looking along unit v when
 The measurement is the true value plus Gaussian noise of variance a (1 - exp(-b d)), d in metres, a = 0.04 K^2,
 b = 0.15 /m (Popovic et al.'s model, the pair of paper 002).
 
-Defaults for a 12 m x 20 m station seen from a few metres: a 60 deg lens (30 deg half-angle, a common thermal
-camera), 0.5-8 m working range (closer than 0.5 m the arm risks touching the skin, beyond 8 m a pixel covers
-more than a mesh triangle), and 60 deg maximum incidence (beyond it the emissivity of a metal skin falls
-quickly, so a thermal reading is no longer trusted).
+The model's parameters and defaults: :mod:`snakeplan.mapping.models`.
 """
 
 from __future__ import annotations
@@ -21,40 +18,13 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import trimesh
 from numpy.typing import ArrayLike
 
 from snakeplan.jit import kernel
-from snakeplan.mapping.gp import vertex_normals
+from snakeplan.mapping.models import CameraModel
 
-#: Half-angle (rad) of the circular field of view.
-FOV_HALF_ANGLE_RAD = math.radians(30.0)
-#: Working range (mm).
-D_MIN_MM = 500.0
-D_MAX_MM = 8000.0
-#: Largest incidence angle (rad) between a node's normal and its line of sight.
-INCIDENCE_MAX_RAD = math.radians(60.0)
-#: Noise model: variance NOISE_A (K^2) * (1 - exp(-NOISE_B (1/m) * d (m))).
-NOISE_A = 0.04
-NOISE_B_PER_M = 0.15
 #: A ray starts this far (mm) from its node, so the node's own faces do not hide it.
 OCCLUSION_EPS_MM = 1.0
-
-
-@dataclass(frozen=True)
-class CameraModel:
-    """Field of view (rad), range (mm), largest incidence (rad) and noise pair (K^2, 1/m)."""
-
-    fov_half_angle: float = FOV_HALF_ANGLE_RAD
-    d_min: float = D_MIN_MM
-    d_max: float = D_MAX_MM
-    incidence_max: float = INCIDENCE_MAX_RAD
-    noise_a: float = NOISE_A
-    noise_b: float = NOISE_B_PER_M
-
-    def noise_variance(self, distance_mm: ArrayLike) -> np.ndarray:
-        """Measurement variance (K^2) at camera-to-node distance ``distance_mm``."""
-        return self.noise_a * (1.0 - np.exp(-self.noise_b * np.asarray(distance_mm, dtype=float) / 1000.0))
 
 
 @dataclass(frozen=True)
@@ -79,6 +49,10 @@ class SurfaceCamera:
 
     def __init__(self, vertices: ArrayLike, faces: ArrayLike, model: CameraModel | None = None,
                  occluders: Sequence[tuple[ArrayLike, ArrayLike]] = ()) -> None:
+        import trimesh  # the ray caster, only where a camera is bound to a surface
+
+        from snakeplan.mapping.gp import vertex_normals
+
         self.model = model or CameraModel()
         self.nodes = np.asarray(vertices, dtype=float)
         F = np.asarray(faces, dtype=np.int64)

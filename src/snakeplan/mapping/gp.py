@@ -36,11 +36,8 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components, dijkstra
 from scipy.spatial import ConvexHull
 
-#: Prior standard deviation of the field (K): the RMS deviation of station fields (seeds 100-119, not the bench
-#: seeds) from their base temperature. Matérn length scale (mm): the best hold-out RMSE among 2-5 m on those
-#: seeds (posterior from 10 % and 30 % of the nodes).
-DEFAULT_SIGMA_F = 23.5
-DEFAULT_LENGTH_SCALE_MM = 3500.0
+from snakeplan.mapping.models import DEFAULT_LENGTH_SCALE_MM, DEFAULT_SIGMA_F
+
 #: Eigenvalue floor of the positive-definite fix, relative to sigma_f^2.
 PD_FLOOR_REL = 1e-6
 #: Two faces count as coplanar when their unit normals differ by less than this (rad).

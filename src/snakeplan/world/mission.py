@@ -18,8 +18,7 @@ import numpy as np
 
 from snakeplan.geometry.polyline import validate_path
 from snakeplan.geometry.primitives import Mesh
-from snakeplan.mapping.camera import CameraModel
-from snakeplan.mapping.gp import DEFAULT_LENGTH_SCALE_MM, DEFAULT_SIGMA_F
+from snakeplan.mapping.models import DEFAULT_LENGTH_SCALE_MM, DEFAULT_SIGMA_F, CameraModel
 from snakeplan.scenes import Scene
 
 #: Motion budget of a mission (s), paper 002 §4.

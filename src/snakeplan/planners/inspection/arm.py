@@ -24,8 +24,8 @@ from snakeplan.scenes.station import StationFrame
 from snakeplan.world import ValidityChecker
 from snakeplan.world.joint_motion import JointMotionCheck
 
-#: Arc (mm, on the carriage's ring) by which the carriage trails the camera's azimuth. 4000 mm holds 344 of the
-#: 362 library viewpoints (2500 mm: 312; 6000 mm: none): all but the inner end-cap rings.
+#: Arc (mm, on the carriage's ring) by which the carriage trails the camera's azimuth: the lead among those tried
+#: that lets the arm hold the most library viewpoints (docs/ARCHITECTURE.md, "The judge of missions").
 CARRIAGE_LEAD_MM = 4000.0
 #: Inverse kinematics: iterations, random restarts and seed of a cold solve, iterations of a warm one (from the
 #: previous configuration along a path), tolerance (mm).
