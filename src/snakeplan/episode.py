@@ -49,7 +49,8 @@ class Episode:
         scene, plan = self.problem.scene, self.plan
         doc = {"schema": SCHEMAS[self.problem.task], "task": str(self.problem.task),
                "scene": {"name": scene.name, "seed": scene.seed},
-               "robot": self.problem.robot.name, "planner": plan.planner, "knowledge": self.problem.knowledge,
+               "robot": self.problem.robot.name, "arm": self.problem.robot.to_dict(), "planner": plan.planner,
+               "knowledge": self.problem.knowledge,
                "success": self.success, "reason": self.reason, "status": str(plan.status),
                "compute_time_s": plan.compute_time_s,
                "path": plan.path.tolist() if plan.path is not None else [],

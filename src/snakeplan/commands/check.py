@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from snakeplan.commands.common import EXIT_INFEASIBLE, EXIT_OK, print_json
-from snakeplan.commands.inputs import load_path_file, load_scene, robot_for
+from snakeplan.commands.common import EXIT_INFEASIBLE, EXIT_OK, UsageError, print_json
+from snakeplan.commands.inputs import load_plan_file, load_scene, robot_for
 from snakeplan.commands.options import ROBOT_HELP, scene_args, view_args
 from snakeplan.commands.views import check_picture, check_views, write_plot, write_views
 
@@ -16,7 +16,7 @@ def add_parser(sub) -> None:
                        description="Judge a tip path ({\"path\": [[x, y, z], ...]}, any plan file will do) with "
                                    "snakeplan's judge. Exit 0 feasible, 1 infeasible, 2 bad input.")
     scene_args(p)
-    p.add_argument("--robot", help=ROBOT_HELP)
+    p.add_argument("--robot", help=ROBOT_HELP + "; a plan file's own arm is used when it carries one")
     p.add_argument("--json", action="store_true", help="print the verdict as JSON")
     p.add_argument("--plot", help="also write a PNG picture of the judged path")
     view_args(p, "the arm crawling along the path")
@@ -31,8 +31,12 @@ def cmd_check(args: argparse.Namespace) -> int:
     check_picture(args.plot, "--plot")
     check_views(args)
     scene = load_scene(args)
-    robot = robot_for(args, scene)
-    path = load_path_file(args.path_file)
+    path, arm = load_plan_file(args.path_file)
+    robot = robot_for(args, scene) if arm is None else arm
+    if arm is not None and args.robot is not None and robot_for(args, scene).to_dict() != arm.to_dict():
+        raise UsageError(f"--robot: {args.robot} is not the arm the plan was made with ({arm.name}); check judges "
+                         f"a plan with its own arm: leave --robot out")
+    source = "--robot" if args.robot else "the plan's" if arm is not None else "the scene's"
     report = evaluate(scene, robot, path)
     if args.plot:
         write_plot(args.plot, scene, robot, path, report)
@@ -40,5 +44,5 @@ def cmd_check(args: argparse.Namespace) -> int:
     if args.json:
         print_json(check_document(scene, robot, report))
     else:
-        sys.stdout.write("\n".join(report.lines()) + "\n")
+        sys.stdout.write(f"arm: {robot.name} ({source})\n" + "\n".join(report.lines()) + "\n")
     return EXIT_OK if report.success else EXIT_INFEASIBLE

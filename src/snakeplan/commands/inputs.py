@@ -36,8 +36,8 @@ def robot_for(args: argparse.Namespace, scene):
     return load_robot(args.robot or spec_for(scene).robot)
 
 
-def load_robot(spec: str, field: str = "--robot"):
-    """A robot preset or robot file."""
+def load_robot(spec: str | dict, field: str = "--robot"):
+    """A robot preset, robot file or robot/1 body."""
     from snakeplan.robots import load_robot as load
 
     try:
@@ -72,6 +72,12 @@ def read_text(filename: str, field: str) -> str:
 def load_path_file(filename: str) -> np.ndarray:
     """Read ``{"path": [[x, y, z], ...]}`` (any plan file will do: other fields are ignored); at least 2 points of
     real numbers. ValueError names the field (``path[3][1]``), or ``PATH`` for the file as a whole."""
+    return load_plan_file(filename)[0]
+
+
+def load_plan_file(filename: str) -> tuple[np.ndarray, object | None]:
+    """(the path of a path or plan file, as :func:`load_path_file` reads it; the arm a plan document carries, its
+    ``arm``, a robot, or None when the file holds none). A bad ``arm`` is one line naming ``arm``."""
     from snakeplan.inputs import load_json, points, show
 
     data = load_json(read_text(filename, "PATH"), "PATH")
@@ -79,7 +85,13 @@ def load_path_file(filename: str) -> np.ndarray:
         raise ValueError(f'PATH: expected an object with a "path" list of [x, y, z], got {show(data)}')
     if "path" not in data:
         raise ValueError('path: missing; PATH must hold an object with a "path" list of [x, y, z]')
-    return points(data["path"], "path", min_count=2)
+    path = points(data["path"], "path", min_count=2)
+    arm = data.get("arm")
+    if arm is None:
+        return path, None
+    if not isinstance(arm, dict):
+        raise UsageError(f"arm: expected a snakeplan.robot/1 object, got {show(arm)}")
+    return path, load_robot(arm, "arm")
 
 
 def load_planner(name: str, **options):

@@ -150,11 +150,13 @@ def register_robot(name: str, factory: Callable[[], Chain]) -> None:
 ROBOT_FILES = {".urdf": "URDF", ".xml": "URDF", ".yaml": "DH YAML", ".yml": "DH YAML", ".json": "snakeplan.robot/1"}
 
 
-def load_robot(spec: str) -> Chain:
+def load_robot(spec: str | dict) -> Chain:
     """A robot by preset name, or from a file by its suffix: ``.urdf``/``.xml`` (:func:`~snakeplan.robots.urdf.
     from_urdf`), ``.yaml``/``.yml`` (a DH table, :func:`~snakeplan.robots.dh.load_dh`) or ``.json``
-    (``snakeplan.robot/1``, :meth:`Chain.from_dict`). ValueError with one line naming what is wrong (an unknown name
-    lists the presets)."""
+    (``snakeplan.robot/1``, :meth:`Chain.from_dict`), or a ``snakeplan.robot/1`` body itself (the ``arm`` a plan
+    document carries). ValueError with one line naming what is wrong (an unknown name lists the presets)."""
+    if isinstance(spec, dict):
+        return Chain.from_dict(spec)
     if spec in ROBOTS:
         return get_robot(spec)
     path = Path(spec)

@@ -3,11 +3,11 @@ configuration that puts its tip there (inverse kinematics with the feed), and th
 continuously, every step checked by the one validity checker (mm, rad).
 
 The arm (10 x 800 mm and a 0..2000 mm feed) cannot reach round a 12 m x 20 m module from one place, so its feed
-stage rides a carriage on rails round the side (like Canadarm2's mobile base on the ISS truss), the base the
-entrance's stand-off off the skin, feeding along the outward normal. The carriage's place is a continuous function
-of the camera position: at the camera's height (held between the rims) and CARRIAGE_LEAD_MM of arc behind its
-azimuth, so the arm goes out and bends round the skin to the camera; as the camera moves along a path the carriage
-glides with it. The camera rides a pan-tilt on the tip that keeps it aimed at the closest point of the station,
+stage rides a carriage on rails over the skin (like Canadarm2's mobile base on the ISS truss), the base the
+entrance's stand-off off the skin (round a rim, off its edge), feeding along the outward normal. The carriage's
+place is a continuous function of the camera position: CARRIAGE_LEAD_MM of arc behind its azimuth, at its height
+beside the side, and over an end cap as far past the rim as the camera is beyond it (scaled), so the arm goes out
+and bends round the skin to the camera; as the camera moves along a path the carriage glides with it. The camera rides a pan-tilt on the tip that keeps it aimed at the closest point of the station,
 so a view fixes the tip's position only.
 """
 
@@ -27,6 +27,11 @@ from snakeplan.world.joint_motion import JointMotionCheck
 #: Arc (mm, on the carriage's ring) by which the carriage trails the camera's azimuth: the lead among those tried
 #: that lets the arm hold the most library viewpoints (docs/ARCHITECTURE.md, "The judge of missions").
 CARRIAGE_LEAD_MM = 4000.0
+#: Carriage travel (mm) along the rail's profile past a rim per mm of the camera beyond it: a camera 4000 mm over an
+#: end cap (the library's cap rings) puts the carriage round the rim and 1000 mm in over the cap.
+RIM_LEAD_GAIN = (500.0 * math.pi / 2.0 + 1000.0) / 4000.0
+#: The carriage stays this far (mm) from the cap's centre, where its azimuth is undefined.
+CAP_CENTRE_CLEARANCE_MM = 500.0
 #: Inverse kinematics: iterations, random restarts and seed of a cold solve, iterations of a warm one (from the
 #: previous configuration along a path), tolerance (mm).
 IK_ITERATIONS = 150
@@ -75,17 +80,35 @@ class StationArm:
         self._cold: dict[bytes, tuple[bool, np.ndarray, np.ndarray]] = {}
 
     def carriage(self, point: ArrayLike) -> np.ndarray:
-        """The carriage pose (4x4; +z the skin's outward normal, the arm's feed axis; +x up the station's axis) for
-        a camera position (3,) mm."""
+        """The carriage pose (4x4; +z the rail's outward normal, the arm's feed axis; +x along the rail's profile,
+        up the side) for a camera position (3,) mm: beside the side at the camera's height; for a camera beyond a
+        rim, RIM_LEAD_GAIN mm along the profile past the rim per mm beyond it, round the rim's quarter circle (the
+        rail keeps the stand-off from the rim's edge) and in over the end cap. CARRIAGE_LEAD_MM of arc behind the
+        camera's azimuth throughout."""
         f = self.frame
         _, theta, z = (float(v) for v in f.cylindrical(np.asarray(point, dtype=float)))
-        ring = f.radius + f.entrance_standoff
-        tb = theta - CARRIAGE_LEAD_MM / ring
+        s, R, H = f.entrance_standoff, f.radius, f.height
+        tb = theta - CARRIAGE_LEAD_MM / (R + s)
+        radial = np.array([math.cos(tb), math.sin(tb), 0.0])
+        up = np.array([0.0, 0.0, 1.0])
+        if 0.0 <= z <= H:
+            rho, height, normal, along = R + s, z, radial, up
+        else:
+            sign, edge = (1.0, H) if z > H else (-1.0, 0.0)
+            travel = RIM_LEAD_GAIN * abs(z - edge)
+            arc = s * math.pi / 2.0
+            if travel <= arc:
+                phi = travel / s
+                rho, height = R + s * math.cos(phi), edge + sign * s * math.sin(phi)
+                normal = math.cos(phi) * radial + sign * math.sin(phi) * up
+                along = -sign * math.sin(phi) * radial + math.cos(phi) * up
+            else:
+                rho, height = max(R - (travel - arc), CAP_CENTRE_CLEARANCE_MM), edge + sign * s
+                normal, along = sign * up, -sign * radial
         T = np.eye(4)
-        T[:3, 2] = [math.cos(tb), math.sin(tb), 0.0]
-        T[:3, 0] = [0.0, 0.0, 1.0]
-        T[:3, 1] = np.cross(T[:3, 2], T[:3, 0])
-        T[:3, 3] = f.point(ring, tb, min(max(z, 0.0), f.height))
+        T[:3, 2], T[:3, 0] = normal, along
+        T[:3, 1] = np.cross(normal, along)
+        T[:3, 3] = f.point(rho, tb, height)
         return T
 
     def _valid(self, T: np.ndarray, q: np.ndarray) -> bool:

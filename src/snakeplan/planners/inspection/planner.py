@@ -90,8 +90,14 @@ class InspectionPlanner(Planner):
         return fly(self.name, self.next_path, problem.inspection, world, truth, seed, problem.time_limit_s,
                    on_measure)
 
+    def plan(self, problem: Problem, seed: int = 0):
+        """Plan (fly) the mission from ``seed``: the mission's own seed, as :meth:`fly` takes it (the planner's
+        generator and the measurements' noise are its two streams, as before missions were plans)."""
+        self._seed = int(seed)
+        return super().plan(problem, seed)
+
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float):
-        flown = self.fly(problem, int(rng.integers(2**32)))
+        flown = self.fly(problem, self._seed)
         status = _STOPPED.get(flown.stopped)
         status = Status.FOUND if status is None else Status.APPROXIMATE
         return status, flown.path, mission_details(flown, self.survey(problem)), flown.mission

@@ -32,7 +32,7 @@ from snakeplan.world.mission import InspectionSettings, inspected_surface
 #: Keep-out distance (mm) of the camera from the skin: eq. 16's r.
 KEEP_OUT_MM = 1500.0
 #: Camera positions farther than this (mm) from every viewpoint the arm holds count as out of its reach.
-REACH_RADIUS_MM = 1500.0
+REACH_RADIUS_MM = 2500.0
 
 
 @dataclass
