@@ -343,3 +343,32 @@ def test_a_task_the_scene_or_the_planner_does_not_do_is_one_line_exit_2_and_noth
     code, out, err = run(capsys, "plan", "--scene", "station", "--task", "reach", "--plot", str(png))
     assert (code, out) == (2, "") and err == "snakeplan: error: --task: station has no targets to plan to\n"
     assert not png.exists()
+
+
+def test_check_judges_a_plan_with_the_arm_it_was_made_with(tmp_path, capsys):
+    """A plan made for one's own (thinner) arm is judged with that arm, says so, and refuses another --robot."""
+    from snakeplan.evaluation import evaluate
+    from snakeplan.robots import get_robot
+    from snakeplan.scenes import make_scene
+
+    arm = get_robot("sjtu-snake-iii").to_dict()
+    arm["name"] = "thin-arm"
+    for section in arm["sections"]:
+        section["radius"] = 12.0
+    arm_file = tmp_path / "thin.json"
+    arm_file.write_text(json.dumps(arm))
+    code, out, _ = run(capsys, "plan", "--seed", "2", "--planner", "as-rrt", "--robot", str(arm_file), "--json")
+    plan_file = tmp_path / "plan.json"
+    plan_file.write_text(out)
+    code, out, err = run(capsys, "check", "--seed", "2", str(plan_file))
+    assert out.splitlines()[0] == "arm: thin-arm (the plan's)"
+    scene, path = make_scene("fuel-tank", 2), np.asarray(json.loads(plan_file.read_text())["path"])
+    judged = float(out.split("min_clearance_mm")[1].split()[0])
+    ours = evaluate(scene, get_robot("sjtu-snake-iii").__class__.from_dict(arm), path).min_clearance_mm
+    theirs = evaluate(scene, get_robot("sjtu-snake-iii"), path).min_clearance_mm
+    assert judged == pytest.approx(ours, abs=1e-3) and abs(ours - theirs) > 10.0
+    code, out, err = run(capsys, "check", "--seed", "2", "--robot", "sjtu-snake-iii", str(plan_file))
+    assert (code, out) == (2, "") and err.startswith("snakeplan: error: --robot: sjtu-snake-iii is not the arm the "
+                                                     "plan was made with (thin-arm)") and err.count("\n") == 1
+    code, out, _ = run(capsys, "check", "--seed", "2", "--robot", str(arm_file), str(plan_file))
+    assert out.splitlines()[0] == "arm: thin-arm (--robot)"
