@@ -77,13 +77,22 @@ class JudgedMission:
     trace: np.ndarray
     final_mean_k: np.ndarray
     final_variance_k2: np.ndarray
+    body_times: np.ndarray | None = None
+    bodies: np.ndarray | None = None
 
     @classmethod
     def of(cls, episode) -> JudgedMission:
-        """The judged mission of an inspect episode."""
+        """The judged mission of an inspect episode, with the arm's body (joint positions, mm) at every sample of
+        its joint motions."""
+        from snakeplan.world.joint_motion import arm_bodies
+        from snakeplan.world.mission import JointMotion
+
         plan, report = episode.plan, episode.report
+        motions = [m for m in plan.mission.motions if isinstance(m, JointMotion)]
+        times = np.concatenate([m.times_s for m in motions]) if motions else None
+        bodies = np.concatenate([arm_bodies(episode.problem.robot, m.bases, m.q) for m in motions]) if motions else None
         return cls(plan.planner, plan.path, np.asarray(plan.details["path_times_s"], dtype=float), report.rmse_k,
-                   report.trace_k2, report.final_mean_k, report.final_variance_k2)
+                   report.trace_k2, report.final_mean_k, report.final_variance_k2, times, bodies)
 
 
 def mission_title(scene: Scene, robot_name: str, result) -> str:
@@ -143,7 +152,8 @@ def mission_frames_rgb(scene: Scene, result, record: MissionRecord, frames: int,
     span = np.ptp(np.vstack([V, result.path]), axis=0) / 1000.0
     ax3.set_box_aspect(tuple(span))
     ax3.tick_params(labelsize=6 * scale)
-    ax3.set_title("camera path (m)", fontsize=8 * scale)
+    ax3.set_title("camera path and the arm (m)" if getattr(result, "bodies", None) is not None
+                  else "camera path (m)", fontsize=8 * scale)
     lo, hi = float(min(truth.min(), np.min(record.means))), float(max(truth.max(), np.max(record.means)))
     vmax = float(np.max(record.variances[0]))
     panels = []
@@ -166,8 +176,11 @@ def mission_frames_rgb(scene: Scene, result, record: MissionRecord, frames: int,
     # added after the full draw: a 3-D axes' own draw would ask these 2-D artists for a 3-D projection
     flown = LineCollection([], colors=["tab:red"], linewidths=1.6 * scale, animated=True)
     cam = Line2D([], [], marker="o", ms=7 * scale, color="tab:red", mec="black", ls="", animated=True)
+    arm = LineCollection([], colors=["0.2"], linewidths=2.4 * scale, animated=True)
     ax3.add_artist(flown)
+    ax3.add_artist(arm)
     ax3.add_artist(cam)
+    bodies = getattr(result, "bodies", None)
 
     duration = float(result.path_times[-1])
     times = np.linspace(0.0, duration, frames)
@@ -180,6 +193,11 @@ def mission_frames_rgb(scene: Scene, result, record: MissionRecord, frames: int,
         px, py, _ = proj3d.proj_transform(*(done / 1000.0).T, proj)
         flown.set_segments([np.column_stack([px, py])])
         ax3.draw_artist(flown)
+        if bodies is not None:
+            b = bodies[int(np.clip(np.searchsorted(result.body_times, t, side="right") - 1, 0, len(bodies) - 1))]
+            bx, by, _ = proj3d.proj_transform(*(b / 1000.0).T, proj)
+            arm.set_segments([np.column_stack([bx, by])])
+            ax3.draw_artist(arm)
         cam.set_data(px[-1:], py[-1:])
         ax3.draw_artist(cam)
         j = int(idx[k])

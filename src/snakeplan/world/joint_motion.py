@@ -71,6 +71,14 @@ def interpolate(bases: np.ndarray, q: np.ndarray, i: int, s: np.ndarray) -> tupl
     return T, q[i] + s[:, None] * (q[i + 1] - q[i])
 
 
+def arm_bodies(robot: Chain, bases: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Joint positions (k, n+1, 3) mm, world frame, of ``robot`` at base poses (k, 4, 4) and joints (k, dof): the
+    chain as it is placed at each base (its own base pose replaced)."""
+    p = robot.joint_positions(q)
+    M = np.asarray(bases) @ np.linalg.inv(robot.base)
+    return np.einsum("kij,knj->kni", M[:, :3, :3], p) + M[:, None, :3, 3]
+
+
 class JointMotionCheck:
     """Checks joint motions of ``robot`` against ``obstacles`` under ``tolerances`` inside the box [lo, hi]."""
 
@@ -90,13 +98,10 @@ class JointMotionCheck:
             feed = max(abs(v) for v in robot.feed_range)
         self.arm = float(robot.total_length)
         self.reach = self.arm + feed
-        self._local = np.linalg.inv(robot.base)
 
     def bodies(self, bases: np.ndarray, q: np.ndarray) -> np.ndarray:
         """Joint positions (k, n+1, 3) mm, world frame, of the arm at base poses (k, 4, 4) and joints (k, dof)."""
-        p = self.robot.joint_positions(q)
-        M = bases @ self._local
-        return np.einsum("kij,knj->kni", M[:, :3, :3], p) + M[:, None, :3, 3]
+        return arm_bodies(self.robot, bases, q)
 
     def bend_angles(self, bases: np.ndarray, bodies: np.ndarray) -> np.ndarray:
         """Bends (k, n) rad: section 0 against the base's +z (the feed axis), then section against section."""
