@@ -372,3 +372,30 @@ def test_check_judges_a_plan_with_the_arm_it_was_made_with(tmp_path, capsys):
                                                      "plan was made with (thin-arm)") and err.count("\n") == 1
     code, out, _ = run(capsys, "check", "--seed", "2", "--robot", str(arm_file), str(plan_file))
     assert out.splitlines()[0] == "arm: thin-arm (--robot)"
+
+
+def test_check_judges_an_inspect_plans_mission_from_its_document_alone(tmp_path, capsys, monkeypatch):
+    """plan's inspection document, given to check, is judged again the same way; a view moved off the arm in the
+    file is refused."""
+    import snakeplan.world.mission as missions
+    from snakeplan.world.mission import InspectionSettings
+
+    monkeypatch.setattr(missions, "default_settings", lambda scene: InspectionSettings(budget_s=16.0))
+    code, out, _ = run(capsys, "plan", "--scene", "station", "--planner", "coverage", "--json")
+    doc = json.loads(out)
+    assert code == 0 and doc["mission"]["settings"]["budget_s"] == 16.0
+    plan_file = tmp_path / "mission.json"
+    plan_file.write_text(out)
+    code, out, _ = run(capsys, "check", "--scene", "station", "--json", str(plan_file))
+    checked = json.loads(out)
+    assert code == 0 and checked["success"] and checked["reason"] == "inspected"
+    assert checked["metrics"]["rmse_k"] == doc["metrics"]["rmse_k"]
+    doc["mission"]["views"]["positions"][2][0] += 100.0
+    plan_file.write_text(json.dumps(doc))
+    code, out, _ = run(capsys, "check", "--scene", "station", str(plan_file))
+    assert code == 1 and out.splitlines()[:2] == ["arm: hsr-10 (the plan's)", out.splitlines()[1]]
+    assert "view_off_arm" in out.splitlines()[1]
+    doc["mission"]["motions"][0]["q"] = "nope"
+    plan_file.write_text(json.dumps(doc))
+    code, out, err = run(capsys, "check", "--scene", "station", str(plan_file))
+    assert (code, out) == (2, "") and err.startswith("snakeplan: error: mission.motions[0]: ") and err.count("\n") == 1

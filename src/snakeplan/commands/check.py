@@ -8,7 +8,7 @@ import sys
 from snakeplan.commands.common import EXIT_INFEASIBLE, EXIT_OK, UsageError, print_json
 from snakeplan.commands.inputs import load_plan_file, load_scene, robot_for
 from snakeplan.commands.options import ROBOT_HELP, scene_args, view_args
-from snakeplan.commands.views import check_picture, check_views, write_plot, write_views
+from snakeplan.commands.views import check_picture, check_views, write_episode_views, write_plot, write_views
 
 
 def add_parser(sub) -> None:
@@ -31,16 +31,38 @@ def cmd_check(args: argparse.Namespace) -> int:
     check_picture(args.plot, "--plot")
     check_views(args)
     scene = load_scene(args)
-    path, arm = load_plan_file(args.path_file)
+    path, arm, mission = load_plan_file(args.path_file)
     robot = robot_for(args, scene) if arm is None else arm
     if arm is not None and args.robot is not None and robot_for(args, scene).to_dict() != arm.to_dict():
         raise UsageError(f"--robot: {args.robot} is not the arm the plan was made with ({arm.name}); check judges "
                          f"a plan with its own arm: leave --robot out")
     source = "--robot" if args.robot else "the plan's" if arm is not None else "the scene's"
+    if mission is not None:
+        return _check_mission(args, scene, robot, path, mission, source)
     report = evaluate(scene, robot, path)
     if args.plot:
         write_plot(args.plot, scene, robot, path, report)
     write_views(args, scene, robot, path, report)
+    if args.json:
+        print_json(check_document(scene, robot, report))
+    else:
+        sys.stdout.write(f"arm: {robot.name} ({source})\n" + "\n".join(report.lines()) + "\n")
+    return EXIT_OK if report.success else EXIT_INFEASIBLE
+
+
+def _check_mission(args: argparse.Namespace, scene, robot, path, mission, source: str) -> int:
+    """Judge an inspect plan's mission (its motions, its views, the views measured again), as plan judged it."""
+    from snakeplan.episode import Episode, check_document
+    from snakeplan.evaluation import judge
+    from snakeplan.planners import Plan, Problem
+
+    try:
+        problem = Problem(scene, robot, task="inspect", inspection=mission.settings)
+    except ValueError as exc:
+        raise UsageError(f"--scene: {str(exc).removeprefix('scene: ')}") from None
+    report = judge(scene, robot, path, mission)
+    episode = Episode(problem, Plan("check", "found", path, 0.0, {}, mission), report)
+    write_episode_views(args, episode, args.plot)
     if args.json:
         print_json(check_document(scene, robot, report))
     else:

@@ -75,9 +75,10 @@ def load_path_file(filename: str) -> np.ndarray:
     return load_plan_file(filename)[0]
 
 
-def load_plan_file(filename: str) -> tuple[np.ndarray, object | None]:
+def load_plan_file(filename: str) -> tuple[np.ndarray, object | None, object | None]:
     """(the path of a path or plan file, as :func:`load_path_file` reads it; the arm a plan document carries, its
-    ``arm``, a robot, or None when the file holds none). A bad ``arm`` is one line naming ``arm``."""
+    ``arm``, a robot, or None; an inspect plan's ``mission``, or None). A bad ``arm`` or ``mission`` is one line
+    naming the field."""
     from snakeplan.inputs import load_json, points, show
 
     data = load_json(read_text(filename, "PATH"), "PATH")
@@ -86,12 +87,20 @@ def load_plan_file(filename: str) -> tuple[np.ndarray, object | None]:
     if "path" not in data:
         raise ValueError('path: missing; PATH must hold an object with a "path" list of [x, y, z]')
     path = points(data["path"], "path", min_count=2)
+    mission = None
+    if data.get("mission") is not None:
+        from snakeplan.world.mission import Mission
+
+        try:
+            mission = Mission.from_dict(data["mission"])
+        except ValueError as exc:
+            raise UsageError(str(exc)) from None
     arm = data.get("arm")
     if arm is None:
-        return path, None
+        return path, None, mission
     if not isinstance(arm, dict):
         raise UsageError(f"arm: expected a snakeplan.robot/1 object, got {show(arm)}")
-    return path, load_robot(arm, "arm")
+    return path, load_robot(arm, "arm"), mission
 
 
 def load_planner(name: str, **options):

@@ -91,7 +91,10 @@ class JudgedMission:
         motions = [m for m in plan.mission.motions if isinstance(m, JointMotion)]
         times = np.concatenate([m.times_s for m in motions]) if motions else None
         bodies = np.concatenate([arm_bodies(episode.problem.robot, m.bases, m.q) for m in motions]) if motions else None
-        return cls(plan.planner, plan.path, np.asarray(plan.details["path_times_s"], dtype=float), report.rmse_k,
+        times_s = plan.details.get("path_times_s")  # a checked document's path: spread over the views' span
+        path_times = (np.asarray(times_s, dtype=float) if times_s is not None
+                      else np.linspace(0.0, float(report.times_s[-1]), len(plan.path)))
+        return cls(plan.planner, plan.path, path_times, report.rmse_k,
                    report.trace_k2, report.final_mean_k, report.final_variance_k2, times, bodies)
 
 

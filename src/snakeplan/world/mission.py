@@ -193,6 +193,54 @@ class Mission:
     settings: InspectionSettings
     measurement_seed: int
 
+    @classmethod
+    def from_dict(cls, d) -> Mission:
+        """A mission from the ``mission`` block of a plan document; ValueError naming the field (``mission.views
+        .positions``) on a malformed one."""
+        def need(obj, key: str, where: str):
+            if not isinstance(obj, dict) or key not in obj:
+                raise ValueError(f"{where}: missing {key!r}")
+            return obj[key]
+
+        def field_of(where: str, build):
+            try:
+                return build()
+            except (TypeError, ValueError) as exc:
+                raise ValueError(f"{where}: {str(exc).split(': ', 1)[-1]}") from None
+
+        settings = need(d, "settings", "mission")
+        camera = need(settings, "camera", "mission.settings")
+        s = field_of("mission.settings", lambda: InspectionSettings(
+            float(need(settings, "budget_s", "mission.settings")),
+            float(need(settings, "camera_speed_mm_s", "mission.settings")),
+            float(need(settings, "measurement_hz", "mission.settings")),
+            CameraModel(*(float(need(camera, k, "mission.settings.camera")) for k in (
+                "fov_half_angle_rad", "d_min_mm", "d_max_mm", "incidence_max_rad", "noise_a_k2", "noise_b_per_m"))),
+            float(need(settings, "sigma_f_k", "mission.settings")),
+            float(need(settings, "length_scale_mm", "mission.settings")),
+            None if settings.get("prior_mean_k") is None else float(settings["prior_mean_k"])))
+        v = need(d, "views", "mission")
+        views = field_of("mission.views", lambda: Views(need(v, "times_s", "mission.views"),
+                                                         need(v, "positions", "mission.views"),
+                                                         need(v, "directions", "mission.views")))
+        motions = []
+        for i, m in enumerate(need(d, "motions", "mission")):
+            where = f"mission.motions[{i}]"
+            kind = need(m, "kind", where)
+            if kind == "joints":
+                motions.append(field_of(where, lambda m=m, w=where: JointMotion(
+                    need(m, "times_s", w), need(m, "bases", w), need(m, "q", w))))
+            elif kind == "crawl":
+                motions.append(field_of(where, lambda m=m, w=where: Crawl(
+                    need(m, "path", w), float(need(m, "depth_mm", w)), float(need(m, "start_s", w)),
+                    float(need(m, "end_s", w)), bool(m.get("retract", True)))))
+            else:
+                raise ValueError(f"{where}.kind: must be 'joints' or 'crawl', got {kind!r}")
+        seed = need(d, "measurement_seed", "mission")
+        if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+            raise ValueError(f"mission.measurement_seed: expected a non-negative integer, got {seed!r}")
+        return cls(tuple(motions), views, s, seed)
+
     def to_dict(self) -> dict:
         """The ``mission`` block of ``snakeplan.plan/1`` (docs/ARCHITECTURE.md)."""
         return {"settings": self.settings.to_dict(), "measurement_seed": self.measurement_seed,
