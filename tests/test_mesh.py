@@ -499,6 +499,22 @@ def test_scene_import_then_plan_from_the_command_line(tmp_path, capsys):
     assert "verdict: feasible" in capsys.readouterr().out
 
 
+def test_scene_import_takes_negative_coordinates_as_values(tmp_path, capsys):
+    """A mesh centred on the origin: entrance, target and bounds with negative numbers, written after the option
+    as a user writes them (no '=' needed)."""
+    from snakeplan.cli import main
+    from snakeplan.scenes.meshing import pipe_run, to_mesh
+
+    elbow = to_mesh([pipe_run([[0, 0, 0], [500, 0, 0], [500, 500, 0]], 100.0, 15.0, 250.0, 48)])
+    trimesh.Trimesh((elbow.vertices - [250.0, 250.0, 0.0]) / 1000.0, elbow.faces).export(tmp_path / "elbow.stl")
+    out = tmp_path / "centred.json"
+    assert main(["scene", "import", str(tmp_path / "elbow.stl"), "--units", "m", "--entrance", "-250,-250,0",
+                 "--direction", "1,0,0", "--target", "250,200,0", "--bounds", "-400,-450,-200,450,450,200",
+                 "-o", str(out)]) == 0, capsys.readouterr().err
+    doc = json.loads(out.read_text())
+    assert doc["entrance"]["position"] == [-250.0, -250.0, 0.0] and doc["bounds"]["min"] == [-400.0, -450.0, -200.0]
+
+
 def test_scene_import_help_is_its_own(capsys):
     from snakeplan.cli import main
 

@@ -170,3 +170,49 @@ def test_unknown_robot_names_the_presets_and_the_file_kinds(capsys):
     assert code == 2 and "unknown robot 'nosuch'" in err and "sjtu-snake-iii" in err and ".urdf" in err
     code, _, err = run(capsys, "plan", "--robot", "missing.urdf")
     assert code == 2 and "no such file missing.urdf" in err
+
+
+def _own_arm() -> dict:
+    """A newcomer's 16-section arm as robot/1 JSON (120 mm sections, radius 20 mm, 40 deg bends, a feed)."""
+    return {"schema": "snakeplan.robot/1", "name": "my-arm", "feed_range": [0.0, 1500.0],
+            "sections": [{"length": 120.0, "radius": 20.0, "max_bend": math.radians(40.0)}] * 16}
+
+
+@pytest.mark.parametrize("mistake, expect", [
+    (lambda d: d.update(feed=d.pop("feed_range")), "feed: unknown field (known: schema, name, sections"),
+    (lambda d: d["sections"].__setitem__(3, {"length": 120.0, "radius": 20.0, "maxbend": 0.7}),
+     "section 3: maxbend: unknown field (known: length, radius, max_bend); did you mean max_bend?"),
+    (lambda d: d["sections"].__setitem__(0, {"length": 120.0, "radius": 20.0, "max_bend": 40.0}),
+     "section 0: max_bend must be in (0, pi) rad, got 40.0 (it looks like degrees: 40 deg is 0.6981 rad)"),
+    (lambda d: d["sections"].__setitem__(0, {"length": 120.0, "radius": 20.0, "max_bend": 0.0122}),
+     "section 0: max_bend 0.0122 rad (0.699 deg) is implausibly small"),
+])
+def test_robot_files_refuse_a_newcomers_typos_in_one_line(capsys, tmp_path, mistake, expect):
+    """As a newcomer wrote them: 'feed' for feed_range (an arm with no feed, before), a misspelt section key (ignored,
+    before), a bend limit in degrees, one a thousand times too small: one line naming the field, exit 2."""
+    arm = _own_arm()
+    arm["sections"] = [dict(s) for s in arm["sections"]]
+    mistake(arm)
+    f = tmp_path / "my-arm.json"
+    f.write_text(json.dumps(arm))
+    code, out, err = run(capsys, "plan", "--seed", "1", "--robot", str(f), "--planner", "as-rrt")
+    assert (code, out) == (2, "") and err.count("\n") == 1 and err.startswith(f"snakeplan: error: --robot: {expect}")
+    if "feed:" in expect:
+        assert "did you mean feed_range?" in err
+
+
+def test_a_dh_table_in_degrees_with_a_radian_bend_limit_and_a_yaml_typo_are_one_line_each(capsys, tmp_path):
+    """hsr-10's table says its angles are degrees; a bend limit written in radians there (0.698) is a 0.7 deg arm:
+    refused with the unit named. A missing bracket is named by line and column."""
+    import snakeplan.robots
+
+    text = (Path(snakeplan.robots.__file__).parent / "data" / "hsr-10.yaml").read_text()
+    f = tmp_path / "arm.yaml"
+    f.write_text(text.replace("max_bend: 30", "max_bend: 0.698"))
+    code, out, err = run(capsys, "robot", str(f))
+    assert code == 2 and err.count("\n") == 1
+    assert "max_bend 0.698 is 0.698 deg, implausibly small" in err and "angle unit is deg" in err
+    f.write_text(text.replace("{alpha: 0, a: 0, theta: 90, d: 0, joint: fixed}",
+                              "{alpha: 0, a: 0, theta: 90, d: 0, joint: fixed", 1))
+    code, out, err = run(capsys, "robot", str(f))
+    assert code == 2 and err.count("\n") == 1 and re.search(r"not valid YAML at line \d+ column \d+: ", err)

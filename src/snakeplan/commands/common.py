@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 import sys
 from typing import Any, NoReturn
 
@@ -17,8 +18,18 @@ class UsageError(Exception):
     """A user's mistake: reported as one line, exit status 2."""
 
 
+#: What argparse takes for a value, not an option, although it starts with '-': a negative number, or a list of
+#: numbers that starts with one (``-300,180,100``: a point left of the origin).
+NEGATIVE_VALUES = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?(,[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?)*$")
+
+
 class Parser(argparse.ArgumentParser):
-    """An argument parser whose mistakes are a :class:`UsageError` (one line) instead of usage and a message."""
+    """An argument parser whose mistakes are a :class:`UsageError` (one line) instead of usage and a message, and
+    that reads a value starting with a negative number (``--target -300,180,100``) as the option's value."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = NEGATIVE_VALUES
 
     def error(self, message: str) -> NoReturn:
         raise UsageError(message)

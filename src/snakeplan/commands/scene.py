@@ -68,11 +68,12 @@ def import_parser() -> argparse.ArgumentParser:
     p.add_argument("meshes", nargs="+", metavar="MESH", help="mesh files; closed meshes are solids, open ones "
                                                              "shells (see --thickness)")
     p.add_argument("--units", required=True, choices=("m", "cm", "mm", "in"), help="the unit the files are in")
-    p.add_argument("--entrance", required=True, metavar="X,Y,Z", help="where the arm enters (mm)")
+    p.add_argument("--entrance", required=True, metavar="X,Y,Z", help="where the arm enters (mm), e.g. -300,180,100")
     p.add_argument("--direction", required=True, metavar="DX,DY,DZ", help="feed direction into the scene")
-    p.add_argument("--target", action="append", default=[], metavar="X,Y,Z", help="a target (mm); may be repeated")
+    p.add_argument("--target", action="append", default=[], metavar="X,Y,Z", help="a target (mm), e.g. -300,180,100; may be repeated")
     p.add_argument("--bounds", default="auto", metavar="auto|X0,Y0,Z0,X1,Y1,Z1",
-                   help="workspace box (mm); auto: around the meshes, entrance and targets with a 50 mm margin")
+                   help="workspace box (mm), e.g. -100,-200,-200,700,700,200; auto: around the meshes, entrance and "
+                        "targets with a 50 mm margin")
     p.add_argument("--thickness", type=float, help="take every mesh as a shell this thick (mm)")
     p.add_argument("--name", help="scene name (default: the first mesh's file name)")
     p.add_argument("-o", "--out", required=True, help="the scene JSON file to write")

@@ -17,6 +17,7 @@ section 0. The joint vector is ``q = [feed?, a0, b0, a1, b1, ...]``.
 
 from __future__ import annotations
 
+import difflib
 import math
 import numbers
 from collections.abc import Mapping, Sequence
@@ -49,6 +50,23 @@ def _number(where: str, name: str, value: Any) -> float:
     return v
 
 
+#: The fields of a ``snakeplan.robot/1`` object and of one of its sections; any other is refused, naming it.
+ROBOT_KEYS = ("schema", "name", "sections", "k_ul", "total_length", "dof", "feed_range", "base", "kinematics",
+              "limits", "cables", "description", "source")
+SECTION_KEYS = ("length", "radius", "max_bend")
+#: A section's bend limit below this (rad, 1 deg) is taken for a unit mistake, not an arm.
+MIN_PLAUSIBLE_BEND_RAD = math.radians(1.0)
+
+
+def _known_keys(where: str, d: Mapping, known: tuple[str, ...]) -> None:
+    """ValueError naming the first key of ``d`` not in ``known`` (and the known ones, and a near one)."""
+    for key in d:
+        if key not in known:
+            near = difflib.get_close_matches(str(key), known, n=1, cutoff=0.5)
+            hint = f"; did you mean {near[0]}?" if near else ""
+            raise ValueError(f"{where}{key}: unknown field (known: {', '.join(known)}){hint}")
+
+
 def _check_section_fields(where: str, length: Any, radius: Any, max_bend: Any) -> tuple[float, float, float]:
     """Validated (length mm, radius mm, max_bend rad) of one section; errors start with ``where``."""
     lv = _number(where, "length", length)
@@ -59,7 +77,9 @@ def _check_section_fields(where: str, length: Any, radius: Any, max_bend: Any) -
         raise ValueError(f"{where}: radius must be > 0, got {rv}")
     mv = _number(where, "max_bend", max_bend)
     if not 0 < mv < math.pi:
-        raise ValueError(f"{where}: max_bend must be in (0, pi) rad, got {mv}")
+        hint = (f" (it looks like degrees: {mv:g} deg is {math.radians(mv):.4g} rad)" if math.pi <= mv < 180.0
+                else "")
+        raise ValueError(f"{where}: max_bend must be in (0, pi) rad, got {mv}{hint}")
     return lv, rv, mv
 
 
@@ -872,6 +892,7 @@ class Chain:
         ``limits`` object takes the rest from them). ValueError with a one-line message naming the field."""
         if not isinstance(d, Mapping):
             raise ValueError("robot: must be a JSON object")
+        _known_keys("", d, ROBOT_KEYS)
         if "schema" in d and d["schema"] != SCHEMA:
             raise ValueError(f"schema: expected {SCHEMA!r}, got {d['schema']!r}")
         if "name" not in d:
@@ -888,10 +909,16 @@ class Chain:
             where = f"section {i}"
             if not isinstance(s, Mapping):
                 raise ValueError(f"{where}: must be an object with length, radius, max_bend")
+            _known_keys(f"{where}: ", s, SECTION_KEYS)
             for key in ("length", "radius", "max_bend"):
                 if key not in s:
                     raise ValueError(f"{where}: {key} missing")
-            sections.append(Section(*_check_section_fields(where, s["length"], s["radius"], s["max_bend"])))
+            fields = _check_section_fields(where, s["length"], s["radius"], s["max_bend"])
+            if fields[2] < MIN_PLAUSIBLE_BEND_RAD:
+                raise ValueError(f"{where}: max_bend {fields[2]:.4g} rad ({math.degrees(fields[2]):.3g} deg) is "
+                                 f"implausibly small for a snake arm's section (under 1 deg); robot files state "
+                                 f"angles in rad")
+            sections.append(Section(*fields))
         k_ul = d.get("k_ul")
         if k_ul is not None:
             k_ul = _number("k_ul", "", k_ul)

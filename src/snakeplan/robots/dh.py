@@ -71,7 +71,10 @@ def _read(source: Any) -> Mapping[str, Any]:
         try:
             data = yaml.safe_load(text)
         except yaml.YAMLError as exc:
-            raise ValueError(f"dh: {path} is not valid YAML: {str(exc).splitlines()[0]}") from None
+            mark = getattr(exc, "problem_mark", None)
+            at = f" at line {mark.line + 1} column {mark.column + 1}" if mark is not None else ""
+            problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+            raise ValueError(f"dh: {path} is not valid YAML{at}: {problem}") from None
         if not isinstance(data, Mapping):
             raise ValueError(f"dh: {path} must hold a mapping at the top level")
         return data
@@ -189,6 +192,10 @@ def load_dh(source: str | os.PathLike | Mapping[str, Any]) -> Chain:
             raise ValueError(f"{where}: max_bend missing (set links[{j}].max_bend or a top-level max_bend)")
         r = _number(where, "radius", radius) * ls
         m = _number(where, "max_bend", bend) * an
+        if 0 < m < math.radians(1.0):
+            raise ValueError(f"{where}: max_bend {bend} is {math.degrees(m):.3g} deg, implausibly small for a snake "
+                             f"arm's section; the table's angle unit is {'deg' if an != 1.0 else 'rad'}: is that the "
+                             f"unit its angles are in?")
         sections.append((r, m))
 
     for j, qj, owner, lim in limits_of:
