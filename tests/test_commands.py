@@ -5,8 +5,9 @@ or a scene family is built. The allow-list, module -> the names a command may im
 
 - ``snakeplan.planners.registry``: ``PLANNERS``, the planner registry (a planner class by name: whether it takes a
   policy).
-- ``snakeplan.planners``: ``planner_names`` (the registry's names, for a list option) and ``Problem`` (the problem,
-  of either task, handed to :func:`snakeplan.episode.run_episode` with a registered planner).
+- ``snakeplan.planners``: ``planner_names`` (the registry's names, for a list option), ``Problem`` (the problem,
+  of either task, handed to :func:`snakeplan.episode.run_episode` with a registered planner) and ``Plan`` (a plan
+  read back from its document, which ``check`` judges again).
 - ``snakeplan.scenes`` (the package's registry functions and ``Scene`` for scene files) and
   ``snakeplan.scenes.registry``: any name.
 - ``snakeplan.scenes.importing``: ``import_scene``, ``parse_bounds``, ``parse_triple``, the mesh importer that
@@ -32,7 +33,7 @@ import snakeplan.commands
 #: Module -> the names a command module may import from it (None: any name).
 ALLOWED: dict[str, frozenset[str] | None] = {
     "snakeplan.planners.registry": frozenset({"PLANNERS"}),
-    "snakeplan.planners": frozenset({"planner_names", "Problem"}),
+    "snakeplan.planners": frozenset({"planner_names", "Problem", "Plan"}),
     "snakeplan.scenes": None,
     "snakeplan.scenes.registry": None,
     "snakeplan.scenes.importing": frozenset({"import_scene", "parse_bounds", "parse_triple"}),

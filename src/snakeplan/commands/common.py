@@ -108,3 +108,8 @@ def status(plan) -> str:
     """The plan's status, with why the planner stopped when the path is only approximate."""
     stopped = plan.details.get("stopped")
     return f"{plan.status} (stopped: {stopped})" if stopped else str(plan.status)
+
+
+def where(scene) -> str:
+    """A scene as the console names it: "fuel-tank (seed 3)", or a file scene's name alone (it has no seed)."""
+    return scene.name if scene.seed is None else f"{scene.name} (seed {scene.seed})"

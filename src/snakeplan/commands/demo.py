@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from snakeplan.commands.common import EXIT_INFEASIBLE, EXIT_OK, seed, status
+from snakeplan.commands.common import EXIT_INFEASIBLE, EXIT_OK, seed, status, where
 from snakeplan.commands.inputs import load_planner, load_robot
 from snakeplan.commands.options import DEFAULT_SCENE
 from snakeplan.commands.views import check_picture, write_plot
@@ -37,7 +37,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     first = planner.plan(problem, seed=0)  # on a fresh install this compiles the jitted kernels (cached on disk)
     episode = run_episode(problem, planner)
     plan = episode.plan
-    sys.stdout.write(f"{robot.name} in {scene.name} (seed {scene.seed}), planned by {plan.planner}: {status(plan)} "
+    sys.stdout.write(f"{robot.name} in {where(scene)}, planned by {plan.planner}: {status(plan)} "
                      f"in {plan.compute_time_s:.3f} s (first call, with kernel compilation: "
                      f"{first.compute_time_s:.3f} s)\n")
     if episode.report is None:

@@ -17,6 +17,7 @@ from snakeplan.commands.common import (
     seed,
     status,
     warning_line,
+    where,
 )
 from snakeplan.commands.inputs import load_planner, load_scene, robot_for
 from snakeplan.commands.options import ROBOT_HELP, TRAJECTORY_HELP, scene_args, view_args
@@ -85,7 +86,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
     if args.json:
         print_json(episode.to_dict())
     else:
-        sys.stdout.write(f"{plan.planner} on {scene.name} (seed {scene.seed}) with {robot.name}: {status(plan)} "
+        sys.stdout.write(f"{plan.planner} on {where(scene)} with {robot.name}: {status(plan)} "
                          f"in {plan.compute_time_s:.3f} s\n")
         if episode.report is not None:
             sys.stdout.write("\n".join(episode.report.lines()) + "\n")

@@ -8,7 +8,7 @@ import sys
 
 import numpy as np
 
-from snakeplan.commands.common import EXIT_OK, Parser, UsageError, print_json, seed
+from snakeplan.commands.common import EXIT_OK, Parser, UsageError, print_json, seed, where
 from snakeplan.commands.inputs import load_scene
 from snakeplan.files import check_output
 
@@ -46,7 +46,7 @@ def cmd_scene(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.table import Table
 
-    table = Table(title=f"scene {scene.name} (seed {scene.seed})", show_header=False)
+    table = Table(title=f"scene {where(scene)}", show_header=False)
     table.add_row("bounds (mm)", f"{scene.bounds_min.tolist()} .. {scene.bounds_max.tolist()}")
     table.add_row("entrance (mm)", f"{np.round(scene.entrance.position, 1).tolist()} "
                                    f"dir {np.round(scene.entrance.direction, 3).tolist()}")
@@ -96,7 +96,11 @@ def cmd_scene_import(argv: list[str]) -> int:
                          parse_bounds(args.bounds), args.name, thickness)
     atomic_write(args.out, scene.to_json(indent=1) + "\n")
     triangles = sum(len(o.faces) for o in scene.obstacles)
-    sys.stdout.write(f"wrote {args.out}: {len(scene.obstacles)} meshes, {triangles} triangles, "
+    sys.stdout.write(f"wrote {args.out}: {_count(len(scene.obstacles), 'mesh', 'meshes')}, {triangles} triangles, "
                      f"{len(scene.targets)} targets, bounds {scene.bounds_min.round(1).tolist()} .. "
                      f"{scene.bounds_max.round(1).tolist()} mm\n")
     return EXIT_OK
+
+
+def _count(n: int, one: str, many: str) -> str:
+    return f"{n} {one if n == 1 else many}"
