@@ -598,3 +598,11 @@ def test_sscc_agent_with_an_inf_weight_is_refused(tmp_path):
     (tmp_path / "a.npz").write_bytes(_npz(weights))
     with pytest.raises(ValueError, match=r"^agent_path: actor\.mu\.2\.bias"):
         SwingAgent.load("sscc-24", tmp_path / "a.npz")
+
+
+def test_a_tiny_step_read_from_a_file_is_refused_before_anything_is_allocated(capsys, tmp_path):
+    """meta.step_mm = 1e-6 mm asked a roll-out for 1.8 billion steps (31.7 GiB of noise, a MemoryError traceback):
+    a size derived from a file is bounded first, one line naming the field."""
+    path = _mutated(tmp_path, "fuel-tank", meta=np.array(json.dumps({**_meta("fuel-tank"), "step_mm": 1e-6})))
+    code, out, err = _plan(capsys, "fuel-tank", path)
+    assert code == 2 and out == "" and "meta.step_mm: a 1e-06 mm step makes" in _one_policy_line(err)

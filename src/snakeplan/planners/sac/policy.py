@@ -301,9 +301,17 @@ def check_policy_fits(policy: NumpyPolicy, scene: Scene, robot: Chain) -> None:
     step = float(policy.meta.get("step_mm", STEP_MM))
     if step > robot.total_length:
         raise _bad(f"meta.step_mm: a {step:g} mm step is longer than {robot.name} ({robot.total_length:g} mm)")
+    if robot.total_length / step > MAX_ROLLOUT_STEPS:
+        raise _bad(f"meta.step_mm: a {step:g} mm step makes {robot.total_length / step:.3g} steps of {robot.name} "
+                   f"({robot.total_length:g} mm) per roll-out, more than the limit of {MAX_ROLLOUT_STEPS:,}")
     family = policy.meta.get("scene")
     if family is not None and scene.name not in family.split("+"):
         warnings.warn(f"policy: trained in {family}, planning in {scene.name}", PolicyTransferWarning, stacklevel=3)
+
+
+#: The most steps a roll-out may take (the arm's length over the policy's step): a roll-out allocates its noise and
+#: path per step, so a size read from a file is bounded before anything is allocated.
+MAX_ROLLOUT_STEPS = 100_000
 
 
 #: The generalist policy (the residual ``guide`` design, trained with sensed knowledge on the ``confined`` family
