@@ -69,6 +69,18 @@ def test_feasible_video_is_timed_decodes_and_shows_the_arm_moving(tmp_path):
     assert all(_red(f) < 20 for f in video)  # nothing collides, nothing red
 
 
+def test_a_timed_video_says_the_speed_up_it_plays_its_trajectory_at():
+    """The newcomer's 35.8 s crawl played in 4 s was described as "at the speed of its trajectory": the title now
+    says the motion's seconds, the video's, and their ratio (frames / fps)."""
+    from snakeplan.viz.animation import crawl_title
+
+    frames = crawl_frames(corridor(600.0), ROBOT, straight(600.0), 24)
+    motion = float(frames.times[-1])
+    title = crawl_title(frames, "as-rrt", fps=12)
+    assert f"{motion:.1f} s of motion played in 2.0 s ({motion / 2.0:.3g}x)" in title
+    assert crawl_title(crawl_frames(corridor(600.0), ROBOT, straight(900.0), 8), fps=12).endswith("evenly in depth")
+
+
 def test_colliding_video_marks_the_collision_frame(tmp_path):
     frames = crawl_frames(corridor(), ROBOT, straight(900.0), 40)
     out = save_crawl_video(tmp_path / "hit.mp4", frames, fps=10, size=SIZE, progress=False)

@@ -221,17 +221,24 @@ def _point_at(path: np.ndarray, cum: np.ndarray, s: float) -> np.ndarray:
     return np.array([np.interp(s, cum, path[:, k]) for k in range(3)])
 
 
-def crawl_title(frames: CrawlFrames, planner: str = "") -> str:
-    """The video's title: scene, robot, planner and the judge's verdict."""
+def crawl_title(frames: CrawlFrames, planner: str = "", fps: float | None = None) -> str:
+    """The video's title: scene, robot, planner, the judge's verdict, and how the frames are spaced: in time along
+    the trajectory (with ``fps``, the speed-up at which the video plays it) or evenly in depth."""
     r = frames.report
     verdict = "feasible" if r.success else f"infeasible ({r.reason})"
     by = f", planned by {planner}" if planner else ""
-    timed = ", timed by TOPP-RA" if frames.times is not None else ", evenly in depth"
+    if frames.times is None:
+        timed = ", evenly in depth"
+    elif fps is None:
+        timed = ", timed by TOPP-RA"
+    else:
+        motion, played = float(frames.times[-1]), len(frames.depths) / fps
+        timed = f", timed by TOPP-RA: {motion:.1f} s of motion played in {played:.1f} s ({motion / played:.3g}x)"
     return f"{frames.scene.label}, {frames.robot.name}{by}: {verdict}{timed}"
 
 
 def save_crawl_video(filename: str | Path, frames: CrawlFrames, fps: float = DEFAULT_FPS,
                      size: tuple[int, int] = DEFAULT_SIZE, planner: str = "", progress: bool = True) -> Path:
     """Render ``frames`` and write them to ``filename`` (.mp4 or .gif)."""
-    rgb = crawl_frames_rgb(frames, crawl_title(frames, planner), size, progress)
+    rgb = crawl_frames_rgb(frames, crawl_title(frames, planner, fps), size, progress)
     return write_video(filename, rgb, len(frames.depths), fps, size)
