@@ -82,14 +82,23 @@ class Run:
     stateful: bool = False
     config: str = ""
     task: str = "reach"
+    robot_json: str = ""
 
     def identity(self) -> dict:
-        """What makes this run this run (the key's preimage; a scene file counts by its content)."""
+        """What makes this run this run (the key's preimage; a scene file and a robot file count by content)."""
         ident = {"scene": self.scene, "seed": self.seed, "robot": self.robot, "planner": self.planner,
                  "options": dict(self.options), "time_limit_s": self.time_limit_s, "knowledge": self.knowledge}
         if self.scene_json:
             ident["scene_sha256"] = hashlib.sha256(self.scene_json.encode()).hexdigest()
+        if self.robot_json:
+            ident["robot_sha256"] = hashlib.sha256(self.robot_json.encode()).hexdigest()
         return ident
+
+    def arm(self):
+        """The run's robot: its preset, or the robot its file described (carried as robot/1 JSON)."""
+        from snakeplan.robots import get_robot, load_robot
+
+        return load_robot(json.loads(self.robot_json)) if self.robot_json else get_robot(self.robot)
 
     @property
     def key(self) -> str:
@@ -101,13 +110,22 @@ class Run:
 
 
 def check_robot(name: str, field: str = "robot") -> None:
-    """A sweep's robot (when one is given) is a registered preset: rows name it and every worker makes it by name.
-    ValueError naming ``field`` otherwise."""
-    from snakeplan.robots import robot_names
+    """A sweep's robot (when one is given) is a preset or a robot file (as ``plan --robot`` takes it): ValueError
+    naming ``field`` otherwise."""
+    _robot_source(name, field)
 
-    if name not in robot_names():
-        raise ValueError(f"{field}: bench run takes a robot preset (known: {', '.join(robot_names())}); "
-                         f"register your robot to benchmark it (docs/ARCHITECTURE.md, 'Your robot')")
+
+def _robot_source(name: str, field: str = "robot") -> tuple[str, str]:
+    """(the robot's name, its robot/1 JSON when it comes from a file, else "") of a sweep's robot."""
+    from snakeplan.robots import load_robot, robot_names
+
+    if name in robot_names():
+        return name, ""
+    try:
+        chain = load_robot(name)
+    except ValueError as exc:
+        raise ValueError(f"{field}: {exc.args[0]}") from None
+    return chain.name, json.dumps(chain.to_dict(), sort_keys=True)
 
 
 @dataclass(frozen=True)
@@ -136,10 +154,11 @@ class Sweep:
         be inspected), and one that does no scene's task is a ValueError naming ``planners``."""
         out = []
         fitted: set[str] = set()
+        robot_file = _robot_source(self.robot) if self.robot else None
         for scene in self.scenes:
             text, family = _scene_source(scene)
             spec = _spec(family, text)
-            robot = self.robot or spec.robot
+            robot, robot_json = robot_file or (spec.robot, "")
             for planner, options in self.planners:
                 if not _does_task(planner, spec.task):
                     continue
@@ -151,7 +170,7 @@ class Sweep:
                         out.append(Run(family, seed, planner, robot, self.time_limit_s,
                                        tuple(sorted(options.items())), knowledge, text,
                                        self.stateful is not None and self.stateful(planner, options),
-                                       self.name, spec.task))
+                                       self.name, spec.task, robot_json))
         idle = [p for p, _ in self.planners if p not in fitted]
         if idle:
             raise ValueError(f"planners: {', '.join(idle)} can do none of these scenes' tasks "
@@ -245,15 +264,14 @@ def run_chunk(task: list[Run], stamp: dict) -> list[dict]:
     and this host."""
     from snakeplan.episode import run_episode
     from snakeplan.planners import Problem, get_planner
-    from snakeplan.robots import get_robot
 
     host = {"host": socket.gethostname(), "pid": os.getpid()}
     rows = []
     shared: dict[tuple, object] = {}
     for run in task:
-        robot = get_robot(run.robot)
+        robot = run.arm()
         options = dict(run.options)
-        warm = (run.scene, run.scene_json, run.robot, run.planner, run.options, run.knowledge)
+        warm = (run.scene, run.scene_json, run.robot, run.robot_json, run.planner, run.options, run.knowledge)
         if warm not in _WARM:
             run_episode(Problem(_scene_of(run, WARMUP_SEED), robot, min(run.time_limit_s, WARMUP_TIME_LIMIT_S),
                                 knowledge=run.knowledge, task=run.task), get_planner(run.planner, **options),

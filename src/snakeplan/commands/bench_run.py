@@ -24,7 +24,8 @@ def add_parsers(bsub) -> None:
     p.add_argument("--seeds", default="0-9", help="seeds, e.g. 0-99 or 0,3,5-7 (default 0-9)")
     p.add_argument("--option", action="append", metavar="KEY=VALUE",
                    help="a planner option for every planner (value as JSON, else text); may be repeated")
-    p.add_argument("--robot", help="robot preset for every scene (default: each scene's own)")
+    p.add_argument("--robot", help="robot preset or robot file (.urdf, DH .yaml, robot/1 .json) for every scene "
+                                   "(default: each scene's own)")
     p.add_argument("--time-limit", type=finite, default=10.0, help="budget per plan in seconds (default 10)")
     p.add_argument("--knowledge", choices=("full", "sensed"), default="full",
                    help="what the planners may know (sensed: a planner that needs the whole scene still has it)")
