@@ -51,3 +51,28 @@ def test_obstacle_meshes_lie_on_the_exact_surfaces(family):
         m = obstacle_mesh(o)
         assert m.is_watertight
         assert np.abs(o.signed_distance(m.vertices)).max() < 1e-6  # every vertex on the obstacle's surface
+
+
+def test_the_collision_mark_is_where_the_link_meets_the_wall_and_a_side_view_shows_depth(tmp_path):
+    """viz_scenes' corridor: the tip link's capsule first meets the wall's face (x = 700) on the axis, at 675 mm of
+    insertion; the mark was the link's middle, 114 mm back. A path under an obstacle shows its depth in the side
+    view, which looks along the scene's shorter horizontal extent."""
+    import matplotlib
+
+    from snakeplan.geometry.distance import ObstacleSet
+    from snakeplan.viz.figures import plan_figure
+    from snakeplan.scenes import make_scene
+    from snakeplan.viz.scene_plot import contact_point, flat_view, side_view
+
+    scene = corridor()
+    tip, back = np.array([675.0, 0.0, 0.0]), np.array([675.0 - 177.5, 0.0, 0.0])
+    assert np.allclose(contact_point(ObstacleSet(scene.obstacles), back, tip), [700.0, 0.0, 0.0], atol=0.3)
+    # 1050 x 600 x 600 mm: the flat view looks along y (the first shortest), the side view across it along z
+    assert (flat_view(scene)[2], side_view(scene)[2]) == ("view along y", "view along z")
+    assert side_view(make_scene("fuel-tank", 0))[2] == "side view along y"  # under the top view: x against z
+    fig = plan_figure(scene, straight(600.0), title="t")
+    try:
+        names = [ax.get_title() for ax in fig.axes]
+    finally:
+        matplotlib.pyplot.close(fig)
+    assert names == ["3-D view", "view along y", "view along z"]

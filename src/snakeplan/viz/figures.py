@@ -12,26 +12,30 @@ import numpy as np  # noqa: E402
 
 from snakeplan.files import atomic_path  # noqa: E402
 from snakeplan.scenes import Scene  # noqa: E402
-from snakeplan.viz.scene_plot import draw_scene, set_flat_view  # noqa: E402
+from snakeplan.viz.scene_plot import contact_point, draw_scene, set_flat_view  # noqa: E402
 from snakeplan.world import JUDGE, FullView, ValidityChecker  # noqa: E402
 
 
 def plan_figure(scene: Scene, path=None, body=None, *, curvature=None, k_ul: float | None = None,
                 title: str = "", collision=None, bends=None):
-    """The scene in two views (3-D, and orthographic along its shortest extent, see
-    :func:`~snakeplan.viz.scene_plot.flat_view`) and, when ``curvature=(s, kappa)`` is given, its profile with
+    """The scene in three views (3-D; orthographic along its shortest extent, see
+    :func:`~snakeplan.viz.scene_plot.flat_view`; and across it, :func:`~snakeplan.viz.scene_plot.side_view`, so
+    depth shows) and, when ``curvature=(s, kappa)`` is given, its profile with
     the limit ``k_ul`` beside them; ``bends=(depths, fraction)`` adds the largest bend as a fraction of its
     section's limit at each crawl depth; ``collision`` (a point, mm) is marked in both views."""
     has_profile = curvature is not None
-    fig = plt.figure(figsize=(17 if has_profile else 13, 6.2))
+    fig = plt.figure(figsize=(17 if has_profile else 13, 8.0))
     grid = fig.add_gridspec(2, 3 if has_profile else 2, width_ratios=(1.25, 1.0, 0.95)[:3 if has_profile else 2])
     ax = fig.add_subplot(grid[:, 0], projection="3d")
     draw_scene(ax, scene, path=path, body=body, collision=collision)
     ax.view_init(elev=35, azim=-60)
     ax.set_title("3-D view", fontsize=9)
-    ax_flat = fig.add_subplot(grid[:, 1], projection="3d")
+    ax_flat = fig.add_subplot(grid[0, 1], projection="3d")
     draw_scene(ax_flat, scene, path=path, body=body, collision=collision, legend=False)
     ax_flat.set_title(set_flat_view(ax_flat, scene), fontsize=9)
+    ax_side = fig.add_subplot(grid[1, 1], projection="3d")
+    draw_scene(ax_side, scene, path=path, body=body, collision=collision, legend=False)
+    ax_side.set_title(set_flat_view(ax_side, scene, side=True), fontsize=9)
     fig.suptitle(title or f"{scene.name} (seed {scene.seed})", parse_math=False)  # a scene name is text, not TeX
     if has_profile:
         s, kappa = curvature
@@ -107,7 +111,7 @@ def curvature_figure(s: np.ndarray, kappa: np.ndarray, k_ul: float | None = None
 def save_plan_figure(filename: str | Path, scene: Scene, robot, path=None, report=None, planner: str = "") -> Path:
     """The scene with a tip path and the body at the judge's last depth, titled with the planner and the verdict,
     in two views, beside the path's curvature profile and its bends at every crawl step (when judged), the first
-    collision marked; written as PNG."""
+    collision marked where the link meets the obstacle; written as PNG."""
     title = f"{scene.label}, {robot.name}" + (f", planned by {planner}" if planner else "")
     collision = bends = curvature = None
     if report is not None:
@@ -119,7 +123,8 @@ def save_plan_figure(filename: str | Path, scene: Scene, robot, path=None, repor
         fail = check.failure
         if fail is not None and fail.kind == "collision" and fail.link is not None:
             i = int(np.searchsorted(check.states.s, fail.depth_mm - 1e-9))
-            collision = check.states.joints[i, fail.link:fail.link + 2].mean(axis=0)
+            joints = check.states.joints[i]
+            collision = contact_point(FullView(scene).obstacle_set, joints[fail.link], joints[fail.link + 1])
         bends = (check.states.s, np.max(check.states.bend_angles / robot.max_bends, axis=1))
         curvature = fine_curvature(path, float(np.mean(robot.lengths)))
     elif path is None and planner:

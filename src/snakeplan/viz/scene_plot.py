@@ -107,6 +107,28 @@ def draw_scene(ax: Axes, scene: Scene, path=None, body=None, *, collision=None, 
         ax.legend(loc="upper left", fontsize=7)
 
 
+def contact_point(obstacles, a, b, step: float = 1.0) -> np.ndarray:
+    """Where a link (its axis from ``a`` to ``b``, mm) meets the obstacles: the point of the axis nearest them,
+    ``step`` mm apart, moved onto their surface down the distance's gradient (a collision's mark in the pictures)."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    n = max(2, int(np.ceil(np.linalg.norm(b - a) / step)) + 1)
+    pts = a + np.linspace(0.0, 1.0, n)[:, None] * (b - a)
+    d = obstacles.signed_distance(pts)
+    p, h = pts[int(np.argmin(d))], 0.25
+    grad = np.array([obstacles.signed_distance(p + e) - obstacles.signed_distance(p - e) for e in np.eye(3) * h])
+    norm = float(np.linalg.norm(grad))
+    return p if norm == 0.0 else p - float(np.min(d)) * grad / norm
+
+
+def side_view(scene: Scene) -> tuple[float, float, str]:
+    """(elev, azim, name) of the orthographic view across :func:`flat_view`'s: along the shorter of the two other
+    extents, so the depth the flat view hides shows (the height of a path under an obstacle in a tank)."""
+    flat = int(np.argmin(scene.size))
+    axis = min((a for a in range(3) if a != flat), key=lambda a: scene.size[a])
+    return {0: (0.0, 0.0, "side view along x"), 1: (0.0, -90.0, "side view along y"),
+            2: (90.0, -90.0, "view along z")}[axis]
+
+
 def flat_view(scene: Scene) -> tuple[float, float, str]:
     """(elev, azim, name) of the orthographic view that looks along the scene's shortest extent: from above for a
     flat tank, so every passage between bays shows where the path crosses a wall, and from the side for a pipe."""
@@ -114,13 +136,13 @@ def flat_view(scene: Scene) -> tuple[float, float, str]:
     return {0: (0.0, 0.0, "view along x"), 1: (0.0, -90.0, "view along y"), 2: (90.0, -90.0, "top view")}[axis]
 
 
-def set_flat_view(ax: Axes, scene: Scene) -> str:
-    """Turn a 3-D axes drawn by :func:`draw_scene` into the orthographic :func:`flat_view`, without the ticks of
-    the axis it looks along; returns the view's name."""
-    elev, azim, name = flat_view(scene)
+def set_flat_view(ax: Axes, scene: Scene, side: bool = False) -> str:
+    """Turn a 3-D axes drawn by :func:`draw_scene` into the orthographic :func:`flat_view` (with ``side``, the
+    :func:`side_view`), without the ticks of the axis it looks along; returns the view's name."""
+    elev, azim, name = (side_view if side else flat_view)(scene)
     ax.set_proj_type("ortho")
     ax.view_init(elev=elev, azim=azim)
-    along = "xyz"[int(np.argmin(scene.size))]
+    along = "xyz"[{(0.0, 0.0): 0, (0.0, -90.0): 1, (90.0, -90.0): 2}[(elev, azim)]]
     getattr(ax, f"set_{along}ticks")([])
     getattr(ax, f"set_{along}label")("")
     return name
