@@ -541,3 +541,32 @@ def test_sampling_planners_keep_their_time_budget_on_a_134k_triangle_mesh(planne
     report = check_planner(planner, [Problem(scene, get_robot(scene_spec("pipework").robot), time_limit_s=1.0)])
     assert report.plans[0].endswith(": found")
     assert report.plans[1].endswith("0.05 s: timeout" if planner != "sp-rrt" else ("0.05 s: timeout", "0.05 s: failed"))
+
+
+def test_a_mesh_read_in_the_wrong_unit_is_named_against_the_arm_and_a_point_in_metres_gets_a_hint(tmp_path, capsys):
+    """The newcomer's mistakes: a part exported in metres read with --units cm is planned in as if a 5 m part were
+    50 mm (a warning names both sizes and the unit), and an entrance typed in metres lands inside the part (the
+    error says what it would be in mm)."""
+    from snakeplan.cli import main
+    from snakeplan.robots import get_robot
+    from snakeplan.scenes import scale_warnings
+    from snakeplan.scenes.importing import import_scene
+    from snakeplan.scenes.meshing import pipe_run, to_mesh
+
+    elbow = to_mesh([pipe_run([[0, 0, 0], [500, 0, 0], [500, 500, 0]], 100.0, 15.0, 250.0, 48)])
+    trimesh.Trimesh(elbow.vertices / 100.0, elbow.faces).export(tmp_path / "elbow.stl")  # 5 m, in metres
+    scene = import_scene([str(tmp_path / "elbow.stl")], "cm", np.zeros(3), np.array([1.0, 0.0, 0.0]), [],
+                         tmp_path / "s.json")
+    whole, line = scale_warnings(scene, get_robot("sjtu-snake-iii"))  # the auto bounds are that small too
+    assert whole.startswith("scene: elbow spans 162 mm, less than one section of sjtu-snake-iii")
+    assert line.startswith("obstacles[0]: the mesh spans 61.5 mm (read in 'cm')")
+    assert "less than one section of sjtu-snake-iii (178 mm); are its units right?" in line
+    assert scale_warnings(import_scene([str(tmp_path / "elbow.stl")], "m", np.zeros(3), np.array([1.0, 0.0, 0.0]),
+                                       [], tmp_path / "s.json"), get_robot("sjtu-snake-iii")) == []
+    trimesh.creation.box(extents=(2.0, 2.0, 2.0)).export(tmp_path / "block.stl")  # a 2 m block about the origin
+    code = main(["scene", "import", str(tmp_path / "block.stl"), "--units", "m", "--entrance", "-1.2,0,0",
+                 "--direction", "1,0,0", "--bounds", "-1500,-1500,-1500,1500,1500,1500", "-o",
+                 str(tmp_path / "x.json")])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "deep inside obstacles[0]" in err
+    assert "were its coordinates metres? snakeplan's are mm: [-1200, 0, 0]" in err

@@ -52,7 +52,7 @@ def add_parser(sub) -> None:
 def cmd_plan(args: argparse.Namespace) -> int:
     from snakeplan.episode import run_episode
     from snakeplan.planners import Problem
-    from snakeplan.scenes import spec_for
+    from snakeplan.scenes import scale_warnings, spec_for
 
     check_picture(args.plot, "--plot")
     check_views(args)
@@ -75,6 +75,8 @@ def cmd_plan(args: argparse.Namespace) -> int:
         if args.task and str(exc).startswith("scene:"):
             raise UsageError(f"--task: {str(exc).removeprefix('scene: ')}") from None
         raise
+    for line in scale_warnings(scene, robot):
+        sys.stderr.write(f"snakeplan: warning: {line}\n")
     with warnings.catch_warnings():
         warnings.showwarning = warning_line
         try:

@@ -10,7 +10,8 @@ from snakeplan.scenes.registry import (
     scene_spec,
     spec_for,
 )
+from snakeplan.scenes.scale import scale_warnings
 from snakeplan.scenes.scene import Entrance, Scene
 
-__all__ = ["Entrance", "Scene", "SceneSpec", "Task", "as_task", "make_scene", "register_scene", "scene_names",
-           "scene_spec", "spec_for"]
+__all__ = ["Entrance", "Scene", "SceneSpec", "Task", "as_task", "make_scene", "register_scene", "scale_warnings",
+           "scene_names", "scene_spec", "spec_for"]

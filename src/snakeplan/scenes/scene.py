@@ -224,7 +224,15 @@ def check_placement(scene: Scene) -> None:
             k = int(np.argmin([o.signed_distance(p) for o in scene.obstacles]))
             what = "the entrance may touch a wall but" if name == "entrance.position" else "a target"
             raise ValueError(f"{name}: {_fmt(p)} lies {dp:.3g} mm deep inside obstacles[{k}]; {what} must lie in "
-                             f"free space")
+                             f"free space{_unit_hint(p, scene)}")
+
+
+def _unit_hint(p: np.ndarray, scene: Scene) -> str:
+    """A hint for a point that looks given in metres in a scene of millimetres: every coordinate within +-10 in a
+    scene over a metre across."""
+    if float(np.max(np.abs(p))) <= 10.0 and float(np.max(scene.size)) > 1000.0:
+        return f" (were its coordinates metres? snakeplan's are mm: {_fmt(p * 1000.0)})"
+    return ""
 
 
 def check_metadata(meta: dict, obstacles: list[Obstacle]) -> None:

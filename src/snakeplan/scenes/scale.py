@@ -1,0 +1,30 @@
+"""Scale sanity: a scene, or a mesh in it, whose size is implausible against the arm that is to enter it is
+most often a unit mistake (a CAD file in metres read as centimetres); say so before planning (mm)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from snakeplan.geometry.primitives import Mesh
+from snakeplan.robots import Chain
+from snakeplan.scenes.scene import Scene
+
+
+def scale_warnings(scene: Scene, robot: Chain) -> list[str]:
+    """One line per implausible size: the scene's bounds, or a mesh, spanning less than one of the arm's sections
+    (both sizes named, and the mesh's units where it came from a file)."""
+    section = float(np.max(robot.lengths))
+    out = []
+    span = float(np.max(scene.size))
+    if span < section:
+        out.append(f"scene: {scene.name} spans {span:.3g} mm, less than one section of {robot.name} "
+                   f"({section:.3g} mm); are its coordinates in mm?")
+    for i, o in enumerate(scene.obstacles):
+        if isinstance(o, Mesh):
+            extent = float(np.max(np.ptp(o.vertices, axis=0)))
+            if extent < section:
+                units = (o.source or {}).get("units")
+                read = f" (read in {units!r})" if units else ""
+                out.append(f"obstacles[{i}]: the mesh spans {extent:.3g} mm{read}, less than one section of "
+                           f"{robot.name} ({section:.3g} mm); are its units right?")
+    return out
