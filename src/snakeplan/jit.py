@@ -254,6 +254,15 @@ def kernel(fn: Callable | None = None, *, seeds: bool = False, **options: Any):
     return _decorator(seeds, **options) if fn is None else _decorator(seeds)(fn)
 
 
+def compiled_on_disk(fn: Callable) -> bool:
+    """Whether a kernel's machine code is kept on disk: compiled ahead of time, or in numba's cache (its index file
+    exists). One that is not compiles on its first call, which costs seconds to a minute."""
+    if isinstance(fn, Kernel):
+        return True
+    index = getattr(getattr(getattr(fn, "_cache", None), "_cache_file", None), "_index_path", None)
+    return index is None or os.path.exists(index)
+
+
 #: ``njit(cache=True)`` without reference counting, for a kernel that allocates and keeps no array.
 leaf = _decorator(_nrt=False)
 #: A :func:`leaf` kernel that numba inlines into each caller, for the per-evaluation helpers that take the packed

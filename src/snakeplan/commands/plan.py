@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 import warnings
 
 from snakeplan.commands.common import (
@@ -53,6 +54,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
     from snakeplan.episode import run_episode
     from snakeplan.planners import Problem
     from snakeplan.scenes import scale_warnings, spec_for
+    from snakeplan.world.validity import kernels_ready
 
     check_picture(args.plot, "--plot")
     check_views(args)
@@ -77,19 +79,24 @@ def cmd_plan(args: argparse.Namespace) -> int:
         raise
     for line in scale_warnings(scene, robot):
         sys.stderr.write(f"snakeplan: warning: {line}\n")
+    if not kernels_ready():
+        sys.stderr.write("snakeplan: compiling the planning kernels on first use (about a minute, once: numba keeps "
+                         "them; 'snakeplan compile' builds them ahead of time)\n")
+    wall = time.perf_counter()
     with warnings.catch_warnings():
         warnings.showwarning = warning_line
         try:
             episode = run_episode(problem, planner, seed=args.planner_seed)
         except ValueError as exc:
             raise ValueError(as_option(str(exc))) from None
+    wall = time.perf_counter() - wall
     plan = episode.plan
     write_episode_views(args, episode, args.plot)
     if args.json:
         print_json(episode.to_dict())
     else:
         sys.stdout.write(f"{plan.planner} on {where(scene)} with {robot.name}: {status(plan)} "
-                         f"in {plan.compute_time_s:.3f} s\n")
+                         f"in {plan.compute_time_s:.3f} s ({wall:.2f} s wall, judging and loading included)\n")
         if episode.report is not None:
             sys.stdout.write("\n".join(episode.report.lines()) + "\n")
     if args.trajectory:

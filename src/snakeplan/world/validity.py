@@ -36,7 +36,7 @@ from snakeplan.geometry.polyline import (
     grid_unchecked,
     validate_path,
 )
-from snakeplan.jit import kernel, leaf
+from snakeplan.jit import compiled_on_disk, kernel, leaf
 from snakeplan.robots import Chain
 from snakeplan.world.joint_motion import JointMotionCheck, MotionFailure
 from snakeplan.world.knowledge import KnowledgeView
@@ -242,6 +242,12 @@ def targets_reached(path, targets, tolerance: float = REACH_TOLERANCE_MM) -> int
         seg, t0 = seg + j, base + first * (1.0 - base)
         count += 1
     return count
+
+
+def kernels_ready() -> bool:
+    """Whether the crawl check's kernel, which every plan runs, is kept compiled (else the first plan compiles it and
+    the kernels it calls: about a minute on a fresh install)."""
+    return compiled_on_disk(_scan)
 
 
 class ValidityChecker:
