@@ -361,3 +361,16 @@ def test_bench_run_takes_a_robot_file_as_plan_does(tmp_path, capsys):
     assert main(["bench", "run", "--scenes", "fuel-tank", "--planners", "as-rrt", "--seeds", "0", "--robot",
                  str(tmp_path / "nope.json"), "--out", str(tmp_path / "x")]) == 2
     assert capsys.readouterr().err.startswith("snakeplan: error: --robot: no such file")
+
+
+def test_bench_report_names_the_folder_as_the_report_it_writes(tmp_path, capsys):
+    """After bench run the report said 'Results in rows: 1 runs', bench report printed 'Results in /tmp/.../rows':
+    one heading now, the file's."""
+    from snakeplan.cli import main
+
+    run_sweep(Sweep("run", ("oil-tank",), (0,), (("sp-rrt", {}),), 5.0), tmp_path / "rows", Backend("serial"),
+              progress=False)
+    assert main(["bench", "report", str(tmp_path / "rows")]) == 0
+    printed = capsys.readouterr().out.splitlines()[0]
+    assert printed == (tmp_path / "rows" / "report.md").read_text().splitlines()[0]
+    assert "Results in rows: 1 runs" in printed

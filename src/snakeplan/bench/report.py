@@ -134,7 +134,7 @@ def paper_outputs(rows: list[dict], folder: Path) -> tuple[list[str], list[Path]
 
 def write_report(folder: str | Path, html: str | Path | None = None) -> dict:
     """Write ``report.md`` and ``report.csv`` (and the paper figures, and ``html`` when given) into ``folder``
-    from its logged rows; returns the summary entries and the files written."""
+    from its logged rows; returns the report's heading, the summary entries and the files written."""
     folder = Path(folder)
     if not (folder / RUNS_FILE).is_file():
         raise ValueError(f"DIR: {folder} holds no {RUNS_FILE} (a results folder of 'snakeplan bench ...')")
@@ -144,13 +144,14 @@ def write_report(folder: str | Path, html: str | Path | None = None) -> dict:
         raise ValueError(f"DIR: {folder / RUNS_FILE} holds no complete row yet")
     entries = summarise(rows)
     sections, figures = paper_outputs(rows, folder)
-    text = "\n".join([markdown(entries, f"Results in {folder.name}: {len(rows)} runs"), "", *sections,
+    heading = f"Results in {folder.name}: {len(rows)} runs"
+    text = "\n".join([markdown(entries, heading), "", *sections,
                       *[f"![{f.stem}]({f.name})" for f in figures]]) + "\n"
     written = [atomic_write(folder / "report.md", text), atomic_write(folder / "report.csv", csv_text(entries))]
     if render is not None:
         images = {f.name: f.read_bytes() for f in figures}
         written.append(atomic_write(html, render(text, images, f"snakeplan results: {folder.name}")))
-    return {"entries": entries, "files": [str(p) for p in written + figures]}
+    return {"heading": heading, "entries": entries, "files": [str(p) for p in written + figures]}
 
 
 def _html_renderer():

@@ -104,6 +104,6 @@ def cmd_bench_report(args: argparse.Namespace) -> int:
     if args.json:
         print_json(result)
     else:
-        sys.stdout.write(markdown(result["entries"], f"Results in {args.dir}") + "\n\nwrote "
+        sys.stdout.write(markdown(result["entries"], result["heading"]) + "\n\nwrote "
                          + ", ".join(result["files"]) + "\n")
     return EXIT_OK
