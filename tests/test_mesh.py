@@ -570,3 +570,22 @@ def test_a_mesh_read_in_the_wrong_unit_is_named_against_the_arm_and_a_point_in_m
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and "deep inside obstacles[0]" in err
     assert "were its coordinates metres? snakeplan's are mm: [-1200, 0, 0]" in err
+
+
+def test_scene_import_adds_primitives_beside_the_meshes(tmp_path, capsys):
+    """A floor the CAD file lacks, as a scene/1 box; a malformed one is one line naming it and writes nothing."""
+    from snakeplan.cli import main
+
+    trimesh.creation.box(extents=(2.0, 2.0, 2.0)).export(tmp_path / "block.stl")
+    out = tmp_path / "s.json"
+    floor = '{"type": "box", "center": [0, 0, -1110], "size": [3000, 3000, 20]}'
+    base = ["scene", "import", str(tmp_path / "block.stl"), "--units", "m", "--entrance", "-1200,0,0",
+            "--direction", "1,0,0", "-o", str(out)]
+    assert main(base + ["--obstacle", floor]) == 0, capsys.readouterr().err
+    doc = json.loads(out.read_text())
+    assert [o["type"] for o in doc["obstacles"]] == ["mesh", "box"] and doc["obstacles"][1]["center"][2] == -1110
+    assert doc["bounds"]["min"][2] == pytest.approx(-1120.0 - 50.0)  # the auto bounds hold the floor too
+    out.unlink()
+    assert main(base + ["--obstacle", '{"type": "box", "center": [0, 0]}']) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("snakeplan: error: --obstacle[0].") and err.count("\n") == 1 and not out.exists()

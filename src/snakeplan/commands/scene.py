@@ -75,6 +75,10 @@ def import_parser() -> argparse.ArgumentParser:
                    help="workspace box (mm), e.g. -100,-200,-200,700,700,200; auto: around the meshes, entrance and "
                         "targets with a 50 mm margin")
     p.add_argument("--thickness", type=float, help="take every mesh as a shell this thick (mm)")
+    p.add_argument("--obstacle", action="append", default=[], metavar="JSON",
+                   help="a primitive beside the meshes, as a scene/1 obstacle object (mm), e.g. a floor: "
+                        "'{\"type\": \"box\", \"center\": [0, 0, -510], \"size\": [3000, 3000, 20]}'; may be "
+                        "repeated")
     p.add_argument("--name", help="scene name (default: the first mesh's file name)")
     p.add_argument("-o", "--out", required=True, help="the scene JSON file to write")
     return p
@@ -83,7 +87,7 @@ def import_parser() -> argparse.ArgumentParser:
 def cmd_scene_import(argv: list[str]) -> int:
     """``snakeplan scene import MESH... -o scene.json``: check everything, then write the scene atomically."""
     from snakeplan.files import atomic_write
-    from snakeplan.inputs import length, unit
+    from snakeplan.inputs import length, load_json, unit
     from snakeplan.scenes.importing import import_scene, parse_bounds, parse_triple
 
     args = import_parser().parse_args(argv)
@@ -92,11 +96,13 @@ def cmd_scene_import(argv: list[str]) -> int:
     direction = unit(parse_triple(args.direction, "--direction"), "--direction")
     targets = [parse_triple(t, f"--target[{i}]") for i, t in enumerate(args.target)]
     thickness = None if args.thickness is None else length(args.thickness, "--thickness")
+    primitives = [load_json(text, f"--obstacle[{i}]") for i, text in enumerate(args.obstacle)]
     scene = import_scene(args.meshes, args.units, entrance, direction, targets, args.out,
-                         parse_bounds(args.bounds), args.name, thickness)
+                         parse_bounds(args.bounds), args.name, thickness, primitives)
     atomic_write(args.out, scene.to_json(indent=1) + "\n")
-    triangles = sum(len(o.faces) for o in scene.obstacles)
-    sys.stdout.write(f"wrote {args.out}: {_count(len(scene.obstacles), 'mesh', 'meshes')}, {triangles} triangles, "
+    triangles = sum(len(o.faces) for o in scene.obstacles if hasattr(o, "faces"))
+    meshes = sum(1 for o in scene.obstacles if hasattr(o, "faces"))
+    sys.stdout.write(f"wrote {args.out}: {_count(meshes, 'mesh', 'meshes')}, {triangles} triangles, "
                      f"{len(scene.targets)} targets, bounds {scene.bounds_min.round(1).tolist()} .. "
                      f"{scene.bounds_max.round(1).tolist()} mm\n")
     return EXIT_OK

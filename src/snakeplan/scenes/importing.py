@@ -15,7 +15,7 @@ import numpy as np
 
 from snakeplan import inputs
 from snakeplan.geometry.mesh_files import read_mesh_file
-from snakeplan.geometry.primitives import Mesh
+from snakeplan.geometry.primitives import Mesh, obstacle_from_dict
 from snakeplan.scenes.scene import Entrance, Scene, check_placement
 
 #: Margin (mm) added around the meshes, entrance and targets by ``--bounds auto``.
@@ -46,10 +46,13 @@ def parse_bounds(text: str) -> tuple[np.ndarray, np.ndarray] | None:
 
 def import_scene(meshes: Sequence[str], units: str, entrance: np.ndarray, direction: np.ndarray,
                  targets: Sequence[np.ndarray], out: str | os.PathLike, bounds: tuple | None = None,
-                 name: str | None = None, thickness: float | None = None) -> Scene:
+                 name: str | None = None, thickness: float | None = None,
+                 primitives: Sequence[dict] = ()) -> Scene:
     """The scene of mesh files (read in ``units``), entrance (mm), unit feed ``direction`` and ``targets`` (mm),
     inside ``bounds`` (default: around everything with :data:`AUTO_BOUNDS_MARGIN_MM`), whose mesh references are
-    relative to ``out``'s folder. ValueError names the option: ``MESH``, ``--entrance``, ``--target[i]``..."""
+    relative to ``out``'s folder, with ``primitives`` beside them (scene/1 obstacle objects, mm: a floor, a
+    fixture the CAD lacks). ValueError names the option: ``MESH``, ``--entrance``, ``--target[i]``,
+    ``--obstacle[i]``..."""
     if not meshes:
         raise ValueError("MESH: give at least one mesh file")
     here = Path(out).resolve().parent
@@ -70,9 +73,10 @@ def import_scene(meshes: Sequence[str], units: str, entrance: np.ndarray, direct
             obstacles.append(Mesh(vertices, faces, thickness, source=source))
         except ValueError as exc:
             raise ValueError(f"{field}: {file}: {str(exc).split(': ', 1)[-1]}") from None
+    obstacles += [obstacle_from_dict(d, f"--obstacle[{i}]") for i, d in enumerate(primitives)]
     targets = np.asarray(targets, dtype=float).reshape(-1, 3)
     if bounds is None:
-        pts = np.vstack([*(m.vertices for m in obstacles), entrance[None], targets])
+        pts = np.vstack([*(np.vstack(o.aabb()) for o in obstacles), entrance[None], targets])
         bounds = (pts.min(axis=0) - AUTO_BOUNDS_MARGIN_MM, pts.max(axis=0) + AUTO_BOUNDS_MARGIN_MM)
     scene = Scene(name=name or Path(meshes[0]).stem or "imported", seed=None, bounds_min=bounds[0],
                   bounds_max=bounds[1], entrance=Entrance(entrance, direction), targets=targets,
