@@ -44,7 +44,7 @@ WORKLOAD_SEED = 1
 def workload(scenes: list[str] | None = None) -> list[list[str]]:
     """The commands whose kernels are compiled: each scene family's default plan (also with sensed knowledge where
     its planner takes it) and, where fuel-tank is among ``scenes`` (default: all families), every registered planner
-    on it."""
+    that reaches, on it."""
     from snakeplan.planners import planner_names
     from snakeplan.planners.registry import PLANNERS
     from snakeplan.scenes import scene_names, scene_spec
@@ -58,7 +58,7 @@ def workload(scenes: list[str] | None = None) -> list[list[str]]:
         commands += [plan, plan + ["--knowledge", "sensed"]] if sensed else [plan]
     if "fuel-tank" in names:
         commands += [["plan", "--scene", "fuel-tank", "--seed", str(WORKLOAD_SEED), "--planner", planner]
-                     for planner in planner_names()]
+                     for planner in planner_names("reach")]
     return commands
 
 
