@@ -156,3 +156,27 @@ def test_a_problem_says_its_task_and_planners_refuse_tasks_they_do_not_do():
     assert "as-rrt" in planner_names("reach") and "informative" not in planner_names("reach")
     with pytest.raises(KeyError, match="known: coverage, informative, random"):
         get_planner("nope", task="inspect")
+
+
+def test_the_judge_refuses_other_settings_views_off_the_clock_a_mission_past_its_budget_and_a_scaled_base(
+        station_plan):
+    """A mission is judged under the task's settings and clock: a document claiming a noiseless camera, a view
+    between two measurement times, a motion past the budget, and a base pose that shrinks the arm are refused."""
+    problem, plan = station_plan
+    mission = plan.mission
+    quiet = dataclasses.replace(mission.settings, camera=dataclasses.replace(mission.settings.camera, noise_a=0.0))
+    assert evaluate_mission(problem.scene, problem.robot, dataclasses.replace(mission, settings=quiet),
+                            problem.inspection).reason == "settings"
+    v = mission.views
+    t = v.times_s.copy()
+    t[1] += 0.5
+    off = dataclasses.replace(mission, views=Views(t, v.positions, v.directions))
+    assert evaluate_mission(problem.scene, problem.robot, off).reason == "view_times"
+    m = mission.motions[0]
+    late = dataclasses.replace(mission, motions=(JointMotion(m.times_s * 2.0, m.bases, m.q),))
+    assert evaluate_mission(problem.scene, problem.robot, late).reason == "over_budget"
+    shrunk = m.bases.copy()
+    shrunk[:, :3, :3] *= 0.001
+    with pytest.raises(ValueError, match="^bases"):
+        JointMotion(m.times_s, shrunk, m.q)
+    assert len(Views([], [], [])) == 0

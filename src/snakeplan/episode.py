@@ -81,7 +81,7 @@ def run_episode(problem: Problem, planner: Planner | str, seed: int = 0, **optio
     if isinstance(planner, str):
         planner = get_planner(planner, **options)
     plan = planner.plan(problem, seed=seed)
-    return Episode(problem, plan, judge(problem.scene, problem.robot, plan.path, plan.mission))
+    return Episode(problem, plan, judge(problem.scene, problem.robot, plan.path, plan.mission, problem.inspection))
 
 
 def check_document(scene: Scene, robot: Chain, report: Report) -> dict:

@@ -51,16 +51,20 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 
 def _check_mission(args: argparse.Namespace, scene, robot, path, mission, source: str) -> int:
-    """Judge an inspect plan's mission (its motions, its views, the views measured again), as plan judged it."""
+    """Judge an inspect plan's mission (its motions, its views, the views measured again) under the scene's inspect
+    task, as plan judged it."""
     from snakeplan.episode import Episode, check_document
     from snakeplan.evaluation import judge
     from snakeplan.planners import Plan, Problem
 
     try:
-        problem = Problem(scene, robot, task="inspect", inspection=mission.settings)
+        problem = Problem(scene, robot, task="inspect")
     except ValueError as exc:
         raise UsageError(f"--scene: {str(exc).removeprefix('scene: ')}") from None
-    report = judge(scene, robot, path, mission)
+    try:
+        report = judge(scene, robot, path, mission, problem.inspection)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
     episode = Episode(problem, Plan("check", "found", path, 0.0, {}, mission), report)
     write_episode_views(args, episode, args.plot)
     if args.json:

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -22,13 +22,20 @@ from snakeplan.mapping.models import CameraModel
 from snakeplan.robots import Chain
 from snakeplan.scenes import Scene
 from snakeplan.threads import single_threaded
-from snakeplan.world import JUDGE, REACH_TOLERANCE_MM, FullView, ValidityChecker
+from snakeplan.world import ENTRANCE_TOLERANCE_MM, JUDGE, REACH_TOLERANCE_MM, FullView, ValidityChecker
 from snakeplan.world.joint_motion import MotionFailure, interpolate
-from snakeplan.world.mission import Crawl, JointMotion, Mission, inspected_surface, mission_rngs
+from snakeplan.world.mission import (
+    Crawl,
+    InspectionSettings,
+    JointMotion,
+    Mission,
+    inspected_surface,
+    mission_rngs,
+)
 
-#: The reasons a mission is refused, in the order that breaks a tie, and its verdict when none holds.
-MISSION_FAILURES = ("collision", "bend_limit", "joint_limit", "insertion", "out_of_bounds", "discontinuity",
-                    "view_off_arm")
+#: The reasons a mission is refused, and its verdict when none holds.
+MISSION_FAILURES = ("settings", "no_motion", "collision", "bend_limit", "joint_limit", "insertion", "out_of_bounds",
+                    "not_at_entrance", "discontinuity", "over_budget", "view_times", "view_off_arm")
 INSPECTED = "inspected"
 #: How far (mm) one motion may end from where the next starts (the tip), and how far apart in time (s).
 CONTINUITY_MM = 1e-6
@@ -69,7 +76,8 @@ class MissionReport:
         """The metrics block of an inspect plan's ``snakeplan.plan/1`` document and runner rows."""
         f = self.failure
         return {"inspected": self.success, "motions": self.motions, "mission_time_s": self.mission_time_s,
-                "min_clearance_mm": self.min_clearance_mm, "views": self.views,
+                "min_clearance_mm": self.min_clearance_mm if math.isfinite(self.min_clearance_mm) else None,
+                "views": self.views,
                 "reach_share": self.views_on_arm / self.views if self.views else 1.0,
                 "coverage": self.coverage,
                 "final_rmse_k": float(self.rmse_k[-1]) if self.rmse_k.size else None,
@@ -83,8 +91,9 @@ class MissionReport:
         """The verdict as console lines."""
         head = "inspected: every motion valid, every view on the arm" if self.success else (
             f"refused ({self.reason}) at {self.failure.time_s:.2f} s, motion {self.failure.motion}")
+        rmse = f"{self.rmse_k[-1]:.3f} K" if self.rmse_k.size else "none (no view)"
         return [head, f"views {self.views} ({self.views_on_arm} on the arm), coverage {self.coverage:.1%}, "
-                      f"final RMSE {self.rmse_k[-1]:.3f} K, min clearance {self.min_clearance_mm:.1f} mm"]
+                      f"final RMSE {rmse}, min clearance {self.min_clearance_mm:.1f} mm"]
 
 
 _CAMERAS: dict[tuple, object] = {}
@@ -100,17 +109,30 @@ def _camera(mesh, model: CameraModel):
     return _CAMERAS[key]
 
 
+_FIELDS: dict[str, object] = {}
+
+
+def _field(mesh):
+    """The distance field round the inspected surface (``mapping.field.DistanceField``), kept per mesh content."""
+    from snakeplan.mapping.field import DistanceField
+
+    if mesh.fingerprint not in _FIELDS:
+        _FIELDS[mesh.fingerprint] = DistanceField(mesh.vertices, mesh.faces)
+    return _FIELDS[mesh.fingerprint]
+
+
 def _motion_failure(checker: ValidityChecker, motion, index: int) -> MissionFailure | None:
     """The first failure of one motion, in mission time."""
     if isinstance(motion, JointMotion):
         f: MotionFailure | None = checker.joint_motion_failure(motion.times_s, motion.bases, motion.q)
         return None if f is None else MissionFailure(index, f.time_s, f.kind, f.link)
+    if np.linalg.norm(motion.path[0] - checker.entrance) > ENTRANCE_TOLERANCE_MM:
+        return MissionFailure(index, motion.start_s, "not_at_entrance")
     f = checker.first_failure(motion.path, 0.0, motion.depth_mm)
     if f is None:
         return None
-    span = max(motion.depth_mm, 1e-300)
-    return MissionFailure(index, motion.start_s + (motion.end_s - motion.start_s) * min(f.depth_mm / span, 1.0),
-                          str(f.kind), f.link)
+    share = min(f.depth_mm / max(motion.depth_mm, 1e-300), 1.0) * (0.5 if motion.retract else 1.0)
+    return MissionFailure(index, motion.start_s + (motion.end_s - motion.start_s) * share, str(f.kind), f.link)
 
 
 def _tip_at(checker: ValidityChecker, motion, t: np.ndarray) -> np.ndarray:
@@ -134,10 +156,31 @@ def _tip_at(checker: ValidityChecker, motion, t: np.ndarray) -> np.ndarray:
 
 
 def _ends(checker: ValidityChecker, motion) -> tuple[np.ndarray, np.ndarray]:
-    """The tip where a motion starts and where it ends (mm)."""
-    start, end = (motion.start_s, motion.end_s)
-    tips = _tip_at(checker, motion, np.array([start, end]))
-    return tips[0], tips[1]
+    """The body (joint positions, mm) where a motion starts and where it ends: a crawl's at its entrance and at its
+    last state (the tip alone: its body follows the path), a joint motion's whole at its first and last sample."""
+    if isinstance(motion, JointMotion):
+        bodies = checker.joint_motions().bodies(motion.bases[[0, -1]], motion.q[[0, -1]])
+        return bodies[0], bodies[1]
+    tips = _tip_at(checker, motion, np.array([motion.start_s, motion.end_s]))
+    return tips[0][None], tips[1][None]
+
+
+def _task_failure(mission: Mission, settings: InspectionSettings) -> MissionFailure | None:
+    """What is wrong with a mission as a whole before any motion is replayed: flown under other settings than the
+    task's, no motion, views not one at each measurement time of the settings' clock, or past the budget."""
+    if mission.settings != settings:
+        return MissionFailure(-1, 0.0, "settings")
+    if not mission.motions:
+        return MissionFailure(-1, 0.0, "no_motion")
+    end = max(m.end_s for m in mission.motions)
+    if end > settings.budget_s + CONTINUITY_S:
+        return MissionFailure(len(mission.motions) - 1, settings.budget_s, "over_budget")
+    t, ticks = mission.views.times_s, settings.ticks()
+    on_tick = np.abs(t[:, None] - ticks[None]).min(axis=1, initial=np.inf) <= CONTINUITY_S if t.size else t.astype(bool)
+    if not on_tick.all() or np.any(np.diff(t) <= 0.0):
+        k = int(np.argmin(on_tick)) if not on_tick.all() else int(np.argmax(np.diff(t) <= 0.0)) + 1
+        return MissionFailure(-1, float(t[k]), "view_times")
+    return None
 
 
 def measure_views(scene: Scene, mission: Mission, on_measure: Callable[[float, np.ndarray, object], None] | None = None
@@ -145,7 +188,8 @@ def measure_views(scene: Scene, mission: Mission, on_measure: Callable[[float, n
     """Measure again from every view of ``mission``: sightings by ray casts against the inspected surface, the
     simulated measurements drawn from the mission's measurement seed, fused into the map from its prior. Returns
     (the final map, a ``GaussianMap``; which surface nodes were seen; the RMSE (K) and covariance trace (K^2) after
-    each view); ``on_measure(t, position, map)`` sees the map after each. The mapping machinery loads here, for a
+    each view); ``on_measure(t, position, map)`` sees the map after each. The camera is aimed as its pan-tilt aims
+    it, at the closest point of the surface (the judge's own distance field), whatever the views' directions say. The mapping machinery loads here, for a
     mission only."""
     from snakeplan.mapping import GaussianMap, surface_prior
 
@@ -157,7 +201,8 @@ def measure_views(scene: Scene, mission: Mission, on_measure: Callable[[float, n
     noise = mission_rngs(mission.measurement_seed)[1]
     seen = np.zeros(len(truth), dtype=bool)
     rmse, trace = [], []
-    for t, p, d in zip(views.times_s, views.positions, views.directions):
+    aims = _field(surface).look_direction(views.positions) if len(views) else views.directions
+    for t, p, d in zip(views.times_s, views.positions, aims):
         nodes, y, r = camera.measure(p, d, truth, noise)
         gmap.update(nodes, y, r)
         seen[nodes] = True
@@ -168,27 +213,33 @@ def measure_views(scene: Scene, mission: Mission, on_measure: Callable[[float, n
     return gmap, seen, rmse, trace
 
 
-def evaluate_mission(scene: Scene, robot: Chain, mission: Mission) -> MissionReport:
-    """Judge ``mission`` of ``robot`` in ``scene`` (see the module); ValueError for a scene with no surface to
-    inspect. BLAS runs on one thread (:mod:`snakeplan.threads`), as the mission did: the map's small updates are
+def evaluate_mission(scene: Scene, robot: Chain, mission: Mission, settings: InspectionSettings | None = None
+                     ) -> MissionReport:
+    """Judge ``mission`` of ``robot`` in ``scene`` under the task's ``settings`` (default: the mission's own; a
+    mission flown under others is refused); ValueError for a scene with no surface to inspect, or motions of
+    another arm (their joint count). BLAS runs on one thread (:mod:`snakeplan.threads`), as the mission did: the map's small updates are
     faster so, and the same bits in any process."""
     with single_threaded():
-        return _evaluate_mission(scene, robot, mission)
+        return _evaluate_mission(scene, robot, mission, mission.settings if settings is None else settings)
 
 
-def _evaluate_mission(scene: Scene, robot: Chain, mission: Mission) -> MissionReport:
+def _evaluate_mission(scene: Scene, robot: Chain, mission: Mission, settings: InspectionSettings) -> MissionReport:
     inspected_surface(scene)
+    for i, m in enumerate(mission.motions):
+        if isinstance(m, JointMotion) and m.q.shape[1] != robot.dof:
+            raise ValueError(f"mission.motions[{i}].q: {m.q.shape[1]} joints per sample; {robot.name} has "
+                             f"{robot.dof}")
     checker = ValidityChecker(FullView(scene), robot, JUDGE)
-    failure: MissionFailure | None = None
+    failure: MissionFailure | None = _task_failure(mission, settings)
     clearance = math.inf
-    previous_end: tuple[float, np.ndarray] | None = None
-    for i, motion in enumerate(mission.motions):
+    previous: tuple[float, np.ndarray] | None = None
+    for i, motion in enumerate(mission.motions if failure is None else ()):
         start, end = _ends(checker, motion)
-        if previous_end is not None and (abs(motion.start_s - previous_end[0]) > CONTINUITY_S
-                                         or np.linalg.norm(start - previous_end[1]) > CONTINUITY_MM):
+        if previous is not None and (abs(motion.start_s - previous[0]) > CONTINUITY_S
+                                     or np.max(np.linalg.norm(start - previous[1], axis=-1)) > CONTINUITY_MM):
             failure = MissionFailure(i, motion.start_s, "discontinuity")
             break
-        previous_end = (motion.end_s, end)
+        previous = (motion.end_s, end)
         found = _motion_failure(checker, motion, i)
         if isinstance(motion, JointMotion):
             clearance = min(clearance, checker.joint_motions().least_clearance(motion.bases, motion.q))
@@ -208,7 +259,7 @@ def _evaluate_mission(scene: Scene, robot: Chain, mission: Mission) -> MissionRe
         k = int(np.argmin(held))
         owner = next((i for i, m in enumerate(mission.motions) if m.start_s <= views.times_s[k] <= m.end_s), -1)
         failure = MissionFailure(owner, float(views.times_s[k]), "view_off_arm")
-    gmap, seen, rmse, trace = measure_views(scene, mission)
+    gmap, seen, rmse, trace = measure_views(scene, replace(mission, settings=settings))  # the task's camera
     end_s = max((m.end_s for m in mission.motions), default=0.0)
     return MissionReport(failure is None, INSPECTED if failure is None else failure.kind, failure,
                          len(mission.motions), float(end_s), float(clearance), len(views), int(held.sum()),

@@ -7,12 +7,13 @@ from snakeplan.evaluation.judge import Report, evaluate
 from snakeplan.evaluation.mission import MissionReport, evaluate_mission
 from snakeplan.robots import Chain
 from snakeplan.scenes import Scene
-from snakeplan.world.mission import Mission
+from snakeplan.world.mission import InspectionSettings, Mission
 
 
-def judge(scene: Scene, robot: Chain, path, mission: Mission | None = None) -> Report | MissionReport | None:
-    """The judge's report on a plan's ``path`` (a reach plan) or ``mission`` (an inspect plan), against the whole
-    scene; None when the plan has neither."""
+def judge(scene: Scene, robot: Chain, path, mission: Mission | None = None,
+          settings: InspectionSettings | None = None) -> Report | MissionReport | None:
+    """The judge's report on a plan's ``path`` (a reach plan) or ``mission`` (an inspect plan, under the task's
+    ``settings``), against the whole scene; None when the plan has neither."""
     if mission is not None:
-        return evaluate_mission(scene, robot, mission)
+        return evaluate_mission(scene, robot, mission, settings)
     return None if path is None else evaluate(scene, robot, path)

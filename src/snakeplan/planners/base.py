@@ -1,7 +1,8 @@
 """The planning problem, the plan, and the interface every planner implements.
 
-A planner turns a :class:`Problem` into a :class:`Plan`: a tip path from the entrance. It never judges
-itself; :func:`snakeplan.evaluation.evaluate` does, with the same rules for every planner.
+A planner turns a :class:`Problem` into a :class:`Plan`: a tip path from the entrance (reach), or the camera
+path flown and its mission (inspect). It never judges itself; :func:`snakeplan.evaluation.judge` does, with the
+same rules for every planner.
 :func:`snakeplan.planners.check_planner` checks a planner against the contract stated in :class:`Planner`.
 
 One problem shape whatever the task (after OMPL's ``ProblemDefinition`` and its goals): a :class:`Problem` says

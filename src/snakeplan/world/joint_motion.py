@@ -25,8 +25,7 @@ from snakeplan.world.tolerances import BEND_TOLERANCE_RAD, CONTACT_RESOLUTION_MM
 
 #: Round-off allowed on joint limits (rad or mm).
 LIMIT_TOLERANCE = 1e-9
-#: Most halvings of one step before its clearance is taken as settled (2^-40 of a metre is far below the
-#: contact resolution).
+#: Most halvings of one step (a fraction 2^-40 of it) before its clearance is taken as settled.
 MAX_HALVINGS = 40
 
 
@@ -46,9 +45,11 @@ def _slerp_rotations(Ra: np.ndarray, Rb: np.ndarray, s: np.ndarray) -> np.ndarra
     angle = math.acos(max(-1.0, min(1.0, (np.trace(D) - 1.0) / 2.0)))
     if angle < 1e-12:
         return np.broadcast_to(Ra, (len(s), 3, 3)).copy()
-    if math.pi - angle < 1e-6:  # half a turn: the axis from the symmetric part
+    if math.pi - angle < 1e-6:  # half a turn: the axis from the symmetric part, its sign the one that ends at Rb
         w, v = np.linalg.eigh((D + D.T) / 2.0)
         axis = v[:, int(np.argmax(w))]
+        anti = np.array([D[2, 1] - D[1, 2], D[0, 2] - D[2, 0], D[1, 0] - D[0, 1]])
+        axis = axis if float(anti @ axis) >= 0.0 else -axis
     else:
         axis = np.array([D[2, 1] - D[1, 2], D[0, 2] - D[2, 0], D[1, 0] - D[0, 1]]) / (2.0 * math.sin(angle))
     K = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
@@ -111,10 +112,12 @@ class JointMotionCheck:
         return np.arctan2(np.linalg.norm(np.cross(prev, d), axis=2), np.sum(prev * d, axis=2))
 
     def bound(self, bases: np.ndarray, q: np.ndarray, i: int) -> float:
-        """B of the step from sample i to i+1 (see the module): no body point moves farther (mm)."""
+        """B of the step from sample i to i+1 (see the module): no body point moves farther (mm). The feed's
+        stroke is the larger of its limit and the step's own (a step past the limit is refused, but bounded right)."""
         dq = np.abs(q[i + 1] - q[i])
+        reach = self.reach if self.revolute.all() else max(self.reach, self.arm + float(np.max(np.abs(q[i:i + 2, 0]))))
         return (float(np.linalg.norm(bases[i + 1, :3, 3] - bases[i, :3, 3]))
-                + self.reach * rotation_angle(bases[i, :3, :3], bases[i + 1, :3, :3])
+                + reach * rotation_angle(bases[i, :3, :3], bases[i + 1, :3, :3])
                 + self.arm * float(dq[self.revolute].sum()) + float(dq[~self.revolute].sum()))
 
     def _pointwise(self, bases: np.ndarray, q: np.ndarray) -> tuple[str, int | None] | None:
@@ -201,7 +204,7 @@ class JointMotionCheck:
         return first
 
     def _collision(self, T: np.ndarray, Q: np.ndarray, t: float, other: MotionFailure | None) -> MotionFailure:
-        """The collision at time t (state T, Q), unless ``other`` fails earlier or at the same time."""
+        """The collision at time t (state T, Q), unless ``other`` fails strictly earlier."""
         if other is not None and other.time_s < t:
             return other
         hit = self.obstacles.first_hit(self.bodies(T, Q), self.radii)

@@ -96,8 +96,14 @@ def mission_rngs(seed: int) -> tuple[np.random.Generator, np.random.Generator]:
     return planner, noise
 
 
+#: How far (per entry) a base pose may be from a rigid transform.
+RIGID_TOL = 1e-6
+
+
 def _array(name: str, value, shape: tuple) -> np.ndarray:
     a = np.asarray(value, dtype=float)
+    if a.size == 0 and len(shape) > 1:
+        a = a.reshape((0, *(s or 0 for s in shape[1:])))
     if a.ndim != len(shape) or any(s is not None and a.shape[i] != s for i, s in enumerate(shape)):
         raise ValueError(f"{name}: expected shape {tuple('k' if s is None else s for s in shape)}, got {a.shape}")
     if not np.all(np.isfinite(a)):
@@ -119,7 +125,14 @@ class JointMotion:
         if len(t) < 1 or np.any(np.diff(t) < 0):
             raise ValueError("times_s: needs at least one time, nondecreasing")
         object.__setattr__(self, "times_s", t)
-        object.__setattr__(self, "bases", _array("bases", self.bases, (len(t), 4, 4)))
+        bases = _array("bases", self.bases, (len(t), 4, 4))
+        R = bases[:, :3, :3]
+        rigid = (np.abs(np.einsum("kji,kjl->kil", R, R) - np.eye(3)).max(axis=(1, 2)) <= RIGID_TOL) & (
+            np.linalg.det(R) > 0) & np.all(np.abs(bases[:, 3] - [0.0, 0.0, 0.0, 1.0]) <= RIGID_TOL, axis=1)
+        if not rigid.all():
+            raise ValueError(f"bases[{int(np.argmin(rigid))}]: not a rigid pose (an orthonormal rotation with "
+                             f"determinant +1, last row 0 0 0 1)")
+        object.__setattr__(self, "bases", bases)
         object.__setattr__(self, "q", _array("q", self.q, (len(t), None)))
 
     @property

@@ -27,9 +27,10 @@ from snakeplan.world.joint_motion import JointMotionCheck
 #: Arc (mm, on the carriage's ring) by which the carriage trails the camera's azimuth: the lead among those tried
 #: that lets the arm hold the most library viewpoints (docs/ARCHITECTURE.md, "The judge of missions").
 CARRIAGE_LEAD_MM = 4000.0
-#: Carriage travel (mm) along the rail's profile past a rim per mm of the camera beyond it: a camera 4000 mm over an
-#: end cap (the library's cap rings) puts the carriage round the rim and 1000 mm in over the cap.
-RIM_LEAD_GAIN = (500.0 * math.pi / 2.0 + 1000.0) / 4000.0
+#: A camera RIM_CAMERA_MM beyond a rim (the library's cap rings) puts the carriage round the rim and RIM_INWARD_MM in
+#: over the cap; the carriage's travel past the rim grows in proportion to the camera's distance beyond it.
+RIM_CAMERA_MM = 4000.0
+RIM_INWARD_MM = 1000.0
 #: The carriage stays this far (mm) from the cap's centre, where its azimuth is undefined.
 CAP_CENTRE_CLEARANCE_MM = 500.0
 #: Inverse kinematics: iterations, random restarts and seed of a cold solve, iterations of a warm one (from the
@@ -82,7 +83,7 @@ class StationArm:
     def carriage(self, point: ArrayLike) -> np.ndarray:
         """The carriage pose (4x4; +z the rail's outward normal, the arm's feed axis; +x along the rail's profile,
         up the side) for a camera position (3,) mm: beside the side at the camera's height; for a camera beyond a
-        rim, RIM_LEAD_GAIN mm along the profile past the rim per mm beyond it, round the rim's quarter circle (the
+        rim, past the rim along the profile in proportion (RIM_CAMERA_MM, RIM_INWARD_MM), round the rim's quarter circle (the
         rail keeps the stand-off from the rim's edge) and in over the end cap. CARRIAGE_LEAD_MM of arc behind the
         camera's azimuth throughout."""
         f = self.frame
@@ -95,8 +96,8 @@ class StationArm:
             rho, height, normal, along = R + s, z, radial, up
         else:
             sign, edge = (1.0, H) if z > H else (-1.0, 0.0)
-            travel = RIM_LEAD_GAIN * abs(z - edge)
             arc = s * math.pi / 2.0
+            travel = (arc + RIM_INWARD_MM) / RIM_CAMERA_MM * abs(z - edge)
             if travel <= arc:
                 phi = travel / s
                 rho, height = R + s * math.cos(phi), edge + sign * s * math.sin(phi)
@@ -122,7 +123,8 @@ class StationArm:
         point: library viewpoints and the home recur)."""
         p = np.asarray(point, dtype=float)
         T = self.carriage(p)
-        rel = T[:3, :3].T @ (p - T[:3, 3])
+        # the chain is placed at T in its base's stead (world = T inv(base) fk): solve for base inv(T) p
+        rel = (self.robot.base @ np.linalg.inv(T) @ np.append(p, 1.0))[:3]
         if q0 is not None:
             res = self.ik_robot.ik(rel, q0, iterations=IK_WARM_ITERATIONS, restarts=0, tol=IK_TOL_MM)
             if res.converged and self._valid(T, res.q):

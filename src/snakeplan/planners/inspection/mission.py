@@ -109,7 +109,8 @@ class FlownMission:
         return {"planner": self.planner, "path": self.path.tolist(), "path_times_s": self.path_times.tolist(),
                 "measurement_times_s": self.times.tolist(), "measurement_poses": self.poses.tolist(),
                 "rmse_k": self.rmse.tolist(), "trace_k2": self.trace.tolist(),
-                "final_rmse_k": float(self.rmse[-1]), "final_trace_k2": float(self.trace[-1]),
+                "final_rmse_k": float(self.rmse[-1]) if self.rmse.size else None,
+                "final_trace_k2": float(self.trace[-1]) if self.trace.size else None,
                 "compute_time_s": self.compute_time_s, "compute_cpu_s": self.compute_cpu_s, "plans": self.plans}
 
 
