@@ -158,9 +158,10 @@ def test_ctrl_c_stops_compile_with_one_line_and_no_table(tmp_path):
     import signal
     import time
 
+    # a test run started as a background job inherits SIGINT ignored; the command is started as from a terminal
     proc = subprocess.Popen([sys.executable, "-m", "snakeplan.cli", "compile", "--scene", "fuel-tank"],
                             env=_env(tmp_path), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
+                            start_new_session=True, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     time.sleep(3)
     os.killpg(proc.pid, signal.SIGINT)
     out, err = proc.communicate(timeout=120)
