@@ -9,7 +9,7 @@ stays inside the scene's bounds and passes the targets in order. Planners never 
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
-from enum import Enum
+from enum import StrEnum
 
 import numpy as np
 
@@ -31,7 +31,7 @@ from snakeplan.world import (
 CRAWL_STEP_MM = JUDGE.step_mm
 
 
-class Reason(str, Enum):
+class Reason(StrEnum):
     """The judge's verdict (:attr:`Report.reason`): the kind of the first failure in depth (a
     :class:`~snakeplan.world.FailureKind`), else ``reached`` when every target was reached, else ``not_reached``.
     A ``str`` so that JSON and printed output hold the plain value, and it compares equal to it."""
@@ -42,9 +42,6 @@ class Reason(str, Enum):
     INSERTION = "insertion"
     OUT_OF_BOUNDS = "out_of_bounds"
     NOT_REACHED = "not_reached"
-
-    def __str__(self) -> str:
-        return self.value
 
 
 @dataclass(frozen=True)

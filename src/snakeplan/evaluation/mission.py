@@ -23,7 +23,7 @@ from snakeplan.robots import Chain
 from snakeplan.scenes import Scene
 from snakeplan.threads import single_threaded
 from snakeplan.world import ENTRANCE_TOLERANCE_MM, JUDGE, REACH_TOLERANCE_MM, FullView, ValidityChecker
-from snakeplan.world.joint_motion import MotionFailure, interpolate
+from snakeplan.world.joint_motion import JointMotionCheck, MotionFailure, interpolate
 from snakeplan.world.mission import (
     Crawl,
     InspectionSettings,
@@ -121,10 +121,10 @@ def _field(mesh):
     return _FIELDS[mesh.fingerprint]
 
 
-def _motion_failure(checker: ValidityChecker, motion, index: int) -> MissionFailure | None:
-    """The first failure of one motion, in mission time."""
+def _motion_failure(checker: ValidityChecker, jm: JointMotionCheck, motion, index: int) -> MissionFailure | None:
+    """The first failure of one motion, in mission time (``jm``: the checker's joint motions)."""
     if isinstance(motion, JointMotion):
-        f: MotionFailure | None = checker.joint_motion_failure(motion.times_s, motion.bases, motion.q)
+        f: MotionFailure | None = jm.first_failure(motion.times_s, motion.bases, motion.q)
         return None if f is None else MissionFailure(index, f.time_s, f.kind, f.link)
     if np.linalg.norm(motion.path[0] - checker.entrance) > ENTRANCE_TOLERANCE_MM:
         return MissionFailure(index, motion.start_s, "not_at_entrance")
@@ -135,14 +135,13 @@ def _motion_failure(checker: ValidityChecker, motion, index: int) -> MissionFail
     return MissionFailure(index, motion.start_s + (motion.end_s - motion.start_s) * share, str(f.kind), f.link)
 
 
-def _tip_at(checker: ValidityChecker, motion, t: np.ndarray) -> np.ndarray:
+def _tip_at(jm: JointMotionCheck, motion, t: np.ndarray) -> np.ndarray:
     """Tip positions (k, 3) mm of a motion at mission times ``t`` within it."""
     if isinstance(motion, Crawl):
         cum = cumulative_length(motion.path)
         frac = (t - motion.start_s) / max(motion.end_s - motion.start_s, 1e-300)
         depth = motion.depth_mm * (1.0 - np.abs(1.0 - 2.0 * frac) if motion.retract else frac)
         return np.stack([np.interp(depth, cum, motion.path[:, d]) for d in range(3)], axis=-1)
-    jm = checker.joint_motions()
     times = motion.times_s
     out = np.empty((len(t), 3))
     for k, tk in enumerate(t):
@@ -155,13 +154,13 @@ def _tip_at(checker: ValidityChecker, motion, t: np.ndarray) -> np.ndarray:
     return out
 
 
-def _ends(checker: ValidityChecker, motion) -> tuple[np.ndarray, np.ndarray]:
+def _ends(jm: JointMotionCheck, motion) -> tuple[np.ndarray, np.ndarray]:
     """The body (joint positions, mm) where a motion starts and where it ends: a crawl's at its entrance and at its
     last state (the tip alone: its body follows the path), a joint motion's whole at its first and last sample."""
     if isinstance(motion, JointMotion):
-        bodies = checker.joint_motions().bodies(motion.bases[[0, -1]], motion.q[[0, -1]])
+        bodies = jm.bodies(motion.bases[[0, -1]], motion.q[[0, -1]])
         return bodies[0], bodies[1]
-    tips = _tip_at(checker, motion, np.array([motion.start_s, motion.end_s]))
+    tips = _tip_at(jm, motion, np.array([motion.start_s, motion.end_s]))
     return tips[0][None], tips[1][None]
 
 
@@ -230,19 +229,20 @@ def _evaluate_mission(scene: Scene, robot: Chain, mission: Mission, settings: In
             raise ValueError(f"mission.motions[{i}].q: {m.q.shape[1]} joints per sample; {robot.name} has "
                              f"{robot.dof}")
     checker = ValidityChecker(FullView(scene), robot, JUDGE)
+    jm = checker.joint_motions()
     failure: MissionFailure | None = _task_failure(mission, settings)
     clearance = math.inf
     previous: tuple[float, np.ndarray] | None = None
     for i, motion in enumerate(mission.motions if failure is None else ()):
-        start, end = _ends(checker, motion)
+        start, end = _ends(jm, motion)
         if previous is not None and (abs(motion.start_s - previous[0]) > CONTINUITY_S
                                      or np.max(np.linalg.norm(start - previous[1], axis=-1)) > CONTINUITY_MM):
             failure = MissionFailure(i, motion.start_s, "discontinuity")
             break
         previous = (motion.end_s, end)
-        found = _motion_failure(checker, motion, i)
+        found = _motion_failure(checker, jm, motion, i)
         if isinstance(motion, JointMotion):
-            clearance = min(clearance, checker.joint_motions().least_clearance(motion.bases, motion.q))
+            clearance = min(clearance, jm.least_clearance(motion.bases, motion.q))
         else:
             clearance = min(clearance, checker.crawl(motion.path).min_clearance_mm)
         if found is not None:
@@ -253,7 +253,7 @@ def _evaluate_mission(scene: Scene, robot: Chain, mission: Mission, settings: In
     for i, motion in enumerate(mission.motions):
         inside = (views.times_s >= motion.start_s - CONTINUITY_S) & (views.times_s <= motion.end_s + CONTINUITY_S)
         if inside.any():
-            tips = _tip_at(checker, motion, views.times_s[inside])
+            tips = _tip_at(jm, motion, views.times_s[inside])
             held[inside] |= np.linalg.norm(tips - views.positions[inside], axis=1) <= REACH_TOLERANCE_MM
     if failure is None and not held.all():
         k = int(np.argmin(held))

@@ -22,7 +22,7 @@ import math
 import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field, replace
-from enum import Enum
+from enum import StrEnum
 from typing import ClassVar
 
 import numpy as np
@@ -48,7 +48,7 @@ DEFAULT_TIME_LIMIT_S = 30.0
 
 
 
-class Status(str, Enum):
+class Status(StrEnum):
     """How a plan ended, after OMPL's ``PlannerStatus`` (EXACT_SOLUTION, APPROXIMATE_SOLUTION, TIMEOUT, ...).
 
     A ``str`` so that JSON and CSV hold the plain value (``"found"``). Which statuses carry a path: :class:`Plan`.
@@ -58,9 +58,6 @@ class Status(str, Enum):
     APPROXIMATE = "approximate"
     TIMEOUT = "timeout"
     FAILED = "failed"
-
-    def __str__(self) -> str:
-        return self.value
 
 
 #: Why an approximate plan stopped (its ``details["stopped"]``).

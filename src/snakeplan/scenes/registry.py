@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
-from enum import Enum
+from enum import StrEnum
 from importlib.resources import files
 from pathlib import Path
 from types import MappingProxyType
@@ -27,15 +27,12 @@ SceneGenerator = Callable[..., Scene]
 
 
 
-class Task(str, Enum):
+class Task(StrEnum):
     """What a problem asks of the arm: reach the targets in order, or inspect the scene's surfaces (views that
     measure them). A ``str`` so that JSON and the command line hold the plain value (``"reach"``)."""
 
     REACH = "reach"
     INSPECT = "inspect"
-
-    def __str__(self) -> str:
-        return self.value
 
 
 #: The task kinds, as their plain values.

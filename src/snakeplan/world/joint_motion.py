@@ -120,10 +120,9 @@ class JointMotionCheck:
                 + reach * rotation_angle(bases[i, :3, :3], bases[i + 1, :3, :3])
                 + self.arm * float(dq[self.revolute].sum()) + float(dq[~self.revolute].sum()))
 
-    def _pointwise(self, bases: np.ndarray, q: np.ndarray) -> tuple[str, int | None] | None:
-        """The first pointwise failure among states (joint limits, bends, tip bounds), as (kind, link) of the first
-        failing state, with its index in ``_index``; None when all hold."""
-        self._index = -1
+    def _pointwise(self, bases: np.ndarray, q: np.ndarray) -> tuple[int, str, int | None] | None:
+        """The first pointwise failure among states (joint limits, bends, tip bounds), as (state index, kind,
+        link); None when all hold."""
         lim = np.any((q < self.qlo - LIMIT_TOLERANCE) | (q > self.qhi + LIMIT_TOLERANCE), axis=1)
         bodies = self.bodies(bases, q)
         bends = self.bend_angles(bases, bodies) > self.max_bends
@@ -133,13 +132,18 @@ class JointMotionCheck:
         if not bad.any():
             return None
         k = int(np.argmax(bad))
-        self._index = k
         if lim[k]:
-            return "joint_limit", int(np.flatnonzero((q[k] < self.qlo - LIMIT_TOLERANCE)
-                                                     | (q[k] > self.qhi + LIMIT_TOLERANCE))[-1])
+            return k, "joint_limit", int(np.flatnonzero((q[k] < self.qlo - LIMIT_TOLERANCE)
+                                                        | (q[k] > self.qhi + LIMIT_TOLERANCE))[-1])
         if bends[k].any():
-            return "bend_limit", int(np.flatnonzero(bends[k])[-1])
-        return "out_of_bounds", None
+            return k, "bend_limit", int(np.flatnonzero(bends[k])[-1])
+        return k, "out_of_bounds", None
+
+    def state_clear(self, base: np.ndarray, q: np.ndarray) -> bool:
+        """Whether one state (base pose 4x4, joints) is within its limits, bends and bounds and clears every
+        obstacle (clearance >= 0 under the profile's margin)."""
+        T, Q = base[None], q[None]
+        return self._pointwise(T, Q) is None and float(self._clear(T, Q)[0]) >= 0.0
 
     def _clear(self, bases: np.ndarray, q: np.ndarray) -> np.ndarray:
         """Clearance (mm) of states (k, ...): at most CLEARANCE_TOLERANCE_MM above the true value, and below
@@ -187,7 +191,7 @@ class JointMotionCheck:
                 t = times[i] + s * (times[i + 1] - times[i])
             found = self._pointwise(T, Q)
             if found is not None:
-                first = MotionFailure(float(t[self._index]), *found)
+                first = MotionFailure(float(t[found[0]]), *found[1:])
                 break
         # collisions: every sample, then every step between collision-free samples, certified
         c = self._clear(bases, q)

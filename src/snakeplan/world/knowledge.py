@@ -20,7 +20,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass
-from enum import Enum
+from enum import StrEnum
 from typing import NamedTuple
 
 import numpy as np
@@ -40,15 +40,12 @@ from snakeplan.scenes import Scene
 DEFAULT_SENSOR_RANGE_MM = 400.0
 
 
-class Knowledge(str, Enum):
+class Knowledge(StrEnum):
     """What a planner may know of a scene: ``full``, every obstacle; ``sensed``, the prior obstacles and what its
     tip sensor has revealed. A ``str`` so that JSON and the command line hold the plain value."""
 
     FULL = "full"
     SENSED = "sensed"
-
-    def __str__(self) -> str:
-        return self.value
 
 
 def as_knowledge(value, field: str = "knowledge") -> Knowledge:

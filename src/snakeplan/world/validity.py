@@ -23,7 +23,7 @@ import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from enum import Enum
+from enum import StrEnum
 from typing import NamedTuple
 
 import numpy as np
@@ -48,7 +48,7 @@ from snakeplan.world.tolerances import (
 )
 
 
-class FailureKind(str, Enum):
+class FailureKind(StrEnum):
     """What makes a crawl infeasible (see the module). A ``str`` so that JSON and printed output hold the plain
     value (``"collision"``), and it compares equal to it."""
 
@@ -56,9 +56,6 @@ class FailureKind(str, Enum):
     BEND_LIMIT = "bend_limit"
     INSERTION = "insertion"
     OUT_OF_BOUNDS = "out_of_bounds"
-
-    def __str__(self) -> str:
-        return self.value
 
 
 #: Failure kinds in the order that breaks a tie at one depth.

@@ -112,11 +112,6 @@ class StationArm:
         T[:3, 3] = f.point(rho, tb, height)
         return T
 
-    def _valid(self, T: np.ndarray, q: np.ndarray) -> bool:
-        """The state's body clears the station (with the planning margin), within its bends and limits."""
-        chk = self.check_motion
-        return chk._pointwise(T[None], q[None]) is None and float(chk._clear(T[None], q[None])[0]) >= 0.0
-
     def solve(self, point: ArrayLike, q0: np.ndarray | None = None) -> tuple[bool, np.ndarray, np.ndarray]:
         """(held, carriage pose, joints) putting the tip on ``point`` (3,) mm: from ``q0`` when given (a warm start
         along a path), else, or when that fails, from zero and random restarts (a cold start; cached by the exact
@@ -127,12 +122,12 @@ class StationArm:
         rel = (self.robot.base @ np.linalg.inv(T) @ np.append(p, 1.0))[:3]
         if q0 is not None:
             res = self.ik_robot.ik(rel, q0, iterations=IK_WARM_ITERATIONS, restarts=0, tol=IK_TOL_MM)
-            if res.converged and self._valid(T, res.q):
+            if res.converged and self.check_motion.state_clear(T, res.q):
                 return True, T, res.q
         key = p.tobytes()
         if key not in self._cold:
             res = self.ik_robot.ik(rel, iterations=IK_ITERATIONS, restarts=IK_RESTARTS, tol=IK_TOL_MM, seed=IK_SEED)
-            self._cold[key] = (bool(res.converged) and self._valid(T, res.q), T, res.q)
+            self._cold[key] = (bool(res.converged) and self.check_motion.state_clear(T, res.q), T, res.q)
         return self._cold[key]
 
     def check(self, points: ArrayLike) -> ReachReport:

@@ -19,7 +19,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from enum import Enum
+from enum import StrEnum
 
 import numpy as np
 
@@ -36,7 +36,7 @@ MAX_STUCK = 3
 Proposer = Callable[["MissionState"], CameraPath | None]
 
 
-class MissionEnd(str, Enum):
+class MissionEnd(StrEnum):
     """Why a mission ended: its budget was flown; the planner had nothing more to fly; the arm could not follow
     MAX_STUCK paths in a row; the planner's calls used up the time limit. A ``str``: JSON holds the plain value."""
 
@@ -44,9 +44,6 @@ class MissionEnd(str, Enum):
     PLANNER = "planner"
     ARM = "arm"
     TIMEOUT = "timeout"
-
-    def __str__(self) -> str:
-        return self.value
 
 
 @dataclass

@@ -9,7 +9,7 @@ one call (:func:`~.planner.rollout`), so both crawl alike, number for number.
 from __future__ import annotations
 
 import math
-from enum import Enum
+from enum import StrEnum
 
 import numpy as np
 
@@ -44,7 +44,7 @@ PURSUIT_GAIN = 3.0
 _PAPER, _GUIDE = OBSERVATIONS.index("paper"), OBSERVATIONS.index("guide")
 
 
-class Outcome(str, Enum):
+class Outcome(StrEnum):
     """How a roll-out ended: every target reached, the tip out of the bounds, the arm inserted whole, out of steps,
     or (:func:`~.planner.rollout`) its deadline passed before it began. A ``str`` that prints as its value, so that
     JSON and printed output hold the plain value (``"reached"``)."""
@@ -54,9 +54,6 @@ class Outcome(str, Enum):
     INSERTION = "insertion"
     STEPS = "steps"
     TIMEOUT = "timeout"
-
-    def __str__(self) -> str:
-        return self.value
 
 
 #: Roll-out outcomes of :func:`_roll`, by code.
