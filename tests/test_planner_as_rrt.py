@@ -119,12 +119,22 @@ def test_sensed_obstacles_are_those_near_the_tree():
     assert plan.details["known_obstacles"] == 0
 
 
-def test_target_inside_an_obstacle_fails_at_once():
+def test_target_inside_an_obstacle_is_refused_at_once():
     scene = corridor([[1000, 0, 0]], [Box([1000, 0, 0], [200, 200, 200])])
     plan = AsRRT().plan(Problem(scene, ROBOT, BUDGET_S), 0)
-    assert plan.status == "failed" and plan.path is None
-    assert plan.details["reason"] == "target_blocked"
+    assert plan.status == "invalid_target" and plan.path is None
+    assert plan.why.startswith("targets[0] [1000, 0, 0] lies -100 mm from obstacles[0]")
     assert plan.compute_time_s < 1.0
+
+
+def test_target_too_close_for_the_planning_margin_stops_with_its_why():
+    """A target the judge could reach (the tip's ball clears it) but not with the planner's 3 mm margin: the
+    planner gives up at once and says so."""
+    r = float(ROBOT.radii[-1])
+    scene = corridor([[1000, 0, 0]], [Box([1000, r + 101.0, 0], [200, 200, 200])])  # 1 mm over the tip radius
+    plan = AsRRT().plan(Problem(scene, ROBOT, BUDGET_S), 0)
+    assert plan.status == "no_progress" and plan.details["reason"] == "target_blocked"
+    assert "planning margin" in plan.why and plan.compute_time_s < 1.0
 
 
 def test_unreachable_target_times_out_within_the_budget():

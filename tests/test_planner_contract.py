@@ -35,9 +35,18 @@ OPTIONS = {"sac": {"policy": policy_path("fuel-tank", "sac-her")}}
 
 # --- Status and Plan -------------------------------------------------------------------------------------------
 def test_status_keeps_its_plain_string_values():
-    assert [s.value for s in Status] == ["found", "approximate", "timeout", "failed"]
-    assert Status.FOUND == "found" and f"{Status.APPROXIMATE}" == "approximate" and str(Status.FAILED) == "failed"
+    assert [s.value for s in Status] == ["found", "approximate", "timeout", "no_progress", "invalid_start",
+                                         "invalid_target"]
+    assert Status.FOUND == "found" and f"{Status.APPROXIMATE}" == "approximate"
     assert json.loads(json.dumps({"status": Status.TIMEOUT})) == {"status": "timeout"}
+
+
+def test_failed_as_written_before_reads_as_no_progress():
+    """Plans and rows written before the causes were told apart said "failed"; they read back as no_progress,
+    and a plugin's Status.FAILED is that member."""
+    assert Status("failed") is Status.NO_PROGRESS is Status.FAILED
+    plan = Plan("old", "approximate", PATH, 0.1, {"stopped": "failed"}, why="from an old file")
+    assert plan.details["stopped"] is Status.NO_PROGRESS
 
 
 def test_plan_takes_a_status_string_and_keeps_the_path_as_floats():
@@ -47,9 +56,10 @@ def test_plan_takes_a_status_string_and_keeps_the_path_as_floats():
 
 @pytest.mark.parametrize(("status", "path", "details", "field"), [
     ("found", None, {}, "path"),
-    ("approximate", None, {"stopped": "failed"}, "path"),
+    ("approximate", None, {"stopped": "no_progress"}, "path"),
     ("timeout", PATH, {}, "path"),
-    ("failed", PATH, {}, "path"),
+    ("no_progress", PATH, {}, "path"),
+    ("invalid_start", PATH, {}, "path"),
     ("approximate", PATH, {}, "details"),
     ("approximate", PATH, {"stopped": "found"}, "details"),
     ("found", PATH[:1], {}, "path"),
@@ -58,11 +68,21 @@ def test_plan_takes_a_status_string_and_keeps_the_path_as_floats():
 ])
 def test_plan_rejects_a_status_that_disagrees_with_its_path(status, path, details, field):
     with pytest.raises(ValueError, match=rf"^{field}\b"):
-        Plan("toy", status, path, 0.1, details)
+        Plan("toy", status, path, 0.1, details, why="a reason")
+
+
+@pytest.mark.parametrize(("status", "path", "details", "why"), [
+    ("timeout", None, {}, ""), ("no_progress", None, {}, "  "), ("invalid_target", None, {}, ""),
+    ("approximate", PATH, {"stopped": "timeout"}, ""), ("no_progress", None, {}, "two\nlines"),
+    ("found", PATH, {}, None),
+])
+def test_every_plan_but_a_found_one_says_why_in_one_line(status, path, details, why):
+    with pytest.raises(ValueError, match=r"^why\b"):
+        Plan("toy", status, path, 0.1, details, why=why)
 
 
 def test_plan_is_frozen():
-    plan = Plan("toy", Status.TIMEOUT, None, 0.1)
+    plan = Plan("toy", Status.TIMEOUT, None, 0.1, why="the time limit ran out")
     with pytest.raises(AttributeError):
         plan.status = Status.FOUND
 

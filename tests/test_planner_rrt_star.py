@@ -75,11 +75,13 @@ def test_enclosed_target_times_out_within_budget():
     assert plan.compute_time_s < 1.5 + OVERRUN_S
 
 
-def test_blocked_target_fails_at_once():
+def test_blocked_target_is_refused_at_once():
     scene = make_scene("fuel-tank", 0)
+    k = len(scene.obstacles)
     solid = dataclasses.replace(scene, obstacles=[*scene.obstacles, Box(scene.targets[0], np.full(3, 40.0))])
     plan = RRTStar().plan(Problem(solid, ROBOT, time_limit_s=5.0), seed=0)
-    assert plan.status == "failed" and plan.path is None
+    assert plan.status == "invalid_target" and plan.path is None
+    assert f"lies -20 mm from obstacles[{k}]" in plan.why
     assert plan.compute_time_s < 1.0
 
 

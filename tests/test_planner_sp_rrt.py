@@ -73,7 +73,7 @@ def _box_scene(targets, plates=()) -> Scene:
 def test_sealed_target_fails_at_once():
     wall = Plate([500.0, 500.0, 500.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0], (1000.0, 1000.0), 10.0)
     plan = SpRRT().plan(Problem(_box_scene([[800.0, 500.0, 500.0]], [wall]), ROBOT, time_limit_s=5.0))
-    assert plan.status == "failed" and plan.path is None
+    assert plan.status == "no_progress" and plan.path is None and "geodesic field" in plan.why
     assert plan.compute_time_s < 5.0
 
 

@@ -142,7 +142,7 @@ def test_several_targets_are_refused():
     scene = Scene("two", None, [-100, -200, -200], [900, 200, 200], Entrance([0, 0, 0], X),
                   np.array([[300.0, 0, 0], [500.0, 0, 0]]))
     plan = SSCCPlanner(search="gradient").plan(Problem(scene, ROBOT24, 1.0))
-    assert plan.status == "failed" and plan.path is None
+    assert plan.status == "invalid_target" and plan.path is None and "one target" in plan.why
 
 
 def test_online_learning_updates_the_agent():

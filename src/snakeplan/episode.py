@@ -52,6 +52,7 @@ class Episode:
                "robot": self.problem.robot.name, "arm": self.problem.robot.to_dict(), "planner": plan.planner,
                "knowledge": self.problem.knowledge,
                "success": self.success, "reason": self.reason, "status": str(plan.status),
+               "why": plan.why,
                "compute_time_s": plan.compute_time_s,
                "path": plan.path.tolist() if plan.path is not None else [],
                "metrics": self.report.metrics() if self.report is not None else None,

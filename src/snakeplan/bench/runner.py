@@ -287,14 +287,15 @@ def run_chunk(task: list[Run], stamp: dict) -> list[dict]:
     return rows
 
 
-def _row(run: Run, status: str, success: bool, reason: str | None, compute_time_s: float, metrics: dict | None,
-         details: dict, path: np.ndarray | None, provenance: dict) -> dict:
-    """A ``snakeplan.run/1`` row: the run, the outcome, the path (mm) with its hash, provenance."""
+def _row(run: Run, status: str, why: str, success: bool, reason: str | None, compute_time_s: float,
+         metrics: dict | None, details: dict, path: np.ndarray | None, provenance: dict) -> dict:
+    """A ``snakeplan.run/1`` row: the run, the outcome (the planner's status and why, the judge's verdict), the
+    path (mm) with its hash, provenance."""
     row = {"schema": SCHEMA, "key": run.key, "config": run.config, "task": run.task, "scene": run.scene,
            "seed": run.seed,
            "robot": run.robot, "planner": run.planner, "options": dict(run.options),
            "time_limit_s": run.time_limit_s, "knowledge": run.knowledge,
-           "status": status, "success": success, "reason": reason, "compute_time_s": compute_time_s,
+           "status": status, "why": why, "success": success, "reason": reason, "compute_time_s": compute_time_s,
            "metrics": metrics, "details": details,
            "path": None if path is None else path.tolist(),
            "path_points": 0 if path is None else len(path),
@@ -308,7 +309,7 @@ def _row(run: Run, status: str, success: bool, reason: str | None, compute_time_
 def make_row(run: Run, episode, provenance: dict) -> dict:
     """The ``snakeplan.run/1`` row of a judged episode."""
     plan, report = episode.plan, episode.report
-    return _row(run, str(plan.status), episode.success, episode.reason, plan.compute_time_s,
+    return _row(run, str(plan.status), plan.why, episode.success, episode.reason, plan.compute_time_s,
                 report.metrics() if report is not None else None, jsonable(plan.details),
                 None if plan.path is None else np.asarray(plan.path, dtype=float), provenance)
 

@@ -105,9 +105,14 @@ def warning_line(message, category, filename, lineno, file=None, line=None) -> N
 
 
 def status(plan) -> str:
-    """The plan's status, with why the planner stopped when the path is only approximate."""
+    """The plan's status, with what stopped the planner when the path is only approximate."""
     stopped = plan.details.get("stopped")
     return f"{plan.status} (stopped: {stopped})" if stopped else str(plan.status)
+
+
+def why_line(plan) -> str:
+    """The console line saying why a plan ended so ("why: ..."), or "" for a found plan that gives none."""
+    return f"why: {plan.why}\n" if plan.why else ""
 
 
 def where(scene) -> str:

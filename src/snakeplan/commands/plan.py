@@ -19,6 +19,7 @@ from snakeplan.commands.common import (
     status,
     warning_line,
     where,
+    why_line,
 )
 from snakeplan.commands.inputs import load_planner, load_scene, robot_for
 from snakeplan.commands.options import ROBOT_HELP, TRAJECTORY_HELP, scene_args, view_args
@@ -96,7 +97,8 @@ def cmd_plan(args: argparse.Namespace) -> int:
         print_json(episode.to_dict())
     else:
         sys.stdout.write(f"{plan.planner} on {where(scene)} with {robot.name}: {status(plan)} "
-                         f"in {plan.compute_time_s:.3f} s ({wall:.2f} s wall, judging and loading included)\n")
+                         f"in {plan.compute_time_s:.3f} s ({wall:.2f} s wall, judging and loading included)\n"
+                         f"{why_line(plan)}")
         if episode.report is not None:
             sys.stdout.write("\n".join(episode.report.lines()) + "\n")
     if args.trajectory:

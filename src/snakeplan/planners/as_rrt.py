@@ -65,10 +65,10 @@ the body's capsules lie within about 50 mm (radius plus chord deviation) of the 
 any sensor range above about 100 mm, every obstacle that could touch an extension is known when it is checked. The
 sensed planner then accepts what the full one would (the same seed gives the same path), while seeing only the
 obstacles near its tree. A target closer to a known obstacle than the tip radius, or out of bounds, can never be
-landed on: the planner then stops at once with ``"failed"``.
+landed on: the planner then stops at once with ``"no_progress"``.
 
-Ends. ``"found"`` when the last target is landed on, ``"failed"`` for a blocked target (above), ``"timeout"`` at
-the budget (path None). The same seed gives the same trees and path: the only randomness is the seeded
+Ends. ``"found"`` when the last target is landed on, ``"no_progress"`` for a blocked target (above),
+``"timeout"`` at the budget (path None), each non-found plan saying why (the targets landed on, the restarts). The same seed gives the same trees and path: the only randomness is the seeded
 generator, and the clock only decides when to stop.
 """
 
@@ -81,7 +81,7 @@ import numpy as np
 
 from snakeplan.geometry.distance import workspace
 from snakeplan.jit import kernel
-from snakeplan.planners.base import Planner, Problem, Status
+from snakeplan.planners.base import Planner, Problem, Solution, Status
 from snakeplan.planners.registry import register_planner
 from snakeplan.world import PLANNING, ValidityChecker
 from snakeplan.world.validity import crawl_free, motion_free
@@ -467,15 +467,22 @@ class _Search:
                 "knowledge": self.problem.knowledge,
                 "arc_length_mm": self.step, "turn_radius_mm": self.model.turn_radius, **self.counts}
 
-    def run(self, deadline: float) -> tuple[Status, np.ndarray | None, dict]:
+    def _blocked(self) -> Solution:
+        return Solution(Status.NO_PROGRESS, None, self.details("target_blocked"),
+                        f"a target lies closer to a known obstacle than the tip's radius with the planning margin "
+                        f"({self.model.tip_radius:g} mm)")
+
+    def run(self, deadline: float) -> Solution:
         """Grow trees until the last target is landed on, a target is found blocked, or the deadline."""
         if self.blocked:
-            return Status.FAILED, None, self.details("target_blocked")
+            return self._blocked()
         usable = self.model.total_length - MIN_ARC_MM
         patience, grown = float(RESTART_ITERATIONS), 0
         while True:
             if self.counts["iterations"] % CLOCK_EVERY == 0 and time.perf_counter() >= deadline:
-                return Status.TIMEOUT, None, self.details("timeout")
+                return Solution(Status.TIMEOUT, None, self.details("timeout"),
+                                f"the time limit ran out with {self.reached} of {len(self.goals)} targets landed on "
+                                f"({self.counts['restarts']} restarts)")
             self.counts["iterations"] += 1
             grown += 1
             if grown > patience:
@@ -493,9 +500,9 @@ class _Search:
             while k is not None and tree.stage[k] < len(self.goals) and not self.blocked:
                 k = self._land(k, int(tree.stage[k]))
             if self.blocked:
-                return Status.FAILED, None, self.details("target_blocked")
+                return self._blocked()
             if k is not None:
-                return Status.FOUND, tree.branch(k), self.details("reached")
+                return Solution(Status.FOUND, tree.branch(k), self.details("reached"))
 
     def _extend(self, stage: int, live: np.ndarray) -> int | None:
         """One extension of ``stage`` toward a sample; the new node, or None."""
@@ -608,6 +615,5 @@ class AsRRT(Planner):
         tree.has_twin(pts[-1], heading, 0)
         tree.branch(tree.add(0, pts, heading, 0))
 
-    def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float
-               ) -> tuple[Status, np.ndarray | None, dict]:
+    def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float) -> Solution:
         return _Search(self, problem, rng).run(deadline)

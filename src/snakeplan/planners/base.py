@@ -23,16 +23,18 @@ import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field, replace
 from enum import StrEnum
-from typing import ClassVar
+from typing import ClassVar, NamedTuple
 
 import numpy as np
 
 from snakeplan.geometry.polyline import validate_path
+from snakeplan.planners.input_states import invalid_start, invalid_target
 from snakeplan.robots import Chain
 from snakeplan.scenes import Scene, Task, as_task, spec_for
 from snakeplan.threads import single_threaded
 from snakeplan.world import (
     DEFAULT_SENSOR_RANGE_MM,
+    JUDGE,
     PLANNING,
     Knowledge,
     KnowledgeView,
@@ -49,19 +51,48 @@ DEFAULT_TIME_LIMIT_S = 30.0
 
 
 class Status(StrEnum):
-    """How a plan ended, after OMPL's ``PlannerStatus`` (EXACT_SOLUTION, APPROXIMATE_SOLUTION, TIMEOUT, ...).
+    """How a plan ended, after OMPL's ``PlannerStatus`` (EXACT_SOLUTION, APPROXIMATE_SOLUTION, TIMEOUT,
+    INVALID_START, INVALID_GOAL; its UNRECOGNIZED_GOAL_TYPE is a refused task here, a ValueError naming it).
 
-    A ``str`` so that JSON and CSV hold the plain value (``"found"``). Which statuses carry a path: :class:`Plan`.
+    * ``found``: a path the planner's own checks accept;
+    * ``approximate``: a best-effort path (``details["stopped"]`` says which of the two below stopped it);
+    * ``timeout``: the time limit ran out;
+    * ``no_progress``: the planner gave up before its time limit (its tree cannot grow, its policy is stuck...);
+    * ``invalid_start``: no tip path can leave the entrance (:mod:`snakeplan.planners.input_states`);
+    * ``invalid_target``: some target cannot be reached by the tip.
+
+    A ``str`` so that JSON and CSV hold the plain value. ``"failed"``, written before the causes were told
+    apart, reads as ``no_progress``; ``Status.FAILED`` is the same member.
     """
 
     FOUND = "found"
     APPROXIMATE = "approximate"
     TIMEOUT = "timeout"
-    FAILED = "failed"
+    NO_PROGRESS = "no_progress"
+    INVALID_START = "invalid_start"
+    INVALID_TARGET = "invalid_target"
+    FAILED = "no_progress"
+
+    @classmethod
+    def _missing_(cls, value):
+        return cls.NO_PROGRESS if value == "failed" else None
 
 
 #: Why an approximate plan stopped (its ``details["stopped"]``).
-STOPPED = (Status.TIMEOUT, Status.FAILED)
+STOPPED = (Status.TIMEOUT, Status.NO_PROGRESS)
+#: The statuses that carry a path.
+WITH_PATH = (Status.FOUND, Status.APPROXIMATE)
+
+
+class Solution(NamedTuple):
+    """What :meth:`Planner._solve` returns: how it ended, the tip path or None, the planner's details, why it
+    ended so (one line; required unless found), and for an inspect task the mission flown."""
+
+    status: Status | str
+    path: np.ndarray | None
+    details: dict
+    why: str = ""
+    mission: Mission | None = None
 
 
 @dataclass(frozen=True)
@@ -135,8 +166,10 @@ class Plan:
 
     * ``FOUND``: a path that the planner's own checks accept;
     * ``APPROXIMATE``: a best-effort path that failed the planner's own checks (the judge may still accept
-      it), with ``details["stopped"]`` saying why the planner stopped, ``"timeout"`` or ``"failed"``;
-    * ``TIMEOUT`` (the budget ran out) and ``FAILED`` (the planner gave up): no path.
+      it), with ``details["stopped"]`` saying why the planner stopped, ``"timeout"`` or ``"no_progress"``;
+    * the others (:class:`Status`): no path.
+
+    ``why``: one line saying why the plan ended so, given by every plan but a found one.
     """
 
     planner: str
@@ -145,6 +178,7 @@ class Plan:
     compute_time_s: float
     details: dict = field(default_factory=dict)
     mission: Mission | None = None
+    why: str = ""
 
     def __post_init__(self) -> None:
         try:
@@ -154,13 +188,34 @@ class Plan:
                              f"got {self.status!r}") from None
         if self.path is not None:
             object.__setattr__(self, "path", validate_path(self.path))
-        if self.status in (Status.FOUND, Status.APPROXIMATE) and self.path is None:
+        if self.status in WITH_PATH and self.path is None:
             raise ValueError(f"path: a {self.status} plan needs a path")
-        if self.status in (Status.TIMEOUT, Status.FAILED) and self.path is not None:
+        if self.status not in WITH_PATH and self.path is not None:
             raise ValueError(f"path: a {self.status} plan has no path (a best-effort path is 'approximate')")
-        if self.status is Status.APPROXIMATE and self.details.get("stopped") not in STOPPED:
-            raise ValueError(f"details: an approximate plan says why it stopped in details['stopped'] "
-                             f"({' or '.join(STOPPED)}), got {self.details.get('stopped')!r}")
+        if self.status is Status.APPROXIMATE:
+            stopped = self.details.get("stopped")
+            if stopped not in STOPPED and stopped != "failed":
+                raise ValueError(f"details: an approximate plan says why it stopped in details['stopped'] "
+                                 f"({' or '.join(STOPPED)}), got {stopped!r}")
+            self.details["stopped"] = Status(stopped)
+        if not isinstance(self.why, str) or "\n" in self.why:
+            raise ValueError(f"why: one line of text, got {self.why!r}")
+        if self.status is not Status.FOUND and not self.why.strip():
+            raise ValueError(f"why: a {self.status} plan says why it ended so")
+
+
+def input_refusal(problem: Problem) -> Solution | None:
+    """An ``invalid_start`` or ``invalid_target`` solution, saying why, for a reach problem that no plan can
+    solve in what the planner may know (:mod:`snakeplan.planners.input_states`); None otherwise (and for an
+    inspect problem)."""
+    if problem.task is not Task.REACH:
+        return None
+    arm = ValidityChecker(problem.world, problem.robot, JUDGE)
+    for status, check in ((Status.INVALID_START, invalid_start), (Status.INVALID_TARGET, invalid_target)):
+        why = check(problem.world, arm)
+        if why is not None:
+            return Solution(status, None, {}, why)
+    return None
 
 
 #: Planner classes whose :meth:`Planner.warm_up` has run in this process.
@@ -197,10 +252,18 @@ class Planner(ABC):
                 self.warm_up(replace(problem, world=problem.world.fresh()))
                 _WARM.add(type(self))
             t0 = time.perf_counter()
-            status, path, details, *mission = self._solve(problem, np.random.default_rng(seed),
-                                                          t0 + problem.time_limit_s)
+            refusal = input_refusal(problem)
+            if refusal is not None:
+                return Plan(self.name, refusal.status, None, time.perf_counter() - t0, refusal.details,
+                            why=refusal.why)
+            out = self._solve(problem, np.random.default_rng(seed), t0 + problem.time_limit_s)
             elapsed = time.perf_counter() - t0
-        return Plan(self.name, status, path, elapsed, details, *mission)
+        if not isinstance(out, Solution):  # a plain (status, path, details[, mission]) tuple: no why
+            out = Solution(*out[:3], mission=out[3] if len(out) > 3 else None)
+        why = out.why
+        if not why and Status(out.status) is Status.TIMEOUT:
+            why = f"the time limit of {problem.time_limit_s:g} s ran out"
+        return Plan(self.name, out.status, out.path, elapsed, out.details, out.mission, why)
 
     def check_task(self, task: Task | str) -> None:
         """ValueError naming ``task`` (and the tasks this planner does) unless it does ``task``."""
@@ -216,7 +279,8 @@ class Planner(ABC):
         ValidityChecker(problem.world, problem.robot, PLANNING).warm_up()
 
     @abstractmethod
-    def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float
-               ) -> tuple[Status, np.ndarray | None, dict] | tuple[Status, np.ndarray | None, dict, Mission]:
-        """Return (status, tip path or None, details) as :class:`Plan` says, and for an inspect task the mission
-        fourth; stop by ``deadline`` (a time.perf_counter() value)."""
+    def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float) -> Solution | tuple:
+        """Return a :class:`Solution` as :class:`Plan` says (a plain ``(status, path, details)`` tuple, with the
+        mission fourth for an inspect task, is a solution that says no why: enough for found and timeout plans);
+        stop by ``deadline`` (a time.perf_counter() value). A problem :func:`input_refusal` refuses never
+        reaches it."""

@@ -9,9 +9,10 @@ Rules (a :class:`ConformanceError` names the first one broken):
 * ``entrance``: a path starts at the scene's entrance, within the judge's ``ENTRANCE_TOLERANCE_MM``.
 * ``status-path``: the status is a :class:`Status` and agrees with the path as :class:`Plan` says, checked here
   afresh (a planner may override ``plan``): ``found`` and ``approximate`` carry a finite ``(m, 3)`` path, m >= 2,
-  ``approximate`` with ``details["stopped"]`` ``"timeout"`` or ``"failed"``; ``timeout`` and ``failed`` carry none.
+  ``approximate`` with ``details["stopped"]`` ``"timeout"`` or ``"no_progress"``; the other statuses carry none.
   A ``found`` path passes every target in order within the judge's ``REACH_TOLERANCE_MM`` (what the checker can
   see of "the planner's own checks accept it").
+* ``why``: every plan but a found one says why it ended so, in one line of text (``Plan.why``).
 * ``deadline``: ``plan`` returns, on the checker's wall clock, within ``time_limit_s`` plus
   ``max(DEADLINE_SLACK_S, DEADLINE_SLACK_FRACTION * time_limit_s)``: for each problem after a first, warm-up plan
   (loading and compiling are not planning), and on a hard version of it (its last target walled in, so no plan
@@ -46,7 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from snakeplan.geometry.primitives import Box
-from snakeplan.planners.base import STOPPED, Plan, Planner, Problem, Status
+from snakeplan.planners.base import STOPPED, WITH_PATH, Plan, Planner, Problem, Status
 from snakeplan.planners.registry import get_planner
 from snakeplan.robots import get_robot
 from snakeplan.scenes import Scene, Task, make_scene
@@ -190,8 +191,11 @@ def _plan(planner: Planner, problem: Problem, seed: int, where: str, timed: bool
 def _check_status_path(plan: Plan, problem: Problem, where: str) -> None:
     if not isinstance(plan.status, Status):
         raise ConformanceError("status-path", f"{where}: status {plan.status!r} is not a Status")
+    if plan.status is not Status.FOUND and not (isinstance(plan.why, str) and plan.why.strip()
+                                                  and "\n" not in plan.why):
+        raise ConformanceError("why", f"{where}: a {plan.status} plan gives no one-line why ({plan.why!r})")
     path = plan.path
-    if plan.status in (Status.TIMEOUT, Status.FAILED):
+    if plan.status not in WITH_PATH:
         if path is not None:
             raise ConformanceError("status-path", f"{where}: a {plan.status} plan carries a path")
         return
@@ -210,7 +214,7 @@ def _check_status_path(plan: Plan, problem: Problem, where: str) -> None:
         raise ConformanceError("entrance", f"{where}: the path starts {gap:.3g} mm from the entrance")
     if plan.status is Status.APPROXIMATE and plan.details.get("stopped") not in STOPPED:
         raise ConformanceError("status-path", f"{where}: an approximate plan has details['stopped'] = "
-                                              f"{plan.details.get('stopped')!r}, not 'timeout' or 'failed'")
+                                              f"{plan.details.get('stopped')!r}, not 'timeout' or 'no_progress'")
     if plan.status is Status.FOUND:
         reached = targets_reached(path, problem.goals)
         if reached < len(problem.goals):

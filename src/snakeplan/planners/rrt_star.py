@@ -50,8 +50,9 @@ Choices, each a named default below:
   for a raised clearance skips it), while time is left.
 
 Status: "found" when a smoothed path passed the crawl check; "timeout" when the time ran out first (a leg
-without a solution in its share of the time included); "failed" when the entrance or a target is blocked, a
-re-planned leg found no solution, or every repair was tried without a path. Details: ``legs``,
+without a solution in its share of the time included); "no_progress" when the lead or a target is blocked under
+the planning margin, a re-planned leg found no solution, or every repair was tried without a path, its why naming
+each repair and the crawl check's first failure. Details: ``legs``,
 ``tree_sizes`` (vertices of every RRT* tree grown, in order), ``raw_length_mm`` (lead plus raw legs),
 ``smoothed_length_mm``, ``repairs`` (smoothing attempts that failed the crawl check), ``plan_margin_mm`` and
 ``shortcut_margin_mm`` (those of the returned path).
@@ -67,7 +68,7 @@ import numpy as np
 
 from snakeplan.geometry.polyline import densify, drop_duplicates, fillet, path_length
 from snakeplan.planners import tip_rrt_star
-from snakeplan.planners.base import Planner, Problem, Status
+from snakeplan.planners.base import Planner, Problem, Solution, Status
 from snakeplan.planners.registry import register_planner
 from snakeplan.world import PLANNING, ValidityChecker
 
@@ -354,6 +355,14 @@ def _crawls(arm: ValidityChecker, path: np.ndarray) -> bool:
     return bool(np.all(arm.segment_free(path[:-1], path[1:]))) and arm.first_failure(path) is None
 
 
+def _crawl_failure(arm: ValidityChecker, path: np.ndarray) -> str:
+    """What :func:`_crawls` refuses in ``path``, in words."""
+    failure = arm.first_failure(path)
+    if failure is None:
+        return "the tip's capsule meets an obstacle"
+    return f"{failure.kind} at depth {failure.depth_mm:.0f} mm"
+
+
 def _plan_leg(arm: ValidityChecker, start: np.ndarray, goal: np.ndarray, radius: float, deadline: float
               ) -> tuple[np.ndarray | None, int]:
     """The compiled RRT* (:mod:`snakeplan.planners.tip_rrt_star`) with this module's settings."""
@@ -407,12 +416,20 @@ class RRTStar(Planner):
         lead = start + LEAD_MM * arm.direction
         details: dict = {"legs": len(goals), "tree_sizes": [], "raw_length_mm": None, "smoothed_length_mm": None,
                          "repairs": 0, "plan_margin_mm": None, "shortcut_margin_mm": None}
-        if not (arm.segment_free(start[None], lead[None])[0] and np.all(arm.tip_free(goals, arm.tip_radius))):
-            return Status.FAILED, None, details
+        if not arm.segment_free(start[None], lead[None])[0]:
+            return Solution(Status.NO_PROGRESS, None, details,
+                            f"the {LEAD_MM:g} mm lead along the entrance's direction is not clear by the planning "
+                            f"margin {PLANNING.margin_mm:g} mm")
+        if not np.all(arm.tip_free(goals, arm.tip_radius)):
+            return Solution(Status.NO_PROGRESS, None, details,
+                            f"a target is not clear of the obstacles by the tip's radius and the planning margin "
+                            f"({arm.tip_radius:g} mm)")
+        tried: list[str] = []
         search_deadline = deadline - POST_RESERVE_FRACTION * problem.time_limit_s
         for plan_margin in (0.0, *REPAIR_PLAN_MARGINS_MM):
             radius = arm.tip_radius + plan_margin
             if not np.all(arm.tip_free(np.vstack([lead, goals]), radius)):
+                tried.append(f"no room for a {plan_margin:g} mm clearance at the lead or a target")
                 continue
             legs: list[np.ndarray] = []
             for k, goal in enumerate(goals):
@@ -421,19 +438,28 @@ class RRTStar(Planner):
                                       now + (search_deadline - now) / (len(goals) - k))
                 details["tree_sizes"].append(tree)
                 if pts is None:  # the leg's time share ran out; a raised clearance only makes it harder
-                    return (Status.TIMEOUT if plan_margin == 0.0 else Status.FAILED), None, details
+                    if plan_margin == 0.0:
+                        return Solution(Status.TIMEOUT, None, details,
+                                        f"no tip path to targets[{k}] within its share of the time limit")
+                    return Solution(Status.NO_PROGRESS, None, details,
+                                    f"{'; '.join(tried)}; then no tip path to targets[{k}] with the clearance "
+                                    f"raised to {plan_margin:g} mm within its share of the time limit")
                 legs.append(pts)
             details["raw_length_mm"] = LEAD_MM + sum(path_length(leg) for leg in legs)
             for margin in SHORTCUT_MARGINS_MM:
                 if time.perf_counter() >= deadline:
-                    return Status.TIMEOUT, None, details
+                    return Solution(Status.TIMEOUT, None, details, "the time limit ran out while smoothing")
                 margin = max(margin, plan_margin)
                 path = _smooth(arm, start, legs, goals, margin)
                 if _crawls(arm, path):
                     details.update(smoothed_length_mm=path_length(path), plan_margin_mm=plan_margin,
                                    shortcut_margin_mm=margin)
-                    return Status.FOUND, path, details
+                    return Solution(Status.FOUND, path, details)
                 details["repairs"] += 1
+            tried.append(f"the tree's path with {plan_margin:g} mm clearance, shortcut at "
+                         f"{max(SHORTCUT_MARGINS_MM[0], plan_margin):g}-{max(SHORTCUT_MARGINS_MM[-1], plan_margin):g} "
+                         f"mm, failed the crawl check ({_crawl_failure(arm, path)})")
             if time.perf_counter() >= search_deadline:
-                return Status.TIMEOUT, None, details
-        return Status.FAILED, None, details
+                return Solution(Status.TIMEOUT, None, details, f"the time limit ran out after {'; '.join(tried)}")
+        return Solution(Status.NO_PROGRESS, None, details,
+                        f"every repair was tried: {'; '.join(tried)}")

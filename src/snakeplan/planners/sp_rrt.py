@@ -84,7 +84,7 @@ import numpy as np
 from snakeplan import ftl
 from snakeplan.geometry.polyline import cumulative_length
 from snakeplan.jit import kernel
-from snakeplan.planners.base import Planner, Problem, Status
+from snakeplan.planners.base import Planner, Problem, Solution, Status
 from snakeplan.planners.registry import register_planner
 from snakeplan.world import PLANNING, Failure, ValidityChecker
 from snakeplan.scenes.routes.geodesic import DEFAULT_FEED_MM, geodesic_from_sdf
@@ -297,14 +297,13 @@ class SpRRT(Planner):
                         DUPLICATE_COS)
         _subtree_kernel(tree.parent, 0, tree.n)
 
-    def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float
-               ) -> tuple[Status, np.ndarray | None, dict]:
+    def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float) -> Solution:
         t0 = time.perf_counter()
         try:
             search = _Search(self, problem, rng, deadline)
         except FieldDeadline:
-            return Status.TIMEOUT, None, {"setup_s": round(time.perf_counter() - t0, 4),
-                                          "reason": "the budget ran out while building the geodesic field"}
+            return Solution(Status.TIMEOUT, None, {"setup_s": round(time.perf_counter() - t0, 4)},
+                            "the time limit ran out while building the geodesic field")
         return search.run()
 
 
@@ -661,13 +660,15 @@ class _Search:
             "search_s": round(time.perf_counter() - t_start, 4),
         }
 
-    def run(self) -> tuple[Status, np.ndarray | None, dict]:
+    def run(self) -> Solution:
         """Grow until a solution passes the crawl check, the budget runs out or the tree cannot grow."""
         t_start = time.perf_counter()
         root = self.targets[-1][None]
         stage = np.array([len(self.targets) - 2])
         if not self._admissible(root, np.array([0]), stage, self._geo(root))[0]:
-            return Status.FAILED, None, {**self._details(t_start), "reason": "target beyond the arm's geodesic reach"}
+            return Solution(Status.NO_PROGRESS, None, self._details(t_start),
+                            f"the geodesic field (around the known obstacles grown by the arm's largest radius, "
+                            f"{self.radius:g} mm) puts the last target beyond the arm's length {self.arm:g} mm")
         queue = self._queued(self._add(root, np.array([-1]), np.array([0]), stage))
         while True:
             while queue and time.perf_counter() < self.deadline:
@@ -675,12 +676,18 @@ class _Search:
                 if self.tree.stage[i] < 0:
                     path = self._try_solution(i)
                     if path is not None:
-                        return Status.FOUND, path, self._details(t_start)
+                        return Solution(Status.FOUND, path, self._details(t_start))
                 else:
                     queue.extend(self._queued(self._through(i)))
             if time.perf_counter() >= self.deadline:
-                return Status.TIMEOUT, None, self._details(t_start)
-            if self.tree.n >= MAX_NODES or not self.open_count.any():
-                return Status.FAILED, None, self._details(t_start)
+                return Solution(Status.TIMEOUT, None, self._details(t_start),
+                                f"the time limit ran out with {self.tree.n} nodes grown")
+            if self.tree.n >= MAX_NODES:
+                return Solution(Status.NO_PROGRESS, None, self._details(t_start),
+                                f"the tree is full ({MAX_NODES} nodes) and no branch crawls to the entrance")
+            if not self.open_count.any():
+                return Solution(Status.NO_PROGRESS, None, self._details(t_start),
+                                f"no node of the {self.tree.n} grown can be extended and no branch crawls to the "
+                                f"entrance")
             queue = self._queued(self._extend())
             self.iterations += 1

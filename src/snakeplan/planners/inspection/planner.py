@@ -17,10 +17,10 @@ from typing import ClassVar
 import numpy as np
 
 from snakeplan.mapping import GaussianMap, kalman
-from snakeplan.planners.base import Planner, Problem, Status
+from snakeplan.planners.base import Planner, Problem, Solution, Status
 from snakeplan.planners.inspection.camera_path import CameraPath
 from snakeplan.planners.inspection.library import VIEW_STANDOFF_MM
-from snakeplan.planners.inspection.mission import FlownMission, MissionEnd, MissionState, fly
+from snakeplan.planners.inspection.mission import MAX_STUCK, FlownMission, MissionEnd, MissionState, fly
 from snakeplan.planners.inspection.survey import Survey, survey_for
 from snakeplan.scenes import Task
 from snakeplan.world.mission import inspected_surface, mission_rngs
@@ -28,7 +28,12 @@ from snakeplan.world.mission import inspected_surface, mission_rngs
 #: Control points per planned camera path (paper 002 §4), the current position included.
 N_CONTROL_POINTS = 5
 #: Why a mission ended short of its budget -> the plan's ``details["stopped"]``.
-_STOPPED = {MissionEnd.PLANNER: Status.FAILED, MissionEnd.ARM: Status.FAILED, MissionEnd.TIMEOUT: Status.TIMEOUT}
+_STOPPED = {MissionEnd.PLANNER: Status.NO_PROGRESS, MissionEnd.ARM: Status.NO_PROGRESS,
+            MissionEnd.TIMEOUT: Status.TIMEOUT}
+#: What a mission's end means, for a plan's why.
+_WHY = {MissionEnd.PLANNER: "the planner had no camera path left to fly",
+        MissionEnd.ARM: f"the arm could not follow {MAX_STUCK} camera paths in a row",
+        MissionEnd.TIMEOUT: "the planner's calls used up the time limit"}
 
 
 def mission_details(flown: FlownMission, survey: Survey) -> dict:
@@ -98,6 +103,9 @@ class InspectionPlanner(Planner):
 
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float):
         flown = self.fly(problem, self._seed)
-        status = _STOPPED.get(flown.stopped)
-        status = Status.FOUND if status is None else Status.APPROXIMATE
-        return status, flown.path, mission_details(flown, self.survey(problem)), flown.mission
+        details = mission_details(flown, self.survey(problem))
+        if flown.stopped not in _STOPPED:
+            return Solution(Status.FOUND, flown.path, details, mission=flown.mission)
+        why = (f"{_WHY[flown.stopped]} after {float(flown.path_times[-1]):.0f} s of the "
+               f"{problem.inspection.budget_s:g} s budget; the mission flown so far is given")
+        return Solution(Status.APPROXIMATE, flown.path, details, why, flown.mission)

@@ -15,13 +15,14 @@ from __future__ import annotations
 
 import math
 import time
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
 
 from snakeplan.evaluation.metrics import path_smoothness
 from snakeplan.geometry import polyline
-from snakeplan.planners.base import Planner, Problem, Status
+from snakeplan.planners.base import Planner, Problem, Solution, Status
 from snakeplan.planners.sac.guide import GUIDE_MARGIN_MAX_MM, GUIDE_MARGIN_MM, GUIDE_MARGIN_STEP_MM, guide_space
 from snakeplan.planners.sac.kernels import ROLL_OUTCOMES, Outcome, _roll
 from snakeplan.planners.sac.observation import action_dim, route_tables
@@ -160,8 +161,7 @@ class SacPlanner(Planner):
             raw_failure = failure.depth_mm
         return None, 0.0, raw_failure
 
-    def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float
-               ) -> tuple[Status, np.ndarray | None, dict]:
+    def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float) -> Solution:
         policy = self._policy(problem.scene)
         check_policy_fits(policy, problem.scene, problem.robot)
         model = ValidityChecker(problem.world, problem.robot, PLANNING)
@@ -169,6 +169,7 @@ class SacPlanner(Planner):
         best, best_reach, path = None, -1.0, None
         guide, known, margin, routed, widest = None, -1, GUIDE_MARGIN_MM, GUIDE_MARGIN_MM, GUIDE_MARGIN_MAX_MM
         space, radius = None, float(np.max(problem.robot.radii))
+        ends: Counter[str] = Counter()
         for attempt in range(self.attempts):
             noise = self.noise_levels[(attempt - 1) % RETRY_LEVELS] if attempt else 0.0
             if policy.mode == "guide" and (len(problem.world.obstacle_set) != known or margin != routed):
@@ -177,6 +178,7 @@ class SacPlanner(Planner):
                     space = guide_space(problem.scene, problem.world, radius, deadline, space)
                 except FieldDeadline:
                     details.update(outcome=Outcome.TIMEOUT, attempts=attempt)
+                    ends["the time limit ran out while routing the guide"] += 1
                     break
                 wider = route_through(space, problem.scene.entrance, problem.scene.targets, radius + margin)
                 if guide is None or wider.complete:
@@ -186,6 +188,8 @@ class SacPlanner(Planner):
             path, outcome = rollout(policy, problem.scene, problem.robot, deadline, noise=noise, rng=rng,
                                     world=problem.world, guide=guide)
             details.update(outcome=outcome, attempts=attempt + 1, steps=len(path) - 1)
+            if outcome != Outcome.REACHED:
+                ends[_ENDS[outcome]] += 1
             if outcome == Outcome.TIMEOUT:
                 break
             if outcome == Outcome.REACHED:
@@ -194,18 +198,27 @@ class SacPlanner(Planner):
                     details["smoothing_sigma_mm"] = sigma
                     if policy.mode == "guide":
                         details["guide_margin_mm"] = routed
-                    return Status.FOUND, chosen, details
+                    return Solution(Status.FOUND, chosen, details)
+                ends["reached every target, but no smoothing of it crawled"] += 1
                 margin = min(margin + GUIDE_MARGIN_STEP_MM, widest)
                 if failure > best_reach:
                     best, best_reach = path, failure
             elif best is None:
                 best = path
-        stopped = Status.TIMEOUT if details["outcome"] == Outcome.TIMEOUT else Status.FAILED
+        stopped = Status.TIMEOUT if details["outcome"] == Outcome.TIMEOUT else Status.NO_PROGRESS
+        why = (f"{'the time limit ran out' if stopped is Status.TIMEOUT else 'no roll-out found a path'} after "
+               f"{details['attempts']} of {self.attempts} roll-outs: "
+               + ", ".join(f"{n} {what}" for what, n in ends.items()))
         best = best if best is not None else path
         if best is None or len(best) < 2:
-            return stopped, None, details
+            return Solution(stopped, None, details, why)
         details["stopped"] = stopped
-        return Status.APPROXIMATE, best, details
+        return Solution(Status.APPROXIMATE, best, details, why + "; the path given is the one that went farthest")
+
+
+#: A roll-out's end in words, for a plan's why.
+_ENDS = {Outcome.OUT_OF_BOUNDS: "left the bounds", Outcome.INSERTION: "inserted the whole arm",
+         Outcome.STEPS: "ran out of steps", Outcome.TIMEOUT: "stopped at the time limit"}
 
 
 class SacHerPlanner(SacPlanner):

@@ -28,7 +28,7 @@ import time
 import numpy as np
 
 from snakeplan.extras import require_training
-from snakeplan.planners.base import Plan, Planner, Problem, Status
+from snakeplan.planners.base import Plan, Planner, Problem, Solution, Status
 from snakeplan.planners.registry import register_planner
 from snakeplan.planners.sscc.agent import SwingAgent, load_agent, shipped_agent_path
 from snakeplan.planners.sscc.crawling import Crawl, Directive, arm_base, crawl, joint_angles
@@ -126,10 +126,10 @@ class SSCCPlanner(Planner):
             plan.details["learning_time_s"] = time.perf_counter() - t0
         return plan
 
-    def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float
-               ) -> tuple[Status, np.ndarray | None, dict]:
+    def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float) -> Solution:
         if len(problem.goals) != 1:
-            return Status.FAILED, None, {"reason": f"sscc plans to one target, the scene has {len(problem.goals)}"}
+            return Solution(Status.INVALID_TARGET, None, {},
+                            f"sscc plans to one target, the scene has {len(problem.goals)}")
         used, policy = self._policy(problem.robot)
         learner = policy if isinstance(policy, SwingAgent) and self.learning else None
         out = swinging_search(problem, policy, rng, deadline, self.settings, record=learner is not None)
@@ -137,7 +137,12 @@ class SSCCPlanner(Planner):
             self._pending = (learner, out.transitions)
         details: dict = {"search": used, "episodes": out.episodes, "swing_steps": out.steps}
         if out.motion is None:
-            return (Status.TIMEOUT if out.timed_out else Status.FAILED), None, details
+            if out.timed_out:
+                return Solution(Status.TIMEOUT, None, details,
+                                f"the time limit ran out after {out.episodes} swinging episodes with no feasible "
+                                f"motion")
+            return Solution(Status.NO_PROGRESS, None, details,
+                            f"none of {out.episodes} swinging episodes found a feasible motion")
         d = out.motion.directive
         robot = problem.robot
         q = robot.joint_angles_from_directions(
@@ -145,4 +150,4 @@ class SSCCPlanner(Planner):
             feed=float((d.joints[0] - d.entrance) @ d.direction) + robot.total_length)
         details.update(n_inner=d.n_inner, critical_module=d.critical, overhang_mm=d.overhang_mm,
                        max_deviation_D_mm=out.motion.D, directive_joints=d.joints, directive_q=q)
-        return Status.FOUND, d.tip_path(), details
+        return Solution(Status.FOUND, d.tip_path(), details)
