@@ -80,8 +80,8 @@ def invalid_target(world: KnowledgeView, arm: ValidityChecker) -> str | None:
     for k, (t, needed) in enumerate(zip(scene.targets, np.cumsum(legs) - tol * (2 * np.arange(len(legs)) + 1))):
         clearance = _clearance(world, t)
         if clearance < r - tol:
-            return (f"targets[{k}] {_fmt(t)} lies {clearance:.3g} mm from {_nearest(world, t)}: the tip (radius {r:g} mm) cannot "
-                    f"come within the reach tolerance {tol:g} mm of it")
+            return (f"targets[{k}] {_fmt(t)} lies {clearance:.3g} mm from {_nearest(world, t)}: the tip (radius "
+                    f"{r:g} mm) cannot come within the reach tolerance {tol:g} mm of it")
         if needed > arm.total_length:
             return (f"targets[{k}] {_fmt(t)} needs at least {needed:.4g} mm of tip path from the entrance (through the "
                     f"targets before it), beyond the arm's length {arm.total_length:.4g} mm")
