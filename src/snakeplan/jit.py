@@ -29,14 +29,16 @@ side keeps its own random stream (``np.random`` inside kernels); see ``kernel(se
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import importlib.util
 import os
 import pickle
+import re
 import sys
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -237,13 +239,50 @@ def njit(options: dict) -> Callable:
     return numba.njit(**options)
 
 
+#: Every numba dispatcher the decorators made in this process (a proxy's is made on its first use).
+_DISPATCHERS: list = []
+
+
 def _decorator(seeds: bool = False, **options: Any) -> Callable[[Callable], Callable]:
     options = {"cache": True, **options}
 
     def decorate(fn: Callable) -> Callable:
-        return Kernel(fn, options, seeds) if _PROXIES else njit(options)(fn)
+        if _PROXIES:
+            return Kernel(fn, options, seeds)
+        dispatcher = njit(options)(fn)
+        _DISPATCHERS.append(dispatcher)
+        return dispatcher
 
     return decorate
+
+
+def compilations() -> int:
+    """How many kernel signatures this process has compiled (not loaded from numba's cache or the compiled
+    module): numba's count of cache misses, each a compilation."""
+    dispatchers = _DISPATCHERS + [k._dispatcher for k in KERNELS if k._dispatcher is not None]
+    return sum(sum(d.stats.cache_misses.values()) for d in dispatchers)
+
+
+@contextlib.contextmanager
+def compiling_once(name: str) -> Iterator[None]:
+    """Run the block, the first use of ``name``'s kernels in a process, so that one process of this machine
+    compiles them at a time: the first to come holds a lock (a file in the cache folder, flock) through the block;
+    one that finds it held waits until it is free, then runs the block without it, loading what the first one
+    compiled from numba's cache instead of compiling it again at the same time. Unguarded without flock."""
+    try:
+        import fcntl
+    except ImportError:
+        yield
+        return
+    folder = compiled_dir().parent / "locks"
+    folder.mkdir(parents=True, exist_ok=True)
+    with open(folder / (re.sub(r"[^A-Za-z0-9_.-]", "_", name) + ".lock"), "a") as handle:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            fcntl.flock(handle, fcntl.LOCK_EX)  # another process compiles them now: wait for it
+            fcntl.flock(handle, fcntl.LOCK_UN)
+        yield
 
 
 def kernel(fn: Callable | None = None, *, seeds: bool = False, **options: Any):

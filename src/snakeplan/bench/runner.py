@@ -22,7 +22,10 @@ pool, the default, one worker per usable core) and ``ray`` (``local`` starts a R
 or an address joins a cluster; the ``cluster`` extra). Work goes out in chunks of runs (:func:`chunks`), each
 worker with BLAS/OpenMP pinned to one thread; only this process writes, so the rows are the same on every backend, timing aside
 (:func:`comparable`). Each worker process plans every (planner, scene) pair once untimed before its first timed
-run (jit caches, policy files), so no run pays for loading. A planner marked ``stateful`` (a learning planner)
+run (jit caches, policy files), so no run pays for loading. A planner's first warm-up on a machine compiles its
+kernels once (:func:`snakeplan.jit.compiling_once`): the workers that start beside it wait, then load them from
+numba's cache, instead of every worker compiling the same kernels at once; a row's ``provenance.kernels_compiled``
+counts the kernels its worker compiled for it. A planner marked ``stateful`` (a learning planner)
 keeps one instance over its runs in seed order, in one chunk, as the papers run it.
 """
 
@@ -47,6 +50,7 @@ import numpy as np
 
 from snakeplan.checkpoints import fsync_dir, lock_folder
 from snakeplan.files import atomic_write
+from snakeplan.jit import compilations, compiling_once
 from snakeplan.jsonable import jsonable
 from snakeplan.parallel import Backend, streamed, usable_cores
 
@@ -272,10 +276,14 @@ def run_chunk(task: list[Run], stamp: dict) -> list[dict]:
         robot = run.arm()
         options = dict(run.options)
         warm = (run.scene, run.scene_json, run.robot, run.robot_json, run.planner, run.options, run.knowledge)
+        compiled = 0
         if warm not in _WARM:
-            run_episode(Problem(_scene_of(run, WARMUP_SEED), robot, min(run.time_limit_s, WARMUP_TIME_LIMIT_S),
-                                knowledge=run.knowledge, task=run.task), get_planner(run.planner, **options),
-                        seed=WARMUP_SEED)
+            before = compilations()
+            with compiling_once(f"warm-up-{run.planner}"):
+                run_episode(Problem(_scene_of(run, WARMUP_SEED), robot, min(run.time_limit_s, WARMUP_TIME_LIMIT_S),
+                                    knowledge=run.knowledge, task=run.task), get_planner(run.planner, **options),
+                            seed=WARMUP_SEED)
+            compiled = compilations() - before
             _WARM.add(warm)
         if run.stateful:
             planner = shared.setdefault((run.planner, run.options, run.knowledge), get_planner(run.planner, **options))
@@ -283,7 +291,7 @@ def run_chunk(task: list[Run], stamp: dict) -> list[dict]:
             planner = get_planner(run.planner, **options)
         problem = Problem(_scene_of(run), robot, run.time_limit_s, knowledge=run.knowledge, task=run.task)
         episode = run_episode(problem, planner, seed=run.seed)
-        rows.append(make_row(run, episode, {**stamp, **host}))
+        rows.append(make_row(run, episode, {**stamp, **host, "kernels_compiled": compiled}))
     return rows
 
 
@@ -316,8 +324,13 @@ def make_row(run: Run, episode, provenance: dict) -> dict:
 
 def comparable(row: dict) -> dict:
     """A row without what measures time or place (:data:`TIMING_FIELDS`, details in seconds, ``*_s``, and the
-    details of a run its time budget stopped, ``timeout``: its search statistics): what must agree between backends and between an interrupted run and an uninterrupted one."""
+    details of a run its time budget stopped, ``timeout``: its search statistics, and the why of any run its clock
+    stopped, which says how far it got): what must agree between backends and between an interrupted run and an
+    uninterrupted one."""
     out = {k: v for k, v in row.items() if k not in TIMING_FIELDS}
+    details = out.get("details") if isinstance(out.get("details"), dict) else {}
+    if "timeout" in (out.get("status"), details.get("stopped")):
+        out.pop("why", None)
     if out.get("status") == "timeout":
         out.pop("details", None)  # how far the search got before its clock stopped it: a measure of speed
     elif isinstance(out.get("details"), dict):
