@@ -144,3 +144,17 @@ def test_a_problem_the_judge_sees_solved_is_never_refused(turn, radius, length, 
     scene = Scene("arc", None, lo, hi, Entrance(start, d), path[-1:])
     if evaluate(scene, ROBOT, path).success:
         assert input_refusal(Problem(scene, ROBOT)) is None
+
+
+def test_a_way_in_narrower_than_the_arm_is_warned_of_with_both_sizes(capsys, tmp_path):
+    """A pipe drawn in cm read as mm: its bore, 20 mm in radius, narrower than every section of the arm (27.5 mm).
+    plan warns, naming both sizes and how many sections fit, and the start is refused with its why."""
+    pipe = {"type": "pipe", "center": [0, 0, 0], "axis": [1, 0, 0], "inner_radius": 20, "outer_radius": 25,
+            "length": 600}
+    scene = box_scene([-250, 0, 0], [1, 0, 0], [[200, 0, 0]], [pipe])
+    code, out, err, _, doc = plan_cli(capsys, tmp_path, scene, "as-rrt")
+    assert code == 1 and doc["status"] == "invalid_start"
+    assert err == ("snakeplan: warning: entrance: the free space there is 20 mm in radius, narrower than "
+                   "sjtu-snake-iii's thickest section (27.5 mm, section 0): 0 of its 12 sections fit through; are "
+                   "the scene's units right?\n")
+    assert "why: a known pipe" not in out and "why: obstacles[0] blocks the entrance: at the entrance" in out

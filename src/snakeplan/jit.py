@@ -29,7 +29,6 @@ side keeps its own random stream (``np.random`` inside kernels); see ``kernel(se
 
 from __future__ import annotations
 
-import contextlib
 import functools
 import hashlib
 import importlib.util
@@ -38,7 +37,7 @@ import pickle
 import re
 import sys
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -230,28 +229,74 @@ class Kernel:
 
 def njit(options: dict) -> Callable:
     """numba's ``njit`` with ``options`` (numba imported now); ``_nrt`` dropped where this numba lacks it (``leaf``
-    is then plain ``njit``: the same results, without the saving)."""
+    is then plain ``njit``: the same results, without the saving). A cached kernel compiles once per machine
+    (:func:`_compile_once`)."""
     import numba
     from numba.core.cpu import CPUTargetOptions
 
     if not hasattr(CPUTargetOptions, "_nrt"):
         options = {k: v for k, v in options.items() if k != "_nrt"}
-    return numba.njit(**options)
+    decorate = numba.njit(**options)
+    if not options.get("cache"):
+        return decorate
+
+    def cached(fn: Callable):
+        dispatcher = decorate(fn)
+        _DISPATCHERS.append(dispatcher)
+        _compile_once(dispatcher, f"{fn.__module__}.{fn.__qualname__}")
+        return dispatcher
+
+    return cached
 
 
-#: Every numba dispatcher the decorators made in this process (a proxy's is made on its first use).
+#: Every cached numba dispatcher made in this process (a proxy's on its first use).
 _DISPATCHERS: list = []
+#: The kernels whose compile lock this process holds (a kernel compiling itself for other types meanwhile
+#: must not wait for itself).
+_HELD: set[str] = set()
+
+
+def _lock_folder() -> Path:
+    """The folder of the machine's compile locks, one per numba cache (so that a test's own cache waits for no
+    one else)."""
+    key = hashlib.blake2b(os.environ.get("NUMBA_CACHE_DIR", "").encode(), digest_size=6).hexdigest()
+    return compiled_dir().parent / "locks" / key
+
+
+def _compile_once(dispatcher, name: str) -> None:
+    """Make ``dispatcher`` compile under the machine's lock for ``name`` (flock on a file in the cache folder), so
+    that each kernel compiles once per machine, not once in every process that needs it at the same time (the
+    workers of a benchmark on a cold cache): a process that finds the lock held waits, then numba loads what the
+    holder wrote to its cache instead of compiling it again. Different kernels compile at once in different
+    processes; a kernel's callees take their own locks after it, so waits follow the call graph and never close
+    a cycle. Unguarded without flock."""
+    try:
+        import fcntl
+    except ImportError:
+        return
+    compile_now = dispatcher.compile
+    path = _lock_folder() / (re.sub(r"[^A-Za-z0-9_.-]", "_", name)[-100:] + ".lock")
+
+    def compile(sig):
+        if name in _HELD:
+            return compile_now(sig)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with open(path, "a") as handle:
+            fcntl.flock(handle, fcntl.LOCK_EX)
+            _HELD.add(name)
+            try:
+                return compile_now(sig)  # numba's cache first: what a process compiled while this one waited
+            finally:
+                _HELD.discard(name)
+
+    dispatcher.compile = compile
 
 
 def _decorator(seeds: bool = False, **options: Any) -> Callable[[Callable], Callable]:
     options = {"cache": True, **options}
 
     def decorate(fn: Callable) -> Callable:
-        if _PROXIES:
-            return Kernel(fn, options, seeds)
-        dispatcher = njit(options)(fn)
-        _DISPATCHERS.append(dispatcher)
-        return dispatcher
+        return Kernel(fn, options, seeds) if _PROXIES else njit(options)(fn)
 
     return decorate
 
@@ -259,30 +304,7 @@ def _decorator(seeds: bool = False, **options: Any) -> Callable[[Callable], Call
 def compilations() -> int:
     """How many kernel signatures this process has compiled (not loaded from numba's cache or the compiled
     module): numba's count of cache misses, each a compilation."""
-    dispatchers = _DISPATCHERS + [k._dispatcher for k in KERNELS if k._dispatcher is not None]
-    return sum(sum(d.stats.cache_misses.values()) for d in dispatchers)
-
-
-@contextlib.contextmanager
-def compiling_once(name: str) -> Iterator[None]:
-    """Run the block, the first use of ``name``'s kernels in a process, so that one process of this machine
-    compiles them at a time: the first to come holds a lock (a file in the cache folder, flock) through the block;
-    one that finds it held waits until it is free, then runs the block without it, loading what the first one
-    compiled from numba's cache instead of compiling it again at the same time. Unguarded without flock."""
-    try:
-        import fcntl
-    except ImportError:
-        yield
-        return
-    folder = compiled_dir().parent / "locks"
-    folder.mkdir(parents=True, exist_ok=True)
-    with open(folder / (re.sub(r"[^A-Za-z0-9_.-]", "_", name) + ".lock"), "a") as handle:
-        try:
-            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            fcntl.flock(handle, fcntl.LOCK_EX)  # another process compiles them now: wait for it
-            fcntl.flock(handle, fcntl.LOCK_UN)
-        yield
+    return sum(sum(d.stats.cache_misses.values()) for d in _DISPATCHERS)
 
 
 def kernel(fn: Callable | None = None, *, seeds: bool = False, **options: Any):

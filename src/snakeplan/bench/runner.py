@@ -22,10 +22,10 @@ pool, the default, one worker per usable core) and ``ray`` (``local`` starts a R
 or an address joins a cluster; the ``cluster`` extra). Work goes out in chunks of runs (:func:`chunks`), each
 worker with BLAS/OpenMP pinned to one thread; only this process writes, so the rows are the same on every backend, timing aside
 (:func:`comparable`). Each worker process plans every (planner, scene) pair once untimed before its first timed
-run (jit caches, policy files), so no run pays for loading. A planner's first warm-up on a machine compiles its
-kernels once (:func:`snakeplan.jit.compiling_once`): the workers that start beside it wait, then load them from
-numba's cache, instead of every worker compiling the same kernels at once; a row's ``provenance.kernels_compiled``
-counts the kernels its worker compiled for it. A planner marked ``stateful`` (a learning planner)
+run (jit caches, policy files), so no run pays for loading. On a cold cache a machine compiles each kernel once
+(a lock per kernel, :func:`snakeplan.jit.njit`): a worker that needs a kernel another is compiling waits and then
+loads it from numba's cache, instead of every worker compiling the same kernels at once; a row's
+``provenance.kernels_compiled`` counts the kernels its worker compiled for its warm-up. A planner marked ``stateful`` (a learning planner)
 keeps one instance over its runs in seed order, in one chunk, as the papers run it.
 """
 
@@ -50,7 +50,7 @@ import numpy as np
 
 from snakeplan.checkpoints import fsync_dir, lock_folder
 from snakeplan.files import atomic_write
-from snakeplan.jit import compilations, compiling_once
+from snakeplan.jit import compilations
 from snakeplan.jsonable import jsonable
 from snakeplan.parallel import Backend, streamed, usable_cores
 
@@ -279,10 +279,9 @@ def run_chunk(task: list[Run], stamp: dict) -> list[dict]:
         compiled = 0
         if warm not in _WARM:
             before = compilations()
-            with compiling_once(f"warm-up-{run.planner}"):
-                run_episode(Problem(_scene_of(run, WARMUP_SEED), robot, min(run.time_limit_s, WARMUP_TIME_LIMIT_S),
-                                    knowledge=run.knowledge, task=run.task), get_planner(run.planner, **options),
-                            seed=WARMUP_SEED)
+            run_episode(Problem(_scene_of(run, WARMUP_SEED), robot, min(run.time_limit_s, WARMUP_TIME_LIMIT_S),
+                                knowledge=run.knowledge, task=run.task), get_planner(run.planner, **options),
+                        seed=WARMUP_SEED)
             compiled = compilations() - before
             _WARM.add(warm)
         if run.stateful:
