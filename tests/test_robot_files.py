@@ -160,7 +160,7 @@ def test_bad_urdf_exits_2_with_one_line_naming_the_element(capsys, tmp_path, wha
     bad.write_text(edit(ORIGINAL))
     code, out, err = run(capsys, "robot", str(bad), "--json")
     assert code == 2 and out == ""
-    assert err.count("\n") == 1 and err.startswith("snakeplan: error: NAME: urdf: ") and fragment in err, err
+    assert err.count("\n") == 1 and err.startswith(f"snakeplan: error: {bad}: urdf: ") and fragment in err, err
     code, _, err = run(capsys, "plan", "--scene", "pipe", "--robot", str(bad))
     assert code == 2 and err.startswith("snakeplan: error: --robot: urdf: ") and fragment in err
 
@@ -210,7 +210,7 @@ def test_a_dh_table_in_degrees_with_a_radian_bend_limit_and_a_yaml_typo_are_one_
     f = tmp_path / "arm.yaml"
     f.write_text(text.replace("max_bend: 30", "max_bend: 0.698"))
     code, out, err = run(capsys, "robot", str(f))
-    assert code == 2 and err.count("\n") == 1
+    assert code == 2 and err.count("\n") == 1 and err.startswith(f"snakeplan: error: {f}: section 0: ")  # not "NAME:"
     assert "max_bend 0.698 is 0.698 deg, implausibly small" in err and "angle unit is deg" in err
     f.write_text(text.replace("{alpha: 0, a: 0, theta: 90, d: 0, joint: fixed}",
                               "{alpha: 0, a: 0, theta: 90, d: 0, joint: fixed", 1))

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from pathlib import Path
 
 from snakeplan.commands.common import EXIT_OK, print_json
 from snakeplan.commands.inputs import load_robot
@@ -25,15 +26,16 @@ def cmd_robot(args: argparse.Namespace) -> int:
     if args.name is None:
         sys.stdout.write("\n".join(robot_names()) + "\n")
         return EXIT_OK
-    robot = load_robot(args.name, "NAME")
+    robot = load_robot(args.name, args.name if Path(args.name).suffix else "robot")  # an error names the file
     if args.json:
         print_json(robot.to_dict())
         return EXIT_OK
     from rich.console import Console
     from rich.table import Table
 
-    table = Table(title=f"robot {robot.name}: {robot.n_sections} sections, {robot.total_length:g} mm, "
-                        f"k_UL {robot.k_ul:g} /mm")
+    sys.stdout.write(f"robot {robot.name}: {robot.n_sections} sections, {robot.total_length:g} mm, "
+                     f"k_UL {robot.k_ul:.4g} /mm\n")
+    table = Table()
     for col in ("section", "length (mm)", "radius (mm)", "max bend (deg)"):
         table.add_column(col, justify="right")
     for i, sec in enumerate(robot.sections):
