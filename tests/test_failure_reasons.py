@@ -158,3 +158,26 @@ def test_a_way_in_narrower_than_the_arm_is_warned_of_with_both_sizes(capsys, tmp
                    "sjtu-snake-iii's thickest section (27.5 mm, section 0): 0 of its 12 sections fit through; are "
                    "the scene's units right?\n")
     assert "why: a known pipe" not in out and "why: obstacles[0] blocks the entrance: at the entrance" in out
+
+
+def test_checking_a_plan_that_found_no_path_says_how_its_planner_ended(capsys, tmp_path):
+    """The newcomer checked a plan whose planner found nothing and read "path: needs at least 2 entries, got 0"."""
+    scene = box_scene([-480, 0, 0], [-1, 0, 0], [[200, 0, 0]])
+    *_, doc = plan_cli(capsys, tmp_path, scene, "as-rrt")
+    (tmp_path / "plan.json").write_text(json.dumps(doc))
+    code = main(["check", "--scene-file", str(tmp_path / "scene.json"), str(tmp_path / "plan.json")])
+    out, err = capsys.readouterr()
+    assert (code, out) == (2, "") and err.count("\n") == 1
+    assert err.startswith("snakeplan: error: path: the plan holds none to judge: its planner ended invalid_start "
+                          "(the entrance points out of the scene")
+
+
+def test_a_report_says_how_each_planners_runs_ended():
+    from snakeplan.bench.report import markdown, summarise
+
+    base = {"config": "run", "scene": "s", "planner": "p", "options": {}, "success": False, "compute_time_s": 1.0,
+            "metrics": None}
+    rows = [{**base, "status": s} for s in ("timeout", "failed", "timeout", "no_progress", "invalid_target")]
+    (entry,) = summarise(rows)
+    assert entry["ended"] == "timeout 2, no_progress 2, invalid_target 1"  # "failed", written before, is no_progress
+    assert markdown([entry], "t").splitlines()[-1].endswith("| timeout 2, no_progress 2, invalid_target 1 |")

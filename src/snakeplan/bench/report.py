@@ -12,6 +12,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -23,7 +24,7 @@ from snakeplan.files import atomic_write
 Z95 = 1.959963984540054
 COLUMNS = ("config", "scene", "planner", "options", "runs", "successes", "success_rate", "success_lo95",
            "success_hi95", "time_median_s", "time_p90_s", "time_max_s", "path_length_mm", "smoothness_index",
-           "min_clearance_mm", "max_deviation_mm")
+           "min_clearance_mm", "max_deviation_mm", "ended")
 #: Judge metrics averaged over the judged successes.
 SUCCESS_METRICS = ("path_length_mm", "smoothness_index", "min_clearance_mm", "max_deviation_mm")
 
@@ -44,6 +45,8 @@ def _options_label(options: dict) -> str:
 
 def summarise(rows: list[dict]) -> list[dict]:
     """One entry per (config, scene, planner, options), in the order they first appear (see :data:`COLUMNS`)."""
+    from snakeplan.planners.base import Status  # "failed" in rows written before reads as no_progress
+
     groups: dict[tuple, list[dict]] = {}
     for r in rows:
         groups.setdefault((r.get("config", ""), r["scene"], r["planner"], _options_label(r.get("options") or {})),
@@ -61,6 +64,8 @@ def summarise(rows: list[dict]) -> list[dict]:
             vals = [(r["metrics"] or {}).get(m) for r in wins]
             vals = [v for v in vals if v is not None]
             entry[m] = float(np.mean(vals)) if vals else math.nan
+        ended = Counter(Status(r["status"]).value if r.get("status") else "?" for r in group)
+        entry["ended"] = ", ".join(f"{status} {n}" for status, n in ended.most_common())
         out.append(entry)
     return out
 
@@ -74,16 +79,17 @@ def markdown(entries: list[dict], title: str) -> str:
     lines = [f"# {title}", "",
              "Success: judged success rate with its Wilson 95 % interval; time: the planner's compute time over all "
              "runs (s); length (mm), smoothness index, minimum clearance (mm) and maximum deviation (mm): means "
-             "over the judged successes.", "",
+             "over the judged successes; ended: how the planner said its runs ended (its status; each run's why is in "
+             "its row).", "",
              "| config | scene | planner | options | runs | success | 95 % interval | median time | p90 time | "
-             "max time | length | smoothness | clearance | deviation |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "max time | length | smoothness | clearance | deviation | ended |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for e in entries:
         lines.append(f"| {e['config']} | {e['scene']} | {e['planner']} | {e['options'] or '-'} | {e['runs']} | "
                      f"{100 * e['success_rate']:.1f} % | {100 * e['success_lo95']:.1f}-{100 * e['success_hi95']:.1f} % | "
                      f"{_num(e['time_median_s'], 3)} | {_num(e['time_p90_s'], 3)} | {_num(e['time_max_s'], 3)} | "
                      f"{_num(e['path_length_mm'], 1)} | {_num(e['smoothness_index'], 3)} | "
-                     f"{_num(e['min_clearance_mm'], 1)} | {_num(e['max_deviation_mm'], 1)} |")
+                     f"{_num(e['min_clearance_mm'], 1)} | {_num(e['max_deviation_mm'], 1)} | {e['ended']} |")
     return "\n".join(lines)
 
 

@@ -86,6 +86,10 @@ def load_plan_file(filename: str) -> tuple[np.ndarray, object | None, object | N
         raise ValueError(f'PATH: expected an object with a "path" list of [x, y, z], got {show(data)}')
     if "path" not in data:
         raise ValueError('path: missing; PATH must hold an object with a "path" list of [x, y, z]')
+    if data.get("path") == [] and isinstance(data.get("status"), str):
+        why = data.get("why")
+        raise ValueError(f"path: the plan holds none to judge: its planner ended {data['status']}"
+                         + (f" ({why})" if isinstance(why, str) and why else ""))
     path = points(data["path"], "path", min_count=2)
     mission = None
     if data.get("mission") is not None:

@@ -103,7 +103,7 @@ def cmd_scene_import(argv: list[str]) -> int:
     triangles = sum(len(o.faces) for o in scene.obstacles if hasattr(o, "faces"))
     meshes = sum(1 for o in scene.obstacles if hasattr(o, "faces"))
     sys.stdout.write(f"wrote {args.out}: {_count(meshes, 'mesh', 'meshes')}, {triangles} triangles, "
-                     f"{len(scene.targets)} targets, bounds {scene.bounds_min.round(1).tolist()} .. "
+                     f"{_count(len(scene.targets), 'target', 'targets')}, bounds {scene.bounds_min.round(1).tolist()} .. "
                      f"{scene.bounds_max.round(1).tolist()} mm\n")
     return EXIT_OK
 
