@@ -557,7 +557,8 @@ def test_a_mesh_read_in_the_wrong_unit_is_named_against_the_arm_and_a_point_in_m
     trimesh.Trimesh(elbow.vertices / 100.0, elbow.faces).export(tmp_path / "elbow.stl")  # 5 m, in metres
     scene = import_scene([str(tmp_path / "elbow.stl")], "cm", np.zeros(3), np.array([1.0, 0.0, 0.0]), [],
                          tmp_path / "s.json")
-    whole, line = scale_warnings(scene, get_robot("sjtu-snake-iii"))  # the auto bounds are that small too
+    whole, line, way_in = scale_warnings(scene, get_robot("sjtu-snake-iii"))  # the auto bounds are that small too
+    assert way_in.startswith("entrance: the free space there is") and "0 of its 12 sections fit through" in way_in
     assert whole.startswith("scene: elbow spans 162 mm, less than one section of sjtu-snake-iii")
     assert line.startswith("obstacles[0]: the mesh spans 61.5 mm (read in 'cm')")
     assert "less than one section of sjtu-snake-iii (178 mm); are its units right?" in line
