@@ -181,3 +181,20 @@ def test_a_report_says_how_each_planners_runs_ended():
     (entry,) = summarise(rows)
     assert entry["ended"] == "timeout 2, no_progress 2, invalid_target 1"  # "failed", written before, is no_progress
     assert markdown([entry], "t").splitlines()[-1].endswith("| timeout 2, no_progress 2, invalid_target 1 |")
+
+
+def test_an_entrance_facing_away_from_the_obstacles_behind_it_is_an_invalid_start():
+    """The entrance turned to face out of the room, 100 mm from its wall: the arm not yet inserted lies straight
+    back from the entrance, through the block 500 mm behind it, and the judge fails every path at depth 0 (rrt-star
+    said 'collision at depth 0 mm' three times). Refused first, naming the block and where along the arm."""
+    block = Box([0.0, 0.0, 0.0], [800.0, 600.0, 400.0])
+    scene = Scene("facing-out", None, [-1000, -800, -700], [1000, 800, 700], Entrance([-900, 0, 0], [-1, 0, 0]),
+                  [[550.0, 0, 0]], [block])
+    failure = evaluate(scene, ROBOT, np.array([[-900.0, 0, 0], [-950.0, 0, 0]]))
+    assert failure.reason == "collision" and failure.metrics()["first_failure_depth_mm"] == 0.0
+    refusal = input_refusal(Problem(scene, ROBOT))
+    assert refusal.status == "invalid_start"
+    # sections of 177.5 mm of radius 27.5 mm: the third from the tip spans 355-532.5 mm back and reaches x = -400
+    assert refusal.why == ("the arm waiting behind the entrance (straight back from it along entrance.direction "
+                           "[-1, 0, 0], 2130 mm) meets obstacles[0] 355-532.5 mm back: does the entrance face into "
+                           "the scene?")

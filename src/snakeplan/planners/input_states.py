@@ -5,7 +5,8 @@ Each refusal is a fact no plan can get past under the judge's rules, checked in 
 obstacles of its knowledge view), so a problem that can be solved is never refused:
 
 * the entrance: the tip's ball (the judge's radius, no margin) at the entrance and one judge's step along its
-  direction is in bounds and clear of the known obstacles, since the judge checks the crawl from depth 0;
+  direction is in bounds and clear of the known obstacles, since the judge checks the crawl from depth 0, and
+  so is the arm not yet inserted, each section's capsule straight back from the entrance (the judge checks it too);
   and when the bounds lie ahead closer than half the arm's turning radius, no target lies behind the entrance by
   more than the reach tolerance (a path that starts along the direction cannot turn a right angle in less forward
   room than its turning radius, half of it covering the chords of the fitted chain, so it only moves forward);
@@ -63,6 +64,14 @@ def invalid_start(world: KnowledgeView, arm: ValidityChecker) -> str | None:
         if clearance < r:
             return (f"{_nearest(world, p)} blocks the entrance: {where} the tip's ball of radius {r:g} mm is "
                     f"{clearance:.3g} mm from it")
+    if len(world.obstacle_set):  # the judge checks the arm not yet inserted, straight back from the entrance
+        cum = np.concatenate([[0.0], np.cumsum(arm.lengths[::-1])])
+        for k, radius in enumerate(arm.radii[::-1]):
+            a, b = start - cum[k] * d, start - cum[k + 1] * d
+            if not world.obstacle_set.segments_clear(a[None], b[None], float(radius))[0]:
+                return (f"the arm waiting behind the entrance (straight back from it along entrance.direction "
+                        f"{_fmt(d)}, {arm.total_length:.4g} mm) meets {_nearest(world, (a + b) / 2)} "
+                        f"{cum[k]:.4g}-{cum[k + 1]:.4g} mm back: does the entrance face into the scene?")
     room = _room_ahead(scene, start, d)
     behind = np.flatnonzero((scene.targets - start) @ d < -REACH_TOLERANCE_MM)
     if room < arm.turn_radius / 2 and behind.size:
