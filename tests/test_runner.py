@@ -396,3 +396,15 @@ def test_a_cold_cache_costs_one_compile_however_many_workers(tmp_path):
     serial = compiled(1)
     assert serial > 50  # a cold cache: the planners' kernels compiled
     assert compiled(2) <= serial
+
+
+def test_a_benchmark_piped_into_head_logs_every_run_and_does_not_claim_success(tmp_path):
+    """bench run ... 2>&1 | head -2 stopped after 3 of 15 runs when head went away, and exited 0. The progress
+    lines stop, the runs go on to the end, and the exit status is a broken pipe's (141), not success."""
+    out = tmp_path / "runs"
+    cmd = (f"{sys.executable} -c 'import sys; from snakeplan.cli import main; sys.exit(main(sys.argv[1:]))' bench run "
+           f"--scenes fuel-tank --planners as-rrt --seeds 0-5 --workers 1 --time-limit 5 --out {out} 2>&1 | head -1;"
+           " exit ${PIPESTATUS[0]}")
+    proc = subprocess.run(["bash", "-c", cmd], capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 141 and proc.stdout.startswith("run: 1/6 ")
+    assert len(read_rows(out)) == 6

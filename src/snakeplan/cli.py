@@ -11,6 +11,7 @@ raises into its exit status; the commands parse, call the layers below and print
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import warnings
 from collections.abc import Callable
@@ -67,6 +68,10 @@ def trainer_main(argv: list[str] | None = None) -> int:
     return _run(command)
 
 
+#: Exit status when the output's reader went away: 128 + SIGPIPE, as a tool killed by it.
+EXIT_BROKEN_PIPE = 141
+
+
 def _run(command: Callable[[], int]) -> int:
     """Run a parsed command's handler: its exit status, one line and 2 for a user's mistake, 130 when
     interrupted; warnings as one line each."""
@@ -74,8 +79,9 @@ def _run(command: Callable[[], int]) -> int:
         with warnings.catch_warnings():
             warnings.showwarning = warning_line
             return int(command())
-    except BrokenPipeError:
-        return EXIT_OK
+    except BrokenPipeError:  # the reader of the output went away (| head): stop as a Unix tool does, not as success
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error flushing at exit
+        return EXIT_BROKEN_PIPE
     except BaseException as exc:
         stop = interruption(exc)
         if stop is not None:

@@ -265,11 +265,15 @@ class ProgressDisplay:
         before, self.done = self.done, done
         if self._bar is not None:
             self._bar.update(self._task, completed=done, description=description)
-        elif before == 0 or (done // self.every > before // self.every if self.every
-                             else 100 * done // self.total > 100 * before // self.total):
-            self.stream.write(f"{self.name}: {self.unit}{done}/{self.total} ({100 * done // self.total} %, "
-                              f"{time.monotonic() - self._start:.0f} s) {description}\n")
-            self.stream.flush()
+        elif self.stream is not None and (
+                before == 0 or (done // self.every > before // self.every if self.every
+                                else 100 * done // self.total > 100 * before // self.total)):
+            try:
+                self.stream.write(f"{self.name}: {self.unit}{done}/{self.total} ({100 * done // self.total} %, "
+                                  f"{time.monotonic() - self._start:.0f} s) {description}\n")
+                self.stream.flush()
+            except BrokenPipeError:  # whoever read the progress went away (| head): the work goes on unwatched
+                self.stream = None
 
     def close(self) -> None:
         if self._bar is not None:
