@@ -255,3 +255,16 @@ def test_workers_starting_together_compile_each_kernel_once_per_machine(tmp_path
         assert compiled == [0, 20]
     else:  # both compile, each perhaps loading a few kernels the other had finished
         assert min(compiled) > 0 and sum(compiled) > 20
+
+
+def test_a_kernel_compiles_unguarded_where_the_cache_folder_cannot_be_written(tmp_path):
+    """The compile lock lives in the cache folder; a home that cannot be written (here a folder under a file)
+    must not stop a kernel compiling."""
+    (tmp_path / "chain_kernels.py").write_text(_chain_module("jit.kernel"))
+    (tmp_path / "ready-1").touch()  # no sibling to wait for
+    (tmp_path / "a-file").write_text("")
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba"), "SNAKEPLAN_KERNELS": "numba",
+           "SNAKEPLAN_CACHE_DIR": str(tmp_path / "a-file" / "cache")}
+    proc = subprocess.run([sys.executable, "-c", _WORKER, str(tmp_path), "0"], env=env, capture_output=True,
+                          text=True, timeout=120)
+    assert proc.returncode == 0 and proc.stdout.split()[-1] == "20", proc.stderr[-500:]

@@ -269,7 +269,7 @@ def _compile_once(dispatcher, name: str) -> None:
     workers of a benchmark on a cold cache): a process that finds the lock held waits, then numba loads what the
     holder wrote to its cache instead of compiling it again. Different kernels compile at once in different
     processes; a kernel's callees take their own locks after it, so waits follow the call graph and never close
-    a cycle. Unguarded without flock."""
+    a cycle. Unguarded without flock, or where the cache folder cannot be written."""
     try:
         import fcntl
     except ImportError:
@@ -280,8 +280,12 @@ def _compile_once(dispatcher, name: str) -> None:
     def compile(sig):
         if name in _HELD:
             return compile_now(sig)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with open(path, "a") as handle:
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            handle = open(path, "a")
+        except OSError:  # no writable cache folder (a read-only home): compile unguarded, as numba alone does
+            return compile_now(sig)
+        with handle:
             fcntl.flock(handle, fcntl.LOCK_EX)
             _HELD.add(name)
             try:
