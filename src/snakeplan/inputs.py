@@ -55,6 +55,11 @@ def show(value: Any, limit: int = 60) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
+def point_text(p: Any) -> str:
+    """A point or vector as a message shows it: ``[-300, 180, 100]`` (mm; six significant digits)."""
+    return "[" + ", ".join(f"{float(v):g}" for v in p) + "]"
+
+
 def real(value: Any, name: str, limit: float | None = None) -> float:
     """``value`` as a finite float; with ``limit``, also at most ``limit`` in magnitude."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, _REAL_TYPES):

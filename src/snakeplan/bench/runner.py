@@ -31,6 +31,7 @@ keeps one instance over its runs in seed order, in one chunk, as the papers run 
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import math
@@ -100,9 +101,7 @@ class Run:
 
     def arm(self):
         """The run's robot: its preset, or the robot its file described (carried as robot/1 JSON)."""
-        from snakeplan.robots import get_robot, load_robot
-
-        return load_robot(json.loads(self.robot_json)) if self.robot_json else get_robot(self.robot)
+        return _arm(self.robot, self.robot_json)
 
     @property
     def key(self) -> str:
@@ -111,6 +110,14 @@ class Run:
     @property
     def label(self) -> str:
         return f"{self.scene} seed {self.seed} {self.planner}"
+
+
+@functools.lru_cache(maxsize=16)
+def _arm(robot: str, robot_json: str):
+    """A run's robot, made once per worker however many runs share it."""
+    from snakeplan.robots import get_robot, load_robot
+
+    return load_robot(json.loads(robot_json)) if robot_json else get_robot(robot)
 
 
 def check_robot(name: str, field: str = "robot") -> None:

@@ -25,35 +25,38 @@ def add_parser(sub) -> None:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
-    from snakeplan.episode import check_document
     from snakeplan.evaluation import evaluate
 
     check_picture(args.plot, "--plot")
     check_views(args)
     scene = load_scene(args)
     path, arm, mission = load_plan_file(args.path_file)
-    robot = robot_for(args, scene) if arm is None else arm
-    if arm is not None and args.robot is not None and robot_for(args, scene).to_dict() != arm.to_dict():
+    given = robot_for(args, scene) if args.robot is not None or arm is None else None
+    if arm is not None and given is not None and given.to_dict() != arm.to_dict():
         raise UsageError(f"--robot: {args.robot} is not the arm the plan was made with ({arm.name}); check judges "
                          f"a plan with its own arm: leave --robot out")
+    robot = given if arm is None else arm
     source = "--robot" if args.robot else "the plan's" if arm is not None else "the scene's"
     if mission is not None:
-        return _check_mission(args, scene, robot, path, mission, source)
-    report = evaluate(scene, robot, path)
-    if args.plot:
-        write_plot(args.plot, scene, robot, path, report)
-    write_views(args, scene, robot, path, report)
+        report = _judge_mission(args, scene, robot, path, mission)
+    else:
+        report = evaluate(scene, robot, path)
+        if args.plot:
+            write_plot(args.plot, scene, robot, path, report)
+        write_views(args, scene, robot, path, report)
     if args.json:
+        from snakeplan.episode import check_document
+
         print_json(check_document(scene, robot, report))
     else:
         sys.stdout.write(f"arm: {robot.name} ({source})\n" + "\n".join(report.lines()) + "\n")
     return EXIT_OK if report.success else EXIT_INFEASIBLE
 
 
-def _check_mission(args: argparse.Namespace, scene, robot, path, mission, source: str) -> int:
-    """Judge an inspect plan's mission (its motions, its views, the views measured again) under the scene's inspect
-    task, as plan judged it."""
-    from snakeplan.episode import Episode, check_document
+def _judge_mission(args: argparse.Namespace, scene, robot, path, mission):
+    """The judge's report on an inspect plan's mission (its motions, its views, the views measured again) under the
+    scene's inspect task, as plan judged it; its pictures written as asked."""
+    from snakeplan.episode import Episode
     from snakeplan.evaluation import judge
     from snakeplan.planners import Plan, Problem
 
@@ -65,10 +68,5 @@ def _check_mission(args: argparse.Namespace, scene, robot, path, mission, source
         report = judge(scene, robot, path, mission, problem.inspection)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
-    episode = Episode(problem, Plan("check", "found", path, 0.0, {}, mission), report)
-    write_episode_views(args, episode, args.plot)
-    if args.json:
-        print_json(check_document(scene, robot, report))
-    else:
-        sys.stdout.write(f"arm: {robot.name} ({source})\n" + "\n".join(report.lines()) + "\n")
-    return EXIT_OK if report.success else EXIT_INFEASIBLE
+    write_episode_views(args, Episode(problem, Plan("check", "found", path, 0.0, {}, mission), report), args.plot)
+    return report

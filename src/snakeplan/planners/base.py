@@ -194,7 +194,7 @@ class Plan:
             raise ValueError(f"path: a {self.status} plan has no path (a best-effort path is 'approximate')")
         if self.status is Status.APPROXIMATE:
             stopped = self.details.get("stopped")
-            if stopped not in STOPPED and stopped != "failed":
+            if _status_or_none(stopped) not in STOPPED:
                 raise ValueError(f"details: an approximate plan says why it stopped in details['stopped'] "
                                  f"({' or '.join(STOPPED)}), got {stopped!r}")
             self.details["stopped"] = Status(stopped)
@@ -202,6 +202,14 @@ class Plan:
             raise ValueError(f"why: one line of text, got {self.why!r}")
         if self.status is not Status.FOUND and not self.why.strip():
             raise ValueError(f"why: a {self.status} plan says why it ended so")
+
+
+def _status_or_none(value) -> Status | None:
+    """``value`` as a :class:`Status` (an older file's "failed" included), or None."""
+    try:
+        return Status(value)
+    except ValueError:
+        return None
 
 
 def input_refusal(problem: Problem) -> Solution | None:

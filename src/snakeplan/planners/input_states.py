@@ -19,13 +19,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from snakeplan.inputs import point_text
 from snakeplan.scenes import Scene
 from snakeplan.world import Knowledge, KnowledgeView, ValidityChecker
 from snakeplan.world.tolerances import JUDGE, REACH_TOLERANCE_MM
-
-
-def _fmt(p: np.ndarray) -> str:
-    return "[" + ", ".join(f"{v:.4g}" for v in p) + "]"
 
 
 def _clearance(world: KnowledgeView, p: np.ndarray) -> float:
@@ -57,7 +54,7 @@ def invalid_start(world: KnowledgeView, arm: ValidityChecker) -> str | None:
     r = arm.tip_radius
     for depth in (0.0, JUDGE.step_mm):
         p = start + depth * d
-        where = f"{depth:g} mm along entrance.direction {_fmt(d)}" if depth else "at the entrance"
+        where = f"{depth:g} mm along entrance.direction {point_text(d)}" if depth else "at the entrance"
         if not world.in_bounds(p[None])[0]:
             return f"the entrance points out of the scene: {where} the tip leaves the bounds"
         clearance = _clearance(world, p)
@@ -66,17 +63,21 @@ def invalid_start(world: KnowledgeView, arm: ValidityChecker) -> str | None:
                     f"{clearance:.3g} mm from it")
     if len(world.obstacle_set):  # the judge checks the arm not yet inserted, straight back from the entrance
         cum = np.concatenate([[0.0], np.cumsum(arm.lengths[::-1])])
-        for k, radius in enumerate(arm.radii[::-1]):
-            a, b = start - cum[k] * d, start - cum[k + 1] * d
-            if not world.obstacle_set.segments_clear(a[None], b[None], float(radius))[0]:
-                return (f"the arm waiting behind the entrance (straight back from it along entrance.direction "
-                        f"{_fmt(d)}, {arm.total_length:.4g} mm) meets {_nearest(world, (a + b) / 2)} "
-                        f"{cum[k]:.4g}-{cum[k + 1]:.4g} mm back: does the entrance face into the scene?")
+        a, b, radii = start - cum[:-1, None] * d, start - cum[1:, None] * d, arm.radii[::-1]
+        clear = np.ones(len(radii), dtype=bool)
+        for radius in np.unique(radii):  # one call per radius (an arm of one radius: one call)
+            of = radii == radius
+            clear[of] = world.obstacle_set.segments_clear(a[of], b[of], float(radius))
+        if not clear.all():
+            k = int(np.argmin(clear))
+            return (f"the arm waiting behind the entrance (straight back from it along entrance.direction "
+                    f"{point_text(d)}, {arm.total_length:.4g} mm) meets {_nearest(world, (a[k] + b[k]) / 2)} "
+                    f"{cum[k]:.4g}-{cum[k + 1]:.4g} mm back: does the entrance face into the scene?")
     room = _room_ahead(scene, start, d)
     behind = np.flatnonzero((scene.targets - start) @ d < -REACH_TOLERANCE_MM)
     if room < arm.turn_radius / 2 and behind.size:
         return (f"the entrance points out of the scene: the bounds lie {room:.3g} mm ahead along entrance.direction "
-                f"{_fmt(d)}, too little to turn the arm (turning radius {arm.turn_radius:.3g} mm) back to "
+                f"{point_text(d)}, too little to turn the arm (turning radius {arm.turn_radius:.3g} mm) back to "
                 f"targets[{int(behind[0])}] behind it")
     return None
 
@@ -86,12 +87,14 @@ def invalid_target(world: KnowledgeView, arm: ValidityChecker) -> str | None:
     scene = world.scene
     tol, r = REACH_TOLERANCE_MM, arm.tip_radius
     legs = np.linalg.norm(np.diff(np.vstack([arm.entrance, scene.targets]), axis=0), axis=1)
-    for k, (t, needed) in enumerate(zip(scene.targets, np.cumsum(legs) - tol * (2 * np.arange(len(legs)) + 1))):
-        clearance = _clearance(world, t)
+    needs = np.cumsum(legs) - tol * (2 * np.arange(len(legs)) + 1)
+    clearances = (world.obstacle_set.signed_distance(scene.targets) if len(world.obstacle_set)
+                  else np.full(len(legs), np.inf))
+    for k, (t, needed, clearance) in enumerate(zip(scene.targets, needs, clearances)):
         if clearance < r - tol:
-            return (f"targets[{k}] {_fmt(t)} lies {clearance:.3g} mm from {_nearest(world, t)}: the tip (radius "
+            return (f"targets[{k}] {point_text(t)} lies {clearance:.3g} mm from {_nearest(world, t)}: the tip (radius "
                     f"{r:g} mm) cannot come within the reach tolerance {tol:g} mm of it")
         if needed > arm.total_length:
-            return (f"targets[{k}] {_fmt(t)} needs at least {needed:.4g} mm of tip path from the entrance (through the "
+            return (f"targets[{k}] {point_text(t)} needs at least {needed:.4g} mm of tip path from the entrance (through the "
                     f"targets before it), beyond the arm's length {arm.total_length:.4g} mm")
     return None

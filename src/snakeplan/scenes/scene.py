@@ -213,8 +213,8 @@ def check_placement(scene: Scene) -> None:
     inside = scene.in_bounds(pts)
     for name, p, ok in zip(names, pts, inside):
         if not ok:
-            raise ValueError(f"{name}: {_fmt(p)} lies outside the bounds {_fmt(scene.bounds_min)} .. "
-                             f"{_fmt(scene.bounds_max)}")
+            raise ValueError(f"{name}: {inputs.point_text(p)} lies outside the bounds {inputs.point_text(scene.bounds_min)} .. "
+                             f"{inputs.point_text(scene.bounds_max)}")
     if not scene.obstacles:
         return
     depth = -scene.signed_distance(pts)
@@ -223,7 +223,7 @@ def check_placement(scene: Scene) -> None:
         if dp > limit:
             k = int(np.argmin([o.signed_distance(p) for o in scene.obstacles]))
             what = "the entrance may touch a wall but" if name == "entrance.position" else "a target"
-            raise ValueError(f"{name}: {_fmt(p)} lies {dp:.3g} mm deep inside obstacles[{k}]; {what} must lie in "
+            raise ValueError(f"{name}: {inputs.point_text(p)} lies {dp:.3g} mm deep inside obstacles[{k}]; {what} must lie in "
                              f"free space{_unit_hint(p, scene)}")
 
 
@@ -231,7 +231,7 @@ def _unit_hint(p: np.ndarray, scene: Scene) -> str:
     """A hint for a point that looks given in metres in a scene of millimetres: every coordinate within +-10 in a
     scene over a metre across."""
     if float(np.max(np.abs(p))) <= 10.0 and float(np.max(scene.size)) > 1000.0:
-        return f" (were its coordinates metres? snakeplan's are mm: {_fmt(p * 1000.0)})"
+        return f" (were its coordinates metres? snakeplan's are mm: {inputs.point_text(p * 1000.0)})"
     return ""
 
 
@@ -298,5 +298,3 @@ def _indices(value: Any, n: int) -> tuple[int, ...]:
     return tuple(int(k) for k in out)
 
 
-def _fmt(p: np.ndarray) -> str:
-    return "[" + ", ".join(f"{v:g}" for v in p) + "]"

@@ -9,6 +9,7 @@ from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection
 
 from snakeplan.geometry.primitives import Box, Cylinder, Mesh, Obstacle, Pipe, Plate, Sphere
 from snakeplan.scenes import Scene
+from snakeplan.viz.meshes import obstacle_mesh
 
 OBSTACLE_COLOR = (0.55, 0.6, 0.68)
 BODY_COLOR = "tab:orange"
@@ -40,21 +41,13 @@ def _tube(center, axis, R, radius, length, n=32) -> list[np.ndarray]:
     return [np.array([lo[i], lo[i + 1], hi[i + 1], hi[i]]) for i in range(n)]
 
 
-def _sphere_faces(center: np.ndarray, radius: float, n_u: int = 16, n_v: int = 8) -> list[np.ndarray]:
-    u = np.linspace(0, 2 * np.pi, n_u + 1)
-    v = np.linspace(0, np.pi, n_v + 1)
-    p = center + radius * np.stack([np.outer(np.cos(u), np.sin(v)), np.outer(np.sin(u), np.sin(v)),
-                                    np.outer(np.ones_like(u), np.cos(v))], axis=-1)
-    return [np.array([p[i, j], p[i + 1, j], p[i + 1, j + 1], p[i, j + 1]]) for i in range(n_u) for j in range(n_v)]
-
-
 def obstacle_outline(o: Obstacle) -> tuple[list[np.ndarray], list[np.ndarray]]:
     """One obstacle as drawn: its translucent faces (polygons, mm) and its outline polylines (a plate's edge
     and hole)."""
     if isinstance(o, Box):
         return _box_faces(o.center, o.size / 2, o.rotation), []
     if isinstance(o, Sphere):
-        return _sphere_faces(o.center, o.radius), []
+        return list(obstacle_mesh(o).triangles), []
     if isinstance(o, Cylinder):
         return _tube(o.center, o.axis, o.frame(), o.radius, o.length), []
     if isinstance(o, Pipe):
