@@ -146,8 +146,10 @@ def test_the_judge_refuses_a_view_off_the_arm_and_a_carriage_that_jumps_through_
 def test_a_problem_says_its_task_and_planners_refuse_tasks_they_do_not_do():
     station, tank = make_scene("station", 0), make_scene("fuel-tank", 0)
     assert Problem(station, get_robot("hsr-10")).task == "inspect" and Problem(tank, get_robot("sjtu-snake-iii")).task == "reach"
-    with pytest.raises(ValueError, match="^scene: fuel-tank has no surface field to inspect"):
-        Problem(tank, get_robot("sjtu-snake-iii"), task="inspect")
+    fed = Problem(tank, get_robot("sjtu-snake-iii"), task="inspect")
+    assert fed.inspection.tip_camera and fed.inspection.camera == get_robot("sjtu-snake-iii").camera
+    with pytest.raises(ValueError, match="^task: planner informative maps a surface field"):
+        get_planner("informative").plan(fed)
     with pytest.raises(ValueError, match="^task: must be one of reach, inspect"):
         Problem(tank, get_robot("sjtu-snake-iii"), task="explore")
     with pytest.raises(ValueError, match=r"^task: planner sp-rrt does not inspect \(it does: reach\)"):

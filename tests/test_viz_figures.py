@@ -45,7 +45,7 @@ def test_check_plot_writes_a_picture_of_a_collision(tmp_path, capsys):
 @pytest.mark.parametrize("family", ["fuel-tank", "oil-tank", "concentric-pipe", "station"])
 def test_obstacle_meshes_lie_on_the_exact_surfaces(family):
     from snakeplan.scenes import make_scene
-    from snakeplan.viz.meshes import obstacle_mesh
+    from snakeplan.geometry.tessellation import obstacle_mesh
 
     for o in make_scene(family, 2).obstacles:
         m = obstacle_mesh(o)

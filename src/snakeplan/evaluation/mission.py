@@ -17,7 +17,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from snakeplan.geometry.polyline import cumulative_length
+from snakeplan.geometry.polyline import cumulative_length, point_at, prefix
 from snakeplan.mapping.models import CameraModel
 from snakeplan.robots import Chain
 from snakeplan.scenes import Scene
@@ -31,15 +31,20 @@ from snakeplan.world.mission import (
     Mission,
     inspected_surface,
     mission_rngs,
+    tip_poses,
 )
 
 #: The reasons a mission is refused, and its verdict when none holds.
 MISSION_FAILURES = ("settings", "no_motion", "collision", "bend_limit", "joint_limit", "insertion", "out_of_bounds",
-                    "not_at_entrance", "discontinuity", "over_budget", "view_times", "view_off_arm")
+                    "not_at_entrance", "discontinuity", "too_fast", "over_budget", "view_times", "view_off_arm")
 INSPECTED = "inspected"
 #: How far (mm) one motion may end from where the next starts (the tip), and how far apart in time (s).
 CONTINUITY_MM = 1e-6
 CONTINUITY_S = 1e-9
+#: How far (rad) a tip camera's view direction may be from the tip's axis.
+VIEW_ANGLE_TOL_RAD = 1e-3
+#: Relative round-off allowed on the feed speed limit.
+SPEED_TOL = 1e-6
 
 
 @dataclass(frozen=True)
@@ -71,6 +76,10 @@ class MissionReport:
     trace_k2: np.ndarray
     final_mean_k: np.ndarray
     final_variance_k2: np.ndarray
+    motion_mm: float = 0.0
+    retractions: int = 0
+    returned: bool = False
+    seen: np.ndarray | None = None
 
     def metrics(self) -> dict:
         """The metrics block of an inspect plan's ``snakeplan.plan/1`` document and runner rows."""
@@ -80,6 +89,9 @@ class MissionReport:
                 "views": self.views,
                 "reach_share": self.views_on_arm / self.views if self.views else 1.0,
                 "coverage": self.coverage,
+                "points": None if self.seen is None else int(self.seen.size),
+                "points_seen": None if self.seen is None else int(self.seen.sum()),
+                "motion_mm": self.motion_mm, "retractions": self.retractions, "returned": self.returned,
                 "final_rmse_k": float(self.rmse_k[-1]) if self.rmse_k.size else None,
                 "final_trace_k2": float(self.trace_k2[-1]) if self.trace_k2.size else None,
                 "first_failure_time_s": None if f is None else f.time_s,
@@ -91,6 +103,12 @@ class MissionReport:
         """The verdict as console lines."""
         head = "inspected: every motion valid, every view on the arm" if self.success else (
             f"refused ({self.reason}) at {self.failure.time_s:.2f} s, motion {self.failure.motion}")
+        if self.seen is not None and not self.rmse_k.size and self.motion_mm:
+            return [head, f"views {self.views} ({self.views_on_arm} on the arm), points of interest seen "
+                          f"{int(self.seen.sum())} of {self.seen.size} ({self.coverage:.1%}), mission "
+                          f"{self.mission_time_s:.0f} s, feed travel {self.motion_mm / 1000:.1f} m, "
+                          f"{self.retractions} retractions, {'back out' if self.returned else 'left inserted'}, "
+                          f"min clearance {self.min_clearance_mm:.1f} mm"]
         rmse = f"{self.rmse_k[-1]:.3f} K" if self.rmse_k.size else "none (no view)"
         return [head, f"views {self.views} ({self.views_on_arm} on the arm), coverage {self.coverage:.1%}, "
                       f"final RMSE {rmse}, min clearance {self.min_clearance_mm:.1f} mm"]
@@ -121,26 +139,34 @@ def _field(mesh):
     return _FIELDS[mesh.fingerprint]
 
 
-def _motion_failure(checker: ValidityChecker, jm: JointMotionCheck, motion, index: int) -> MissionFailure | None:
-    """The first failure of one motion, in mission time (``jm``: the checker's joint motions)."""
+def _motion_failure(checker: ValidityChecker, jm: JointMotionCheck, motion, index: int, feed_speed: float
+                    ) -> MissionFailure | None:
+    """The first failure of one motion, in mission time (``jm``: the checker's joint motions): a crawl's states
+    from depth 0 to its deepest (the checker's crawl rules), its feed no faster than ``feed_speed`` (mm/s)."""
     if isinstance(motion, JointMotion):
         f: MotionFailure | None = jm.first_failure(motion.times_s, motion.bases, motion.q)
         return None if f is None else MissionFailure(index, f.time_s, f.kind, f.link)
     if np.linalg.norm(motion.path[0] - checker.entrance) > ENTRANCE_TOLERANCE_MM:
         return MissionFailure(index, motion.start_s, "not_at_entrance")
-    f = checker.first_failure(motion.path, 0.0, motion.depth_mm)
+    d, t = motion.depths_mm, motion.times_s
+    dt = np.diff(t)
+    fast = np.abs(np.diff(d)) > feed_speed * (1.0 + SPEED_TOL) * dt + CONTINUITY_MM
+    if fast.any():
+        return MissionFailure(index, float(t[int(np.argmax(fast))]), "too_fast")
+    f = checker.first_failure(motion.path, 0.0, float(d.max()))
     if f is None:
         return None
-    share = min(f.depth_mm / max(motion.depth_mm, 1e-300), 1.0) * (0.5 if motion.retract else 1.0)
-    return MissionFailure(index, motion.start_s + (motion.end_s - motion.start_s) * share, str(f.kind), f.link)
+    k = int(np.argmax(d >= f.depth_mm - CONTINUITY_MM))
+    at = float(t[k]) if k == 0 else float(np.interp(f.depth_mm, d[k - 1:k + 1], t[k - 1:k + 1])
+                                          if d[k] > d[k - 1] else t[k])
+    return MissionFailure(index, at, str(f.kind), f.link)
 
 
 def _tip_at(jm: JointMotionCheck, motion, t: np.ndarray) -> np.ndarray:
     """Tip positions (k, 3) mm of a motion at mission times ``t`` within it."""
     if isinstance(motion, Crawl):
         cum = cumulative_length(motion.path)
-        frac = (t - motion.start_s) / max(motion.end_s - motion.start_s, 1e-300)
-        depth = motion.depth_mm * (1.0 - np.abs(1.0 - 2.0 * frac) if motion.retract else frac)
+        depth = motion.depth_at(t)
         return np.stack([np.interp(depth, cum, motion.path[:, d]) for d in range(3)], axis=-1)
     times = motion.times_s
     out = np.empty((len(t), 3))
@@ -164,9 +190,31 @@ def _ends(jm: JointMotionCheck, motion) -> tuple[np.ndarray, np.ndarray]:
     return tips[0][None], tips[1][None]
 
 
+def _same_prefix(a: np.ndarray, b: np.ndarray, depth: float) -> bool:
+    """Whether tip paths ``a`` and ``b`` agree (to CONTINUITY_MM) over their first ``depth`` mm: where one crawl
+    hands the arm to the next, the body lies on that stretch of both. Both are polylines, so comparing them at
+    every vertex of either up to ``depth`` is exact."""
+    ca, cb = cumulative_length(a), cumulative_length(b)
+    s = np.unique(np.concatenate([ca[ca < depth], cb[cb < depth], [depth]]))
+    return bool(np.max(np.linalg.norm(point_at(a, s) - point_at(b, s), axis=1)) <= CONTINUITY_MM)
+
+
+def _joins(previous, motion, jm: JointMotionCheck) -> bool:
+    """Whether ``motion`` starts where ``previous`` ended: in time, and the arm's body (two crawls: the same depth
+    along paths that agree up to it; else the bodies :func:`_ends` gives)."""
+    if abs(motion.start_s - previous.end_s) > CONTINUITY_S:
+        return False
+    if isinstance(previous, Crawl) and isinstance(motion, Crawl):
+        d = float(previous.depths_mm[-1])
+        return abs(float(motion.depths_mm[0]) - d) <= CONTINUITY_MM and _same_prefix(previous.path, motion.path, d)
+    end, start = _ends(jm, previous)[1], _ends(jm, motion)[0]
+    return bool(np.max(np.linalg.norm(start - end, axis=-1)) <= CONTINUITY_MM)
+
+
 def _task_failure(mission: Mission, settings: InspectionSettings) -> MissionFailure | None:
     """What is wrong with a mission as a whole before any motion is replayed: flown under other settings than the
-    task's, no motion, views not one at each measurement time of the settings' clock, or past the budget."""
+    task's, no motion, views not one at each measurement time of the settings' clock (a tip camera's: not in
+    time order), or past the budget."""
     if mission.settings != settings:
         return MissionFailure(-1, 0.0, "settings")
     if not mission.motions:
@@ -175,6 +223,9 @@ def _task_failure(mission: Mission, settings: InspectionSettings) -> MissionFail
     if end > settings.budget_s + CONTINUITY_S:
         return MissionFailure(len(mission.motions) - 1, settings.budget_s, "over_budget")
     t, ticks = mission.views.times_s, settings.ticks()
+    if settings.tip_camera:
+        early = np.flatnonzero(np.diff(t) < 0.0)
+        return None if early.size == 0 else MissionFailure(-1, float(t[early[0] + 1]), "view_times")
     on_tick = np.abs(t[:, None] - ticks[None]).min(axis=1, initial=np.inf) <= CONTINUITY_S if t.size else t.astype(bool)
     if not on_tick.all() or np.any(np.diff(t) <= 0.0):
         k = int(np.argmin(on_tick)) if not on_tick.all() else int(np.argmax(np.diff(t) <= 0.0)) + 1
@@ -223,7 +274,8 @@ def evaluate_mission(scene: Scene, robot: Chain, mission: Mission, settings: Ins
 
 
 def _evaluate_mission(scene: Scene, robot: Chain, mission: Mission, settings: InspectionSettings) -> MissionReport:
-    inspected_surface(scene)
+    if not settings.tip_camera:
+        inspected_surface(scene)
     for i, m in enumerate(mission.motions):
         if isinstance(m, JointMotion) and m.q.shape[1] != robot.dof:
             raise ValueError(f"mission.motions[{i}].q: {m.q.shape[1]} joints per sample; {robot.name} has "
@@ -232,19 +284,19 @@ def _evaluate_mission(scene: Scene, robot: Chain, mission: Mission, settings: In
     jm = checker.joint_motions()
     failure: MissionFailure | None = _task_failure(mission, settings)
     clearance = math.inf
-    previous: tuple[float, np.ndarray] | None = None
     for i, motion in enumerate(mission.motions if failure is None else ()):
-        start, end = _ends(jm, motion)
-        if previous is not None and (abs(motion.start_s - previous[0]) > CONTINUITY_S
-                                     or np.max(np.linalg.norm(start - previous[1], axis=-1)) > CONTINUITY_MM):
+        if i == 0 and isinstance(motion, Crawl) and motion.depths_mm[0] > CONTINUITY_MM:
+            failure = MissionFailure(i, motion.start_s, "not_at_entrance")
+            break
+        if i > 0 and not _joins(mission.motions[i - 1], motion, jm):
             failure = MissionFailure(i, motion.start_s, "discontinuity")
             break
-        previous = (motion.end_s, end)
-        found = _motion_failure(checker, jm, motion, i)
+        found = _motion_failure(checker, jm, motion, i, robot.limits.feed_speed_mm_s)
         if isinstance(motion, JointMotion):
             clearance = min(clearance, jm.least_clearance(motion.bases, motion.q))
         else:
-            clearance = min(clearance, checker.crawl(motion.path).min_clearance_mm)
+            reached = prefix(motion.path, float(motion.depths_mm.max()))
+            clearance = min(clearance, checker.crawl(reached).min_clearance)
         if found is not None:
             failure = found
             break
@@ -252,16 +304,47 @@ def _evaluate_mission(scene: Scene, robot: Chain, mission: Mission, settings: In
     held = np.zeros(len(views), dtype=bool)
     for i, motion in enumerate(mission.motions):
         inside = (views.times_s >= motion.start_s - CONTINUITY_S) & (views.times_s <= motion.end_s + CONTINUITY_S)
-        if inside.any():
-            tips = _tip_at(jm, motion, views.times_s[inside])
-            held[inside] |= np.linalg.norm(tips - views.positions[inside], axis=1) <= REACH_TOLERANCE_MM
+        if not inside.any():
+            continue
+        if settings.tip_camera and isinstance(motion, Crawl):
+            tips, axes = tip_poses(motion.path, motion.depth_at(views.times_s[inside]), robot.lengths,
+                                   scene.entrance.direction)
+            aligned = np.einsum("ij,ij->i", axes, views.directions[inside]) >= math.cos(VIEW_ANGLE_TOL_RAD)
+        else:
+            tips, aligned = _tip_at(jm, motion, views.times_s[inside]), True
+        held[inside] |= (np.linalg.norm(tips - views.positions[inside], axis=1) <= REACH_TOLERANCE_MM) & aligned
     if failure is None and not held.all():
         k = int(np.argmin(held))
         owner = next((i for i, m in enumerate(mission.motions) if m.start_s <= views.times_s[k] <= m.end_s), -1)
         failure = MissionFailure(owner, float(views.times_s[k]), "view_off_arm")
-    gmap, seen, rmse, trace = measure_views(scene, replace(mission, settings=settings))  # the task's camera
     end_s = max((m.end_s for m in mission.motions), default=0.0)
-    return MissionReport(failure is None, INSPECTED if failure is None else failure.kind, failure,
-                         len(mission.motions), float(end_s), float(clearance), len(views), int(held.sum()),
-                         float(seen.mean()), views.times_s.copy(), np.array(rmse), np.array(trace), gmap.mean.copy(),
-                         np.diag(gmap.cov).copy())
+    crawls = [m for m in mission.motions if isinstance(m, Crawl)]
+    common = dict(success=failure is None, reason=INSPECTED if failure is None else failure.kind, failure=failure,
+                  motions=len(mission.motions), mission_time_s=float(end_s), min_clearance_mm=float(clearance),
+                  views=len(views), views_on_arm=int(held.sum()),
+                  motion_mm=float(sum(m.travel_mm for m in crawls)),
+                  retractions=int(sum(_reversals(m.depths_mm) for m in crawls)),
+                  returned=bool(crawls) and float(crawls[-1].depths_mm[-1]) <= CONTINUITY_MM)
+    if settings.tip_camera:
+        seen = points_seen(scene, settings.camera, views.positions, views.directions)
+        return MissionReport(**common, coverage=float(seen.mean()), times_s=views.times_s.copy(), rmse_k=np.zeros(0),
+                             trace_k2=np.zeros(0), final_mean_k=np.zeros(0), final_variance_k2=np.zeros(0), seen=seen)
+    gmap, seen, rmse, trace = measure_views(scene, replace(mission, settings=settings))  # the task's camera
+    return MissionReport(**common, coverage=float(seen.mean()), times_s=views.times_s.copy(), rmse_k=np.array(rmse),
+                         trace_k2=np.array(trace), final_mean_k=gmap.mean.copy(),
+                         final_variance_k2=np.diag(gmap.cov).copy(), seen=seen)
+
+
+def _reversals(depths: np.ndarray) -> int:
+    """How many times a depth profile turns from inserting to retracting (the retractions of a crawl)."""
+    step = np.sign(np.diff(depths))
+    step = step[step != 0]
+    return int(np.sum((step[:-1] > 0) & (step[1:] < 0)) + (1 if step.size and step[0] < 0 else 0))
+
+
+def points_seen(scene: Scene, camera: CameraModel, positions: np.ndarray, directions: np.ndarray) -> np.ndarray:
+    """Which of the scene's points of interest (n,) bool the tip camera sees from the views (positions (k, 3) mm,
+    directions (k, 3)): :class:`snakeplan.world.sight.PoiCamera` against every obstacle."""
+    from snakeplan.world.sight import PoiCamera
+
+    return PoiCamera(scene.obstacle_set, scene.points_of_interest, camera).seen(positions, directions)

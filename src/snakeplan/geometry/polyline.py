@@ -98,6 +98,15 @@ def point_at(path: ArrayLike, s: ArrayLike) -> np.ndarray:
     return _points_at(p, cum, np.clip(s_arr, 0.0, cum[-1]))
 
 
+def prefix(path: ArrayLike, length: float) -> np.ndarray:
+    """The path's first ``length`` mm (clamped to [0, its length]): its vertices before that arc length and the
+    point at it; at least two points (the start twice for a length of 0)."""
+    p = validate_path(path)
+    cum = cumulative_unchecked(p)
+    s = min(max(float(length), 0.0), float(cum[-1]))
+    return np.vstack([p[cum < s], _points_at(p, cum, np.array([s]))]) if s > 0 else p[[0, 0]]
+
+
 def arclength_grid(length: float, step: float) -> np.ndarray:
     """Arc-length positions ``0, h, 2h, ..., length`` (mm) for a path of ``length`` and step ``h``.
 

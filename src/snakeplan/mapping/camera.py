@@ -67,13 +67,7 @@ class SurfaceCamera:
 
     def candidates(self, positions: ArrayLike, directions: ArrayLike) -> Sightings:
         """Sightings that pass conditions (1)-(3) (no occlusion test)."""
-        c = np.asarray(positions, dtype=float).reshape(-1, 3)
-        v = np.asarray(directions, dtype=float).reshape(-1, 3)
-        v = v / np.linalg.norm(v, axis=1, keepdims=True)
-        m = self.model
-        pose, node, d = _sightings(self.nodes, self.normals, np.ascontiguousarray(c), np.ascontiguousarray(v),
-                                   m.d_min, m.d_max, math.cos(m.fov_half_angle), math.cos(m.incidence_max))
-        return Sightings(pose, node, d)
+        return in_view(self.nodes, self.normals, positions, directions, self.model)
 
     def visible(self, positions: ArrayLike, directions: ArrayLike) -> Sightings:
         """Sightings from each pose (positions (k, 3) mm, view directions (k, 3)) that pass all four tests."""
@@ -103,8 +97,22 @@ class SurfaceCamera:
         return s.node, y, r
 
 
+def in_view(nodes: ArrayLike, normals: ArrayLike, positions: ArrayLike, directions: ArrayLike, model: CameraModel,
+            two_sided: bool = False) -> Sightings:
+    """Sightings of ``nodes`` (n, 3) mm with unit ``normals`` from cameras at ``positions`` (k, 3) mm looking along
+    ``directions`` (k, 3) that pass tests (1)-(3) of the module (no occlusion test); ``two_sided``: a normal is a
+    line, and the incidence is measured from whichever side faces the camera."""
+    c = np.ascontiguousarray(np.asarray(positions, dtype=float).reshape(-1, 3))
+    v = np.asarray(directions, dtype=float).reshape(-1, 3)
+    v = np.ascontiguousarray(v / np.linalg.norm(v, axis=1, keepdims=True))
+    pose, node, d = _sightings(np.ascontiguousarray(nodes, dtype=float), np.ascontiguousarray(normals, dtype=float),
+                               c, v, model.d_min, model.d_max, math.cos(model.fov_half_angle),
+                               math.cos(model.incidence_max), bool(two_sided))
+    return Sightings(pose, node, d)
+
+
 @kernel
-def _sightings(nodes, normals, c, v, d_min, d_max, cos_fov, cos_incidence):
+def _sightings(nodes, normals, c, v, d_min, d_max, cos_fov, cos_incidence, two_sided):
     """(pose, node, distance) of every node within [d_min, d_max] of a pose, inside its field of view and
     facing it within the incidence limit, pose by pose and in node order: one pass, no (poses, nodes, 3)
     differences. A NaN pose or direction sees nothing (every test must hold, as a comparison with NaN does not)."""
@@ -120,7 +128,10 @@ def _sightings(nodes, normals, c, v, d_min, d_max, cos_fov, cos_incidence):
                 continue
             if not (dx * v[k, 0] + dy * v[k, 1] + dz * v[k, 2] >= cos_fov * d):
                 continue
-            if not (-(dx * normals[n, 0] + dy * normals[n, 1] + dz * normals[n, 2]) >= cos_incidence * d):
+            facing = -(dx * normals[n, 0] + dy * normals[n, 1] + dz * normals[n, 2])
+            if two_sided:
+                facing = abs(facing)
+            if not (facing >= cos_incidence * d):
                 continue
             pose[count], node[count], dist[count] = k, n, d
             count += 1

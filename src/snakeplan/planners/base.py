@@ -99,8 +99,8 @@ class Solution(NamedTuple):
 class Problem:
     """What to plan: a robot in a scene, its task, within a time budget.
 
-    ``task``: reach the scene's targets from the entrance, or inspect its surface (``inspection`` says how the
-    mission is flown and measured; None: the scene's defaults); None takes the task of the scene's family
+    ``task``: reach the scene's targets from the entrance, or inspect its surfaces (its field, or its points of
+    interest; ``inspection`` says how the mission is flown and measured; None: the scene's and robot's defaults); None takes the task of the scene's family
     (:func:`spec_for`).
     ``knowledge`` says what the planner may use: ``"full"`` the whole scene, ``"sensed"`` only obstacles within
     ``sensor_range_mm`` of where the tip has been. ``world`` is the knowledge view that says it
@@ -126,14 +126,17 @@ class Problem:
         object.__setattr__(self, "task", spec_for(self.scene).task if self.task is None else as_task(self.task))
         if self.task is Task.REACH and len(self.scene.targets) == 0:
             raise ValueError(f"scene: {self.scene.name} has no targets to plan to")
-        if self.task is Task.INSPECT:
-            inspected_surface(self.scene)
-        if self.inspection is None:
-            object.__setattr__(self, "inspection", missions.default_settings(self.scene))
-        if not isinstance(self.inspection, InspectionSettings):
-            raise ValueError(f"inspection: must be InspectionSettings, got {type(self.inspection).__name__}")
         if not isinstance(self.robot, Chain):
             raise ValueError(f"robot: must be a Chain, got {type(self.robot).__name__}")
+        if self.task is Task.INSPECT:
+            if missions.measures_field(self.scene):
+                inspected_surface(self.scene)
+            else:
+                _ = self.scene.points_of_interest  # sampled now: a bad inspect block is refused here
+        if self.inspection is None:
+            object.__setattr__(self, "inspection", missions.default_settings(self.scene, self.robot))
+        if not isinstance(self.inspection, InspectionSettings):
+            raise ValueError(f"inspection: must be InspectionSettings, got {type(self.inspection).__name__}")
         if not _positive(self.sensor_range_mm):
             raise ValueError(f"sensor_range_mm: must be a positive number of mm, got {self.sensor_range_mm!r}")
         if self.world is None:

@@ -1,4 +1,15 @@
-"""`coverage` (CP, paper 002 §4): a helical scan round the station side, fitted to the motion budget.
+"""`coverage`: see every point of interest for the least motion. Around the station (CP, paper 002 §4) a helical
+scan round its side, fitted to the motion budget; with a fed arm's tip camera a greedy tree of insertions.
+
+A fed arm's tree (:mod:`snakeplan.planners.inspection.branches`): in rounds, goals are set facing points of
+interest not yet seen (drawn at random among them, seeded), and the reaching planner grows a branch from the
+entrance to each; of all branches grown so far, the one that sees the most new points per mm of added motion
+(its insertion and retraction past where it leaves the tree) joins the tree, if the mission still fits its time
+budget. A point whose goals failed ``MAX_TRIES`` times is no longer aimed at. The tree stops growing when every
+point is seen or aimed at too often, or ``IDLE_ROUNDS`` rounds in a row add nothing; the branches are flown in
+an order that cuts retractions (:func:`tree_order`).
+
+Around the station:
 
 From the mission start the camera moves straight to the rim nearer the entrance (the bottom one for the
 station's mid-height entrance) at the entrance's azimuth, then follows a helix at the library stand-off to the
@@ -10,19 +21,26 @@ at the budget). Planned once, flown without replanning.
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 
 from snakeplan.planners.inspection import (
     VIEW_STANDOFF_MM,
+    CameraPath,
     InspectionPlanner,
     MissionState,
-    CameraPath,
 )
+from snakeplan.planners.inspection.branches import Branch, BranchSource, mission_time, shared_length, tree_order
 from snakeplan.planners.registry import register_planner
 
 #: Spacing (mm) of the points that sample the helix.
 HELIX_STEP_MM = 200.0
+#: Branches grown per round of a fed arm's tree; failed goals per point before it is no longer aimed at; rounds
+#: in a row that add nothing before the tree stops.
+ROUND_BRANCHES = 4
+MAX_TRIES = 2
+IDLE_ROUNDS = 5
 
 
 def helix_points(radius: float, z0: float, z1: float, length: float, theta0: float = 0.0,
@@ -39,9 +57,10 @@ def helix_points(radius: float, z0: float, z1: float, length: float, theta0: flo
 
 @register_planner
 class CoveragePlanner(InspectionPlanner):
-    """Helical coverage scan of the side (CP)."""
+    """Helical coverage scan of the side (CP); a greedy tree of insertions for a fed arm."""
 
     name = "coverage"
+    fed = True
 
     def __init__(self, standoff: float = VIEW_STANDOFF_MM) -> None:
         self.standoff = float(standoff)
@@ -58,3 +77,44 @@ class CoveragePlanner(InspectionPlanner):
         helix, self.turns = helix_points(f.radius + self.standoff, z0, z1,
                                          max(v * state.time_left_s - drop, 0.0) + HELIX_STEP_MM, f.entrance_theta)
         return CameraPath(np.vstack([state.position, helix + f.base_center]), v, "polyline")
+
+    def choose_branches(self, source: BranchSource, rng: np.random.Generator, deadline: float
+                        ) -> tuple[list[Branch], bool]:
+        n = len(source.pois)
+        seen = np.zeros(n, dtype=bool)
+        tries = np.zeros(n, dtype=np.int64)
+        tree: list[Branch] = []
+        pool: list[Branch] = []
+        budget = source.problem.inspection.budget_s
+        direction = source.scene.entrance.direction
+        idle = 0
+        while idle < IDLE_ROUNDS:
+            aim = np.flatnonzero(~seen & (tries < MAX_TRIES))
+            if aim.size == 0:
+                return tree, True
+            for k in rng.choice(aim, size=min(ROUND_BRANCHES, aim.size), replace=False):
+                if time.perf_counter() >= deadline:
+                    return tree, False
+                goal = source.goal_facing(int(k))
+                branch = None if goal is None else source.branch_to(goal, deadline)
+                if branch is None:
+                    tries[k] += 1
+                else:
+                    pool.append(branch)
+            best, score = None, 0.0
+            for b in pool:
+                gain = int(np.count_nonzero(~seen[b.seen]))
+                cost = 2.0 * (b.length - max((shared_length(b.path, t.path) for t in tree), default=0.0))
+                if gain and gain / max(cost, 1.0) > score:
+                    best, score = b, gain / max(cost, 1.0)
+            if best is None:
+                idle += 1
+                continue
+            pool = [b for b in pool if b is not best]
+            trial = tree_order(tree + [best])
+            if mission_time(trial, source.robot, direction) > budget:
+                idle += 1
+                continue
+            tree, idle = trial, 0
+            seen[best.seen] = True
+        return tree, True

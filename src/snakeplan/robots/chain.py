@@ -30,6 +30,7 @@ from numpy.typing import ArrayLike
 from snakeplan.geometry.transforms import normalize, rot_x, rot_y, rot_z
 from snakeplan.jit import kernel
 from snakeplan.robots.cable_routing import CableRouting
+from snakeplan.mapping.models import TIP_CAMERA, CameraModel
 from snakeplan.robots.limits import DEFAULT_LIMITS, MotionLimits
 
 SCHEMA = "snakeplan.robot/1"
@@ -52,7 +53,7 @@ def _number(where: str, name: str, value: Any) -> float:
 
 #: The fields of a ``snakeplan.robot/1`` object and of one of its sections; any other is refused, naming it.
 ROBOT_KEYS = ("schema", "name", "sections", "k_ul", "total_length", "dof", "feed_range", "base", "kinematics",
-              "limits", "cables", "description", "source")
+              "limits", "cables", "camera", "description", "source")
 SECTION_KEYS = ("length", "radius", "max_bend")
 #: A section's bend limit below this (rad, 1 deg) is taken for a unit mistake, not an arm.
 MIN_PLAUSIBLE_BEND_RAD = math.radians(1.0)
@@ -431,6 +432,8 @@ class Chain:
     (:class:`~snakeplan.robots.limits.MotionLimits`, default ``DEFAULT_LIMITS``) bound a trajectory's feed speed
     and acceleration and its joint rates and accelerations; ``cables`` (a
     :class:`~snakeplan.robots.cable_routing.CableRouting`, one entry per section) makes the arm cable-driven.
+    ``camera`` (a :class:`~snakeplan.mapping.models.CameraModel`, default ``TIP_CAMERA``) rides the tip, looking
+    along its direction: what an inspect task's views see.
     Chains are immutable; :meth:`with_base` returns a moved copy.
     """
 
@@ -445,6 +448,7 @@ class Chain:
         kinematics: Kinematics | None = None,
         limits: MotionLimits | None = None,
         cables: CableRouting | None = None,
+        camera: CameraModel | None = None,
     ) -> None:
         self._sections = tuple(sections)
         if not self._sections:
@@ -483,6 +487,9 @@ class Chain:
             self._feed = None
         self._corr = self._check_zero_configuration()
         self._limits = DEFAULT_LIMITS if limits is None else limits
+        self._camera = TIP_CAMERA if camera is None else camera
+        if not isinstance(self._camera, CameraModel):
+            raise TypeError(f"camera: expected CameraModel, got {type(camera).__name__}")
         if not isinstance(self._limits, MotionLimits):
             raise TypeError(f"limits: expected MotionLimits, got {type(limits).__name__}")
         if cables is not None and len(cables.sections) != n:
@@ -590,6 +597,11 @@ class Chain:
         return self._limits
 
     @property
+    def camera(self) -> CameraModel:
+        """The tip camera: field of view, range, incidence limit (rad, mm)."""
+        return self._camera
+
+    @property
     def cables(self) -> CableRouting | None:
         """The driving cables' routing, or None for an arm that is not cable-driven."""
         return self._cables
@@ -597,7 +609,7 @@ class Chain:
     def with_base(self, base: ArrayLike) -> Chain:
         """A copy of this chain standing at ``base`` (4x4)."""
         return Chain(self._sections, name=self._name, base=base, k_ul=self._k_ul, kinematics=self._kin,
-                     limits=self._limits, cables=self._cables)
+                     limits=self._limits, cables=self._cables, camera=self._camera)
 
     def joint_limits(self) -> tuple[np.ndarray, np.ndarray]:
         """(lower, upper) joint limits, each (dof,): ±max_bend per universal-joint angle, the feed range."""
@@ -883,6 +895,7 @@ class Chain:
             "kinematics": self._kin.to_dict(),
             "limits": self._limits.to_dict(),
             "cables": None if self._cables is None else self._cables.to_dict(),
+            "camera": self._camera.to_dict(),
         }
 
     @classmethod
@@ -928,8 +941,9 @@ class Chain:
         kin = None if d.get("kinematics") is None else Kinematics.from_dict(d["kinematics"])
         limits = None if d.get("limits") is None else MotionLimits.from_dict(d["limits"], DEFAULT_LIMITS)
         cables = None if d.get("cables") is None else CableRouting.from_dict(d["cables"])
+        camera = None if d.get("camera") is None else CameraModel.from_dict(d["camera"], TIP_CAMERA)
         chain = cls(sections, name=d["name"], feed_range=feed, base=base, k_ul=k_ul, kinematics=kin,
-                    limits=limits, cables=cables)
+                    limits=limits, cables=cables, camera=camera)
         if "total_length" in d:
             total = _number("total_length", "", d["total_length"])
             if abs(total - chain.total_length) > _LENGTH_TOL * (1.0 + total):

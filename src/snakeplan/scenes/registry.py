@@ -137,8 +137,12 @@ def scene_spec(name: str) -> SceneSpec:
 
 
 def spec_for(scene: Scene) -> SceneSpec:
-    """The spec of ``scene``'s family; the default spec when the family is not registered (a scene file)."""
-    return scene_spec(scene.name) if scene.name in SCENES else SceneSpec(scene.name)
+    """The spec of ``scene``'s family; the default spec when the family is not registered (a scene file), whose
+    task is inspect when the file has an ``inspect`` block and no targets."""
+    if scene.name in SCENES:
+        return scene_spec(scene.name)
+    inspects = scene.inspect is not None and len(scene.targets) == 0
+    return SceneSpec(scene.name, task=Task.INSPECT if inspects else Task.REACH)
 
 
 def make_scene(name: str, seed: int = 0, **params) -> Scene:

@@ -11,7 +11,7 @@ from __future__ import annotations
 import json
 import os
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from typing import Any
 
@@ -20,6 +20,7 @@ import numpy as np
 from snakeplan import inputs
 from snakeplan.geometry.distance import CONTACT_RESOLUTION_MM, ObstacleSet
 from snakeplan.geometry.primitives import Mesh, Obstacle, obstacle_from_dict, open_mesh_note
+from snakeplan.scenes.inspect import InspectSpec, points_of_interest
 
 SCHEMA = "snakeplan.scene/1"
 #: How deep (mm) a scene file's entrance may lie inside an obstacle's surface (it may sit on a wall's port).
@@ -59,6 +60,7 @@ class Scene:
 
     ``discovered``: indices of the obstacles that are not known before the job (clutter, debris: a sensed planner
     meets them only through its sensor); every other obstacle is prior (walls, partitions, the CAD structure).
+    ``inspect``: what an inspect task looks at (:mod:`snakeplan.scenes.inspect`); None: every surface.
 
     Immutable: its arrays are read-only and its obstacles a tuple, so the packed obstacles it caches can never go
     stale. Build a changed scene with ``dataclasses.replace``.
@@ -73,6 +75,7 @@ class Scene:
     obstacles: tuple[Obstacle, ...] = ()
     metadata: dict = field(default_factory=dict)
     discovered: tuple[int, ...] = ()
+    inspect: InspectSpec | None = None
 
     def __post_init__(self) -> None:
         lo, hi = inputs.corners(self.bounds_min, self.bounds_max, "bounds")
@@ -88,6 +91,12 @@ class Scene:
                   "targets": _frozen(inputs.points(self.targets, "targets")), "obstacles": obstacles,
                   "metadata": inputs.mapping(self.metadata, "metadata"),
                   "discovered": _indices(self.discovered, len(obstacles))}
+        if self.inspect is not None:
+            if not isinstance(self.inspect, InspectSpec):
+                raise ValueError(f"inspect: expected an InspectSpec, got {inputs.show(self.inspect)}")
+            bad = [k for k in self.inspect.surfaces or () if not 0 <= k < len(obstacles)]
+            if bad:
+                raise ValueError(f"inspect.surfaces: {bad[0]} is not an obstacle index (0 .. {len(obstacles) - 1})")
         for name, value in fields.items():
             object.__setattr__(self, name, value)
 
@@ -96,6 +105,20 @@ class Scene:
     def obstacle_set(self) -> ObstacleSet:
         """The packed obstacles (built once; a scene is not mutated after construction)."""
         return ObstacleSet(self.obstacles)
+
+    def with_targets(self, targets) -> Scene:
+        """This scene with other ``targets`` (k, 3) mm, sharing its packed obstacles and points of interest (the
+        obstacles are the same, so neither is built again)."""
+        other = replace(self, targets=targets)
+        for name in ("obstacle_set", "points_of_interest"):
+            if name in self.__dict__:
+                other.__dict__[name] = self.__dict__[name]
+        return other
+
+    @cached_property
+    def points_of_interest(self):
+        """The points an inspect task must see (:func:`snakeplan.scenes.inspect.points_of_interest`), sampled once."""
+        return points_of_interest(self)
 
     @property
     def prior(self) -> np.ndarray:
@@ -137,7 +160,7 @@ class Scene:
 
     # --- JSON ----------------------------------------------------------------------------------------------
     def to_dict(self) -> dict:
-        return {
+        d = {
             "schema": SCHEMA,
             "name": self.name,
             "seed": self.seed,
@@ -149,6 +172,9 @@ class Scene:
                           for o, known in zip(self.obstacles, self.prior)],
             "metadata": self.metadata,
         }
+        if self.inspect is not None:
+            d["inspect"] = self.inspect.to_dict()
+        return d
 
     def to_json(self, indent: int | None = None) -> str:
         return json.dumps(self.to_dict(), indent=indent, allow_nan=False)
@@ -194,7 +220,8 @@ class Scene:
         check_metadata(metadata, obstacles)
         scene = cls(name=d["name"], seed=d.get("seed"), bounds_min=bounds["min"], bounds_max=bounds["max"],
                     entrance=Entrance(entrance["position"], entrance["direction"]), targets=d.get("targets", []),
-                    obstacles=obstacles, metadata=metadata, discovered=tuple(discovered))
+                    obstacles=obstacles, metadata=metadata, discovered=tuple(discovered),
+                    inspect=None if d.get("inspect") is None else InspectSpec.from_dict(d["inspect"], len(obstacles)))
         check_placement(scene)
         return scene
 

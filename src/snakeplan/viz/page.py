@@ -47,7 +47,7 @@ def scene_glb(scene: Scene) -> bytes:
     """The scene's obstacles as one glTF binary (mm, scene frame; trimesh's exporter)."""
     import trimesh
 
-    from snakeplan.viz.meshes import obstacle_mesh
+    from snakeplan.geometry.tessellation import obstacle_mesh
 
     tm = trimesh.Scene()
     for i, o in enumerate(scene.obstacles):

@@ -9,7 +9,7 @@ from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection
 
 from snakeplan.geometry.primitives import Box, Cylinder, Mesh, Obstacle, Pipe, Plate, Sphere
 from snakeplan.scenes import Scene
-from snakeplan.viz.meshes import obstacle_mesh
+from snakeplan.geometry.tessellation import obstacle_mesh
 
 OBSTACLE_COLOR = (0.55, 0.6, 0.68)
 BODY_COLOR = "tab:orange"

@@ -16,7 +16,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from snakeplan.geometry.polyline import validate_path
+from numpy.typing import ArrayLike
+
+from snakeplan import ftl
+from snakeplan.geometry.polyline import cumulative_length, validate_path
 from snakeplan.geometry.primitives import Mesh
 from snakeplan.mapping.models import DEFAULT_LENGTH_SCALE_MM, DEFAULT_SIGMA_F, CameraModel
 from snakeplan.scenes import Scene
@@ -38,23 +41,33 @@ def _positive(name: str, value) -> float:
 @dataclass(frozen=True)
 class InspectionSettings:
     """How an inspect task is flown and measured: the mission's flight budget (s), the camera's speed (mm/s), the
-    measurement frequency (Hz), the camera model, and the surface map's prior (Matérn 3/2 amplitude K and length
+    measurement frequency (Hz; None: a tip camera that views when the planner stops to look), the camera model, and the surface map's prior (Matérn 3/2 amplitude K and length
     scale mm, constant mean K; None takes the scene's nominal temperature, what an operator knows beforehand)."""
 
     budget_s: float = BUDGET_S
     speed_mm_s: float = CAMERA_SPEED_MM_S
-    measurement_hz: float = MEASUREMENT_HZ
+    measurement_hz: float | None = MEASUREMENT_HZ
     camera: CameraModel = field(default_factory=CameraModel)
     sigma_f: float = DEFAULT_SIGMA_F
     length_scale: float = DEFAULT_LENGTH_SCALE_MM
     prior_mean_k: float | None = None
 
     def __post_init__(self) -> None:
-        for name in ("budget_s", "speed_mm_s", "measurement_hz", "sigma_f", "length_scale"):
+        for name in ("budget_s", "speed_mm_s", "sigma_f", "length_scale"):
             _positive(name, getattr(self, name))
+        if self.measurement_hz is not None:
+            _positive("measurement_hz", self.measurement_hz)
+
+    @property
+    def tip_camera(self) -> bool:
+        """Whether views are the tip camera's own, taken when the planner stops to look (no measurement clock),
+        looking along the tip: a fed arm's inspection of points of interest."""
+        return self.measurement_hz is None
 
     def ticks(self) -> np.ndarray:
-        """Measurement times (s) of the mission clock: 0, 1/f, 2/f, ... up to the budget."""
+        """Measurement times (s) of the mission clock: 0, 1/f, 2/f, ... up to the budget (none without a clock)."""
+        if self.measurement_hz is None:
+            return np.zeros(0)
         return np.arange(math.floor(self.budget_s * self.measurement_hz + 1e-9) + 1) / self.measurement_hz
 
     def prior_mean(self, metadata: dict) -> float:
@@ -64,18 +77,32 @@ class InspectionSettings:
         return float(metadata.get("parameters", {}).get("base_temperature_k", 0.0))
 
     def to_dict(self) -> dict:
-        c = self.camera
         return {"budget_s": self.budget_s, "camera_speed_mm_s": self.speed_mm_s,
                 "measurement_hz": self.measurement_hz, "sigma_f_k": self.sigma_f,
                 "length_scale_mm": self.length_scale, "prior_mean_k": self.prior_mean_k,
-                "camera": {"fov_half_angle_rad": c.fov_half_angle, "d_min_mm": c.d_min, "d_max_mm": c.d_max,
-                           "incidence_max_rad": c.incidence_max, "noise_a_k2": c.noise_a,
-                           "noise_b_per_m": c.noise_b}}
+                "camera": self.camera.to_dict()}
 
 
-def default_settings(scene: Scene) -> InspectionSettings:
-    """The settings an inspect task in ``scene`` is flown under when the problem names none: paper 002's."""
-    return InspectionSettings()
+#: Mission time (s) of a fed arm's inspection when the scene's ``inspect`` block names none: half an hour.
+FED_BUDGET_S = 1800.0
+
+
+def default_settings(scene: Scene, robot=None) -> InspectionSettings:
+    """The settings an inspect task in ``scene`` is flown under when the problem names none: paper 002's for a
+    surface field (the station); else the tip camera of ``robot`` (a :class:`snakeplan.robots.Chain`) at its feed
+    speed, views when the planner stops to look, within the scene's ``inspect.budget_s``."""
+    if measures_field(scene) or robot is None:
+        return InspectionSettings()
+    spec = scene.inspect
+    budget = FED_BUDGET_S if spec is None or spec.budget_s is None else spec.budget_s
+    return InspectionSettings(budget_s=budget, speed_mm_s=robot.limits.feed_speed_mm_s, measurement_hz=None,
+                              camera=robot.camera)
+
+
+def measures_field(scene: Scene) -> bool:
+    """Whether an inspect task in ``scene`` maps a surface field (paper 002's station: one mesh, its field on the
+    vertices) rather than looking at points of interest."""
+    return "field" in scene.metadata
 
 
 def inspected_surface(scene: Scene) -> tuple[Mesh, np.ndarray]:
@@ -150,25 +177,63 @@ class JointMotion:
 
 @dataclass(frozen=True)
 class Crawl:
-    """A fed arm inserted along ``path`` (m, 3) mm from the entrance to ``depth_mm`` between ``start_s`` and
-    ``end_s``, and (``retract``) back along it: the follow-the-leader states of the path up to that depth."""
+    """A fed arm moved by its feed along ``path`` (m, 3) mm from the entrance: at times ``times_s`` (k,) s,
+    nondecreasing, the tip is ``depths_mm`` (k,) along the path, and in between the depth moves linearly. The body
+    follows the leader: at depth d it lies on the path's stretch behind d. A crawl inserts, holds, retracts, in any
+    order; a mission's tree of insertions is a sequence of crawls, each on its branch's path."""
 
     path: np.ndarray
-    depth_mm: float
-    start_s: float
-    end_s: float
-    retract: bool = True
+    depths_mm: np.ndarray
+    times_s: np.ndarray
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "path", validate_path(self.path, "path"))
-        if not (math.isfinite(self.depth_mm) and self.depth_mm >= 0):
-            raise ValueError(f"depth_mm: must be a non-negative length, got {self.depth_mm!r}")
-        if not (math.isfinite(self.start_s) and math.isfinite(self.end_s) and self.end_s >= self.start_s):
-            raise ValueError("end_s: must not precede start_s")
+        t = _array("times_s", self.times_s, (None,))
+        if len(t) < 1 or np.any(np.diff(t) < 0):
+            raise ValueError("times_s: needs at least one time, nondecreasing")
+        d = _array("depths_mm", self.depths_mm, (len(t),))
+        length = float(cumulative_length(self.path)[-1])
+        if np.any(d < 0) or np.any(d > length + 1e-6):
+            raise ValueError(f"depths_mm: must lie in [0, {length:.6g}] mm (the path's length)")
+        object.__setattr__(self, "times_s", t)
+        object.__setattr__(self, "depths_mm", d)
+
+    @property
+    def start_s(self) -> float:
+        return float(self.times_s[0])
+
+    @property
+    def end_s(self) -> float:
+        return float(self.times_s[-1])
+
+    def depth_at(self, t: ArrayLike) -> np.ndarray:
+        """The tip's depth (mm) at mission times ``t`` (held at the ends outside the crawl)."""
+        if len(self.times_s) == 1:
+            return np.full(np.shape(t), self.depths_mm[0])
+        return np.interp(t, self.times_s, self.depths_mm)
+
+    @property
+    def travel_mm(self) -> float:
+        """How far the feed moves the arm (mm), in and out."""
+        return float(np.abs(np.diff(self.depths_mm)).sum())
+
+    @property
+    def retracted_mm(self) -> float:
+        """How far the feed draws the arm back (mm)."""
+        return float(-np.minimum(np.diff(self.depths_mm), 0.0).sum())
 
     def to_dict(self) -> dict:
-        return {"kind": "crawl", "path": self.path.tolist(), "depth_mm": self.depth_mm, "start_s": self.start_s,
-                "end_s": self.end_s, "retract": self.retract}
+        return {"kind": "crawl", "path": self.path.tolist(), "depths_mm": self.depths_mm.tolist(),
+                "times_s": self.times_s.tolist()}
+
+
+def tip_poses(path: np.ndarray, depths: ArrayLike, lengths: ArrayLike, entrance_direction: ArrayLike
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """(tip positions (k, 3) mm, unit tip directions (k, 3)) of a fed arm of section ``lengths`` followed onto
+    ``path`` at ``depths``: the tip is the path's point at each depth, its direction the last section's axis."""
+    joints = ftl.fit_batch(path, lengths, np.atleast_1d(np.asarray(depths, dtype=float)), entrance_direction)
+    axis = joints[:, -1] - joints[:, -2]
+    return joints[:, -1].copy(), axis / np.linalg.norm(axis, axis=1, keepdims=True)
 
 
 Motion = JointMotion | Crawl
@@ -222,13 +287,11 @@ class Mission:
                 raise ValueError(f"{where}: {str(exc).split(': ', 1)[-1]}") from None
 
         settings = need(d, "settings", "mission")
-        camera = need(settings, "camera", "mission.settings")
         s = field_of("mission.settings", lambda: InspectionSettings(
             float(need(settings, "budget_s", "mission.settings")),
             float(need(settings, "camera_speed_mm_s", "mission.settings")),
-            float(need(settings, "measurement_hz", "mission.settings")),
-            CameraModel(*(float(need(camera, k, "mission.settings.camera")) for k in (
-                "fov_half_angle_rad", "d_min_mm", "d_max_mm", "incidence_max_rad", "noise_a_k2", "noise_b_per_m"))),
+            None if need(settings, "measurement_hz", "mission.settings") is None else float(settings["measurement_hz"]),
+            CameraModel.from_dict(need(settings, "camera", "mission.settings")),
             float(need(settings, "sigma_f_k", "mission.settings")),
             float(need(settings, "length_scale_mm", "mission.settings")),
             None if settings.get("prior_mean_k") is None else float(settings["prior_mean_k"])))
@@ -245,8 +308,7 @@ class Mission:
                     need(m, "times_s", w), need(m, "bases", w), need(m, "q", w))))
             elif kind == "crawl":
                 motions.append(field_of(where, lambda m=m, w=where: Crawl(
-                    need(m, "path", w), float(need(m, "depth_mm", w)), float(need(m, "start_s", w)),
-                    float(need(m, "end_s", w)), bool(m.get("retract", True)))))
+                    need(m, "path", w), need(m, "depths_mm", w), need(m, "times_s", w))))
             else:
                 raise ValueError(f"{where}.kind: must be 'joints' or 'crawl', got {kind!r}")
         seed = need(d, "measurement_seed", "mission")

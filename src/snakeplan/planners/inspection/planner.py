@@ -10,14 +10,26 @@ mission is the simulated world's time, not the planner's).
 
 from __future__ import annotations
 
+import time
 from abc import abstractmethod
 from collections.abc import Callable
 from typing import ClassVar
 
 import numpy as np
 
+from snakeplan.geometry.polyline import point_at
 from snakeplan.mapping import GaussianMap, kalman
 from snakeplan.planners.base import Planner, Problem, Solution, Status
+from snakeplan.planners.inspection.branches import (
+    BRANCH_TIME_S,
+    REACH_PLANNER,
+    VIEW_STEP_MM,
+    Branch,
+    BranchSource,
+    coverage_of,
+    mission_of,
+    mission_time,
+)
 from snakeplan.planners.inspection.camera_path import CameraPath
 from snakeplan.planners.inspection.library import VIEW_STANDOFF_MM
 from snakeplan.planners.inspection.mission import MAX_STUCK, FlownMission, MissionEnd, MissionState, fly
@@ -60,10 +72,20 @@ def mission_details(flown: FlownMission, survey: Survey) -> dict:
 
 
 class InspectionPlanner(Planner):
-    """An inspection planner: proposes camera paths from the current map (see the module)."""
+    """An inspection planner: proposes camera paths from the current map (see the module); one that also inspects
+    with a fed arm's tip camera (``fed``) chooses the branches of its tree of insertions
+    (:meth:`choose_branches`)."""
 
     name: ClassVar[str] = ""
     tasks: ClassVar[frozenset[Task]] = frozenset({Task.INSPECT})
+    #: Whether the planner inspects points of interest with a fed arm's tip camera.
+    fed: ClassVar[bool] = False
+
+    def choose_branches(self, source: BranchSource, rng: np.random.Generator, deadline: float
+                        ) -> tuple[list[Branch], bool]:
+        """(the branches to fly, in order; whether the planner finished rather than ran out of time), within the
+        mission's budget and by ``deadline`` (a time.perf_counter() value)."""
+        raise NotImplementedError
 
     def reset(self, problem: Problem, world: Survey, rng: np.random.Generator) -> None:
         """Called once before a mission (subclasses keep their seeded generator here)."""
@@ -78,11 +100,22 @@ class InspectionPlanner(Planner):
         return survey_for(problem.scene, problem.robot, problem.inspection)
 
     def warm_up(self, problem: Problem) -> None:
-        """Build the survey and load the map's kernels before the first mission's clock starts."""
+        """Build the survey and load the map's kernels before the first mission's clock starts (a fed arm's: the
+        reaching planner's, the camera's and the follow-the-leader fit's)."""
         super().warm_up(problem)
-        if problem.task is Task.INSPECT:
-            self.survey(problem)
-            kalman.warm_up()
+        if problem.task is not Task.INSPECT:
+            return
+        if problem.inspection.tip_camera:
+            source = BranchSource(problem, 0)
+            goal = source.random_goal(np.random.default_rng(0))
+            if goal is not None:
+                source.branch_to(goal, time.perf_counter() + BRANCH_TIME_S)
+            e = problem.scene.entrance
+            branch = source.branch(np.array([e.position, e.position + e.direction * 2 * VIEW_STEP_MM]))
+            mission_time([branch], problem.robot, e.direction)
+            return
+        self.survey(problem)
+        kalman.warm_up()
 
     def fly(self, problem: Problem, seed: int = 0,
             on_measure: Callable[[float, np.ndarray, GaussianMap], None] | None = None) -> FlownMission:
@@ -98,10 +131,15 @@ class InspectionPlanner(Planner):
     def plan(self, problem: Problem, seed: int = 0):
         """Plan (fly) the mission from ``seed``: the mission's own seed, as :meth:`fly` takes it (the planner's
         generator and the measurements' noise are its two streams, as before missions were plans)."""
+        if problem.task is Task.INSPECT and problem.inspection.tip_camera and not self.fed:
+            raise ValueError(f"task: planner {self.name} maps a surface field from a camera path; "
+                             f"{problem.scene.name} is inspected by a fed arm's tip camera (coverage, random)")
         self._seed = int(seed)
         return super().plan(problem, seed)
 
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float):
+        if problem.inspection.tip_camera:
+            return self._solve_branches(problem, deadline)
         flown = self.fly(problem, self._seed)
         details = mission_details(flown, self.survey(problem))
         if flown.stopped not in _STOPPED:
@@ -109,3 +147,24 @@ class InspectionPlanner(Planner):
         why = (f"{_WHY[flown.stopped]} after {float(flown.path_times[-1]):.0f} s of the "
                f"{problem.inspection.budget_s:g} s budget; the mission flown so far is given")
         return Solution(Status.APPROXIMATE, flown.path, details, why, flown.mission)
+
+    def _solve_branches(self, problem: Problem, deadline: float) -> Solution:
+        """A fed arm's mission: the branches :meth:`choose_branches` picks, flown in their order."""
+        source = BranchSource(problem, self._seed)
+        branches, finished = self.choose_branches(source, mission_rngs(self._seed)[0], deadline)
+        e = problem.scene.entrance
+        mission = mission_of(branches, problem.robot, problem.inspection, e.direction, self._seed)
+        coverage = coverage_of(branches, len(source.pois))
+        details = {"branches": len(branches), "reach_calls": source.calls, "reach_planner": REACH_PLANNER,
+                   "points": len(source.pois), "coverage": coverage,
+                   "mission_time_s": max((m.end_s for m in mission.motions), default=0.0)}
+        if not branches:
+            return Solution(Status.NO_PROGRESS, None, details,
+                            f"no branch reached a view: the reaching planner found none in {source.calls} tries")
+        path = np.concatenate([point_at(m.path, m.depths_mm) for m in mission.motions])
+        if finished:
+            return Solution(Status.FOUND, path, details, mission=mission)
+        details["stopped"] = str(Status.TIMEOUT)
+        return Solution(Status.APPROXIMATE, path, details,
+                        f"the time limit of {problem.time_limit_s:g} s ran out with {coverage:.0%} of the points of "
+                        f"interest seen from {len(branches)} branches; the mission so far is given", mission)

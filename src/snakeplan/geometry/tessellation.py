@@ -1,4 +1,5 @@
-"""Obstacles as triangle meshes (trimesh, mm, scene frame), for the interactive page."""
+"""Obstacles as triangle meshes (trimesh, mm, scene frame): what pages draw and where points of interest are
+sampled. trimesh (and shapely for a plate's hole) load inside the function."""
 
 from __future__ import annotations
 

@@ -1,0 +1,195 @@
+"""A fed arm's inspection mission as a tree of follow-the-leader insertions (mm, rad, s).
+
+The arm enters through the port and looks with its tip camera. It can only move along its own body's path: insert
+along a branch, looking as it goes, retract along the same path to where the next branch leaves it, insert along
+that one; at the end it comes back out. A :class:`Branch` is one insertion from the entrance: a tip path a reaching
+planner found (reused from the planner registry, so every reaching planner can grow the tree), the views along it
+(every :data:`VIEW_STEP_MM` of insertion, the camera on the tip looking along the last section's axis) and the
+points of interest they see. :func:`mission_of` turns an ordered list of branches into the
+:class:`~snakeplan.world.mission.Mission` the judge replays: one :class:`~snakeplan.world.mission.Crawl` per
+branch, inserting from where it leaves the previous one's path and retracting to where the next one leaves it.
+
+Mission time comes from the robot's limits: between two depth samples the feed moves no faster than its speed
+limit, and no bend changes faster than the joint rate limit (a bend's change bounds its joints' from below).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from snakeplan import ftl
+from snakeplan.geometry.polyline import cumulative_length
+from snakeplan.planners.base import Problem
+from snakeplan.robots import Chain
+from snakeplan.world import FullView
+from snakeplan.world.mission import Crawl, InspectionSettings, Mission, Views, tip_poses
+from snakeplan.world.sight import PoiCamera
+
+#: Insertion (mm) between two views along a branch.
+VIEW_STEP_MM = 50.0
+#: How long (s) the reaching planner may take for one branch.
+BRANCH_TIME_S = 2.0
+#: The reaching planner that grows branches.
+REACH_PLANNER = "rrt-star"
+#: Goal stand-offs off a point of interest, as shares of the camera's range (the nearest that is free is taken
+#: last: a far goal sees more round it).
+STANDOFF_SHARES = (0.5, 0.3, 0.15)
+#: Clearance (mm) a goal keeps beyond the tip's radius.
+GOAL_CLEARANCE_MM = 15.0
+
+
+@dataclass(frozen=True)
+class Branch:
+    """One insertion from the entrance: the tip path (m, 3) mm, the depths (k,) mm of its views, their positions
+    (k, 3) mm and directions (k, 3), and the indices of the points of interest they see."""
+
+    path: np.ndarray
+    depths: np.ndarray
+    positions: np.ndarray
+    directions: np.ndarray
+    seen: np.ndarray
+
+    @property
+    def length(self) -> float:
+        return float(self.depths[-1])
+
+
+def shared_length(a: np.ndarray, b: np.ndarray) -> float:
+    """How far (mm) from the entrance tip paths ``a`` and ``b`` run together: the arc length of their common
+    leading vertices (identical points), so the arm inserted along one is inserted along the other that far."""
+    n = min(len(a), len(b))
+    same = np.all(a[:n] == b[:n], axis=1)
+    k = n if same.all() else int(np.argmin(same))
+    return float(cumulative_length(a[:k])[-1]) if k >= 2 else 0.0
+
+
+class BranchSource:
+    """Grows branches for one problem: goals near points of interest or anywhere free, reached by the reaching
+    planner :data:`REACH_PLANNER` from the entrance, and what each branch's views see."""
+
+    def __init__(self, problem: Problem, seed: int) -> None:
+        from snakeplan.planners.registry import get_planner
+
+        self.problem = problem
+        self.scene = problem.scene
+        self.robot: Chain = problem.robot
+        self.pois = problem.scene.points_of_interest
+        self.camera = PoiCamera(problem.world.obstacle_set, self.pois, problem.inspection.camera)
+        self.reach = get_planner(REACH_PLANNER)
+        self.seed = seed
+        self.calls = 0
+        self.clearance = self.robot.radii[-1] + GOAL_CLEARANCE_MM
+
+    def free(self, points: np.ndarray) -> np.ndarray:
+        """Where a goal may lie: inside the bounds and clear of every known obstacle by the goal clearance."""
+        p = np.atleast_2d(points)
+        return self.scene.in_bounds(p, self.clearance) & (
+            self.problem.world.obstacle_set.signed_distance(p) >= self.clearance)
+
+    def goal_facing(self, k: int) -> np.ndarray | None:
+        """A goal from which the camera could see point of interest ``k``: off it along its normal line (on the free
+        side), at the first stand-off of :data:`STANDOFF_SHARES` that is free; None if none is."""
+        p, n = self.pois.points[k], self.pois.normals[k]
+        d_max = self.problem.inspection.camera.d_max
+        cands = np.array([p + sign * n * share * d_max for share in STANDOFF_SHARES for sign in (1.0, -1.0)])
+        ok = np.flatnonzero(self.free(cands))
+        return cands[ok[0]] if ok.size else None
+
+    def random_goal(self, rng: np.random.Generator, tries: int = 64) -> np.ndarray | None:
+        """A goal drawn uniformly from the free part of the bounds (None after ``tries`` misses)."""
+        pts = rng.uniform(self.scene.bounds_min, self.scene.bounds_max, size=(tries, 3))
+        ok = np.flatnonzero(self.free(pts))
+        return pts[ok[0]] if ok.size else None
+
+    def branch_to(self, goal: np.ndarray, deadline: float) -> Branch | None:
+        """The branch the reaching planner finds from the entrance to ``goal`` within :data:`BRANCH_TIME_S` (and
+        ``deadline``, a time.perf_counter() value), or None."""
+        import time
+
+        left = min(BRANCH_TIME_S, deadline - time.perf_counter())
+        if left <= 0.05:
+            return None
+        sub = self.scene.with_targets(goal[None])
+        problem = Problem(sub, self.robot, time_limit_s=left, world=FullView(sub, self.problem.world.obstacle_set),
+                          task="reach")
+        plan = self.reach.plan(problem, seed=self.seed + self.calls)
+        self.calls += 1
+        if plan.status != "found":
+            return None
+        return self.branch(plan.path)
+
+    def branch(self, path: np.ndarray) -> Branch:
+        """The branch along ``path``: views every :data:`VIEW_STEP_MM` of insertion once the tip is past the
+        entrance, and what they see."""
+        length = float(cumulative_length(path)[-1])
+        depths = np.unique(np.r_[np.arange(VIEW_STEP_MM, length, VIEW_STEP_MM), length])
+        pos, axes = tip_poses(path, depths, self.robot.lengths, self.scene.entrance.direction)
+        seen = np.unique(self.camera.visible(pos, axes).node)
+        return Branch(np.asarray(path, dtype=float), depths, pos, axes, seen)
+
+
+def _timed(path: np.ndarray, depths: np.ndarray, robot: Chain, entrance_direction: np.ndarray) -> np.ndarray:
+    """Times (s, from 0) at which the feed passes ``depths`` along ``path``: each step as slow as the feed speed
+    limit and the joint rate limit (on the bends' change) ask."""
+    bends = ftl.fit_states(path, robot.lengths, depths, entrance_direction).bend_angles
+    limits = robot.limits
+    step = np.maximum(np.abs(np.diff(depths)) / limits.feed_speed_mm_s,
+                      np.abs(np.diff(bends, axis=0)).max(axis=1, initial=0.0) / limits.joint_rate_rad_s)
+    return np.r_[0.0, np.cumsum(step)]
+
+
+def mission_of(branches: list[Branch], robot: Chain, settings: InspectionSettings, entrance_direction: np.ndarray,
+               seed: int) -> Mission:
+    """The mission that flies ``branches`` in order (see the module): one crawl per branch, inserting from where it
+    leaves the previous branch's path, looking at each view depth, retracting (through the same depths) to where
+    the next branch leaves it, the last one all the way out."""
+    motions, times, positions, directions = [], [], [], []
+    now = 0.0
+    for i, b in enumerate(branches):
+        start = shared_length(branches[i - 1].path, b.path) if i else 0.0
+        end = shared_length(b.path, branches[i + 1].path) if i + 1 < len(branches) else 0.0
+        inward = b.depths[b.depths > start]
+        outward = b.depths[(b.depths > end) & (b.depths < b.length)][::-1]
+        depths = np.r_[start, inward, outward, end]
+        t = now + _timed(b.path, depths, robot, entrance_direction)
+        motions.append(Crawl(b.path, depths, t))
+        looked = np.searchsorted(b.depths, inward)
+        times.append(t[1:1 + len(inward)])
+        positions.append(b.positions[looked])
+        directions.append(b.directions[looked])
+        now = float(t[-1])
+    views = Views(np.concatenate(times) if times else np.zeros(0),
+                  np.concatenate(positions) if positions else np.zeros((0, 3)),
+                  np.concatenate(directions) if directions else np.zeros((0, 3)))
+    return Mission(tuple(motions), views, settings, int(seed))
+
+
+def mission_time(branches: list[Branch], robot: Chain, entrance_direction: np.ndarray) -> float:
+    """How long (s) the mission of ``branches`` in order takes (:func:`mission_of`'s clock)."""
+    if not branches:
+        return 0.0
+    settings = InspectionSettings(measurement_hz=None)
+    return max(m.end_s for m in mission_of(branches, robot, settings, entrance_direction, 0).motions)
+
+
+def tree_order(branches: list[Branch]) -> list[Branch]:
+    """The branches in an order that cuts retractions: from the first, each next one the branch that runs longest
+    together with the one just flown (a depth-first walk of their tree)."""
+    left = list(branches)
+    out = [left.pop(0)] if left else []
+    while left:
+        k = int(np.argmax([shared_length(out[-1].path, b.path) for b in left]))
+        out.append(left.pop(k))
+    return out
+
+
+def coverage_of(branches: list[Branch], n: int) -> float:
+    """The share of ``n`` points of interest the branches' views see."""
+    if n == 0:
+        return 1.0
+    seen = np.zeros(n, dtype=bool)
+    for b in branches:
+        seen[b.seen] = True
+    return float(seen.mean())
