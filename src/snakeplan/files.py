@@ -46,6 +46,17 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
         tmp.unlink(missing_ok=True)
 
 
+#: Environment variable: the cache folder (default ``$XDG_CACHE_HOME/snakeplan``, else ``~/.cache/snakeplan``).
+ENV_CACHE_DIR = "SNAKEPLAN_CACHE_DIR"
+
+
+def cache_root() -> Path:
+    """The folder of snakeplan's caches (compiled kernels, what oracles computed): ``$SNAKEPLAN_CACHE_DIR``, else
+    ``$XDG_CACHE_HOME/snakeplan``, else ``~/.cache/snakeplan``."""
+    return Path(os.environ.get(ENV_CACHE_DIR) or os.path.join(
+        os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"), "snakeplan"))
+
+
 def atomic_write(path: str | os.PathLike, data: str | bytes) -> Path:
     """Write ``data`` (text as UTF-8) to ``path`` atomically."""
     with atomic_path(path) as tmp:

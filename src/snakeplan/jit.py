@@ -43,11 +43,13 @@ from typing import Any
 
 import numpy as np
 
+from snakeplan.files import ENV_CACHE_DIR, cache_root
+
 #: Environment variable: ``numba`` ignores the compiled module; ``record`` makes every kernel a proxy that
 #: records the argument types it is called with (``snakeplan compile``'s workload).
 ENV_MODE = "SNAKEPLAN_KERNELS"
-#: Environment variable: the cache folder (default ``$XDG_CACHE_HOME/snakeplan``, else ``~/.cache/snakeplan``).
-ENV_DIR = "SNAKEPLAN_CACHE_DIR"
+#: Environment variable: the cache folder (:func:`snakeplan.files.cache_root`).
+ENV_DIR = ENV_CACHE_DIR
 #: The table of the compiled module, beside it: which function runs which kernel for which argument types.
 MANIFEST = "kernels.pkl"
 #: NumPy's flag bits that decide numba's type of an array: C_CONTIGUOUS and F_CONTIGUOUS (its layout: C when
@@ -57,9 +59,7 @@ _C, _F, _ALIGNED_WRITEABLE = 0x1, 0x2, 0x100 | 0x400
 
 def compiled_dir() -> Path:
     """The folder of the kernels compiled ahead of time."""
-    root = os.environ.get(ENV_DIR) or os.path.join(
-        os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"), "snakeplan")
-    return Path(root) / "kernels"
+    return cache_root() / "kernels"
 
 
 def mode() -> str:

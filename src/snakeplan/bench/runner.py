@@ -156,6 +156,7 @@ class Sweep:
     time_limit_s: float = 10.0
     robot: str = ""
     knowledge: str | tuple[str, ...] = "full"
+    task: str = ""
     stateful: Callable[[str, dict], bool] | None = field(default=None, compare=False)
     include: Callable[[str, str, dict], bool] | None = field(default=None, compare=False)
 
@@ -169,9 +170,10 @@ class Sweep:
         for scene in self.scenes:
             text, family = _scene_source(scene)
             spec = _spec(family, text)
+            task = self.task or spec.task
             robot, robot_json = robot_file or (spec.robot, "")
             for planner, options in self.planners:
-                if not _does_task(planner, spec.task):
+                if not _does_task(planner, task):
                     continue
                 fitted.add(planner)
                 if self.include is not None and not self.include(family, planner, options):
@@ -181,7 +183,7 @@ class Sweep:
                         out.append(Run(family, seed, planner, robot, self.time_limit_s,
                                        tuple(sorted(options.items())), knowledge, text,
                                        self.stateful is not None and self.stateful(planner, options),
-                                       self.name, spec.task, robot_json))
+                                       self.name, task, robot_json))
         idle = [p for p, _ in self.planners if p not in fitted]
         if idle:
             raise ValueError(f"planners: {', '.join(idle)} can do none of these scenes' tasks "

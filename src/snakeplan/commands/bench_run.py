@@ -29,6 +29,8 @@ def add_parsers(bsub) -> None:
     p.add_argument("--time-limit", type=finite, default=10.0, help="budget per plan in seconds (default 10)")
     p.add_argument("--knowledge", choices=("full", "sensed"), default="full",
                    help="what the planners may know (sensed: a planner that needs the whole scene still has it)")
+    p.add_argument("--task", choices=("reach", "inspect"),
+                   help="the task every scene is given (default: each scene's own; inspect a tank with coverage)")
     p.add_argument("--name", default="run", help="configuration name recorded in every row (default run)")
     p.add_argument("--out", default="bench-run", help="results folder (default bench-run)")
     p.add_argument("--fresh", action="store_true", help="discard earlier runs instead of resuming")
@@ -81,7 +83,7 @@ def cmd_bench_run(args: argparse.Namespace) -> int:
     if args.robot:
         check_robot(args.robot, "--robot")
     sweep = Sweep(args.name, scenes, seed_list(args.seeds, "--seeds"), tuple((p, options) for p in planners),
-                  args.time_limit, args.robot or "", args.knowledge)
+                  args.time_limit, args.robot or "", args.knowledge, args.task or "")
     try:
         runs = sweep.runs()
     except KeyError as exc:

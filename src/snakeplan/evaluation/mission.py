@@ -91,6 +91,7 @@ class MissionReport:
                 "coverage": self.coverage,
                 "points": None if self.seen is None else int(self.seen.size),
                 "points_seen": None if self.seen is None else int(self.seen.sum()),
+                "seen_points": None if self.seen is None or self.rmse_k.size else np.flatnonzero(self.seen).tolist(),
                 "motion_mm": self.motion_mm, "retractions": self.retractions, "returned": self.returned,
                 "final_rmse_k": float(self.rmse_k[-1]) if self.rmse_k.size else None,
                 "final_trace_k2": float(self.trace_k2[-1]) if self.trace_k2.size else None,

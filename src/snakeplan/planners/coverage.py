@@ -2,10 +2,10 @@
 scan round its side, fitted to the motion budget; with a fed arm's tip camera a greedy tree of insertions.
 
 A fed arm's tree (:mod:`snakeplan.planners.inspection.branches`): in rounds, goals are set facing points of
-interest not yet seen (drawn at random among them, seeded), and the reaching planner grows a branch from the
-entrance to each; of all branches grown so far, the one that sees the most new points per mm of added motion
-(its insertion and retraction past where it leaves the tree) joins the tree, if the mission still fits its time
-budget. A point whose goals failed ``MAX_TRIES`` times is no longer aimed at. The tree stops growing when every
+interest not yet seen (drawn at random among them, seeded; each aim at a point from the next stand-off), and the
+reaching planner grows a branch from the entrance to each; of all branches grown so far, the one that sees the
+most new points per mm of added motion (its insertion and retraction past where it leaves the tree) joins the
+tree, if the mission still fits its time budget. A point aimed at ``MAX_TRIES`` times is no longer aimed at. The tree stops growing when every
 point is seen or aimed at too often, or ``IDLE_ROUNDS`` rounds in a row add nothing; the branches are flown in
 an order that cuts retractions (:func:`tree_order`).
 
@@ -38,9 +38,9 @@ from snakeplan.planners.registry import register_planner
 HELIX_STEP_MM = 200.0
 #: Branches grown per round of a fed arm's tree; failed goals per point before it is no longer aimed at; rounds
 #: in a row that add nothing before the tree stops.
-ROUND_BRANCHES = 4
-MAX_TRIES = 2
-IDLE_ROUNDS = 5
+ROUND_BRANCHES = 6
+MAX_TRIES = 4
+IDLE_ROUNDS = 10
 
 
 def helix_points(radius: float, z0: float, z1: float, length: float, theta0: float = 0.0,
@@ -95,11 +95,10 @@ class CoveragePlanner(InspectionPlanner):
             for k in rng.choice(aim, size=min(ROUND_BRANCHES, aim.size), replace=False):
                 if time.perf_counter() >= deadline:
                     return tree, False
-                goal = source.goal_facing(int(k))
+                goal = source.goal_facing(int(k), int(tries[k]))
                 branch = None if goal is None else source.branch_to(goal, deadline)
-                if branch is None:
-                    tries[k] += 1
-                else:
+                tries[k] += 1
+                if branch is not None:
                     pool.append(branch)
             best, score = None, 0.0
             for b in pool:

@@ -33,9 +33,9 @@ VIEW_STEP_MM = 50.0
 BRANCH_TIME_S = 2.0
 #: The reaching planner that grows branches.
 REACH_PLANNER = "rrt-star"
-#: Goal stand-offs off a point of interest, as shares of the camera's range (the nearest that is free is taken
-#: last: a far goal sees more round it).
-STANDOFF_SHARES = (0.5, 0.3, 0.15)
+#: Goal stand-offs off a point of interest, as shares of the camera's range, tried in turn (a far goal sees more
+#: round it, a near one fits where a far one is blocked).
+STANDOFF_SHARES = (0.5, 0.3, 0.15, 0.08)
 #: Clearance (mm) a goal keeps beyond the tip's radius.
 GOAL_CLEARANCE_MM = 15.0
 
@@ -88,12 +88,14 @@ class BranchSource:
         return self.scene.in_bounds(p, self.clearance) & (
             self.problem.world.obstacle_set.signed_distance(p) >= self.clearance)
 
-    def goal_facing(self, k: int) -> np.ndarray | None:
+    def goal_facing(self, k: int, attempt: int = 0) -> np.ndarray | None:
         """A goal from which the camera could see point of interest ``k``: off it along its normal line (on the free
-        side), at the first stand-off of :data:`STANDOFF_SHARES` that is free; None if none is."""
+        side), at the stand-offs of :data:`STANDOFF_SHARES` from the ``attempt``-th on (round), the first that is
+        free; None if none is."""
         p, n = self.pois.points[k], self.pois.normals[k]
         d_max = self.problem.inspection.camera.d_max
-        cands = np.array([p + sign * n * share * d_max for share in STANDOFF_SHARES for sign in (1.0, -1.0)])
+        shares = np.roll(STANDOFF_SHARES, -attempt)
+        cands = np.array([p + sign * n * share * d_max for share in shares for sign in (1.0, -1.0)])
         ok = np.flatnonzero(self.free(cands))
         return cands[ok[0]] if ok.size else None
 

@@ -1,0 +1,176 @@
+"""``snakeplan bench inspect``: inspection of the scene families by a fed arm's tip camera, every planner on the same
+scenes, judged, against the points of interest that any valid configuration can see.
+
+A configuration of the benchmark runner (:mod:`snakeplan.bench.runner`): families x seeds x inspection planners,
+each scene given the inspect task, one row per mission in ``runs.jsonl`` (resumable, on any backend). The summary
+is drawn from the logged rows: per family and planner the share of the points of interest seen, the share of the
+*reachable-visible* ones seen, the mission time, the feed's travel, the retractions, the planning compute time
+(median and worst), and how many missions the judge found valid.
+
+The reachable-visible points of a scene come from an offline oracle (:func:`reachable_visible`) with a budget far
+beyond a planner's: branches grown by the reaching planner to goals facing every point of interest not yet seen,
+from each of :data:`ORACLE_STANDOFFS` stand-offs, plus :data:`ORACLE_RANDOM_GOALS` goals anywhere free; a point
+is reachable-visible when some branch's views see it. It is a lower bound of the points some valid configuration
+can see (a branch the oracle did not try could see more), so the share of them a planner sees is an upper bound
+of its true share; it is computed once per scene, robot and camera and kept in the cache folder.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from snakeplan.bench.runner import Sweep, run_sweep
+from snakeplan.files import atomic_write, cache_root
+from snakeplan.jsonable import jsonable
+from snakeplan.parallel import Backend
+
+SCHEMA = "snakeplan.bench.inspect/1"
+CONFIG = "inspect"
+#: The families inspected by default, the planners compared, seeds, output folder and planning budget (s).
+FAMILIES = ("fuel-tank", "oil-tank", "confined", "pipework", "vessel", "engine")
+PLANNERS = ("coverage", "random")
+DEFAULT_SEEDS = 20
+DEFAULT_OUT_DIR = "bench-inspect"
+TIME_LIMIT_S = 30.0
+#: The oracle: stand-offs (shares of the camera's range) of the goals facing each point, random goals, the
+#: reaching planner's time per branch (s).
+ORACLE_STANDOFFS = (0.5, 0.3, 0.15, 0.08)
+ORACLE_RANDOM_GOALS = 200
+ORACLE_BRANCH_TIME_S = 5.0
+ORACLE_VERSION = 1
+
+
+def sweep(families: tuple[str, ...], seeds: list[int], planners: tuple[str, ...],
+          time_limit_s: float = TIME_LIMIT_S) -> Sweep:
+    """Every family's seeds inspected by every planner (each family's own robot)."""
+    return Sweep(CONFIG, tuple(families), tuple(seeds), tuple((p, {}) for p in planners), time_limit_s,
+                 task="inspect")
+
+
+def _oracle_key(scene, robot) -> str:
+    text = json.dumps({"scene": scene.to_dict(), "robot": robot.to_dict(), "version": ORACLE_VERSION,
+                       "standoffs": ORACLE_STANDOFFS, "random": ORACLE_RANDOM_GOALS}, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:32]
+
+
+def reachable_visible(scene, robot, seed: int = 0, cache: bool = True) -> np.ndarray:
+    """Which of ``scene``'s points of interest (n,) bool some branch of ``robot`` grown by the oracle sees (see the
+    module); cached under the cache folder by the scene's, the robot's and the oracle's content."""
+    from snakeplan.planners import Problem
+    from snakeplan.planners.inspection import branches
+
+    path = cache_root() / "oracle" / f"{_oracle_key(scene, robot)}.npy"
+    if cache and path.is_file():
+        return np.load(path)
+    problem = Problem(scene, robot, time_limit_s=ORACLE_BRANCH_TIME_S, task="inspect")
+    source = branches.BranchSource(problem, seed)
+    n = len(source.pois)
+    seen = np.zeros(n, dtype=bool)
+    rng = np.random.default_rng(seed)
+
+    def grow(goal) -> None:
+        if goal is not None:
+            b = source.branch_to(goal, time.perf_counter() + ORACLE_BRANCH_TIME_S)
+            if b is not None:
+                seen[b.seen] = True
+
+    for _ in range(ORACLE_RANDOM_GOALS):
+        grow(source.random_goal(rng))
+    d_max = problem.inspection.camera.d_max
+    for share in ORACLE_STANDOFFS:
+        for k in rng.permutation(n):
+            if seen[k]:
+                continue
+            p, nrm = source.pois.points[k], source.pois.normals[k]
+            for sign in (1.0, -1.0):
+                goal = p + sign * nrm * share * d_max
+                if source.free(goal[None])[0]:
+                    grow(goal)
+                    if seen[k]:
+                        break
+    if cache:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with open(path.with_suffix(".tmp"), "wb") as f:
+            np.save(f, seen)
+        path.with_suffix(".tmp").replace(path)
+    return seen
+
+
+def summarise(rows: list[dict], visible: dict[tuple[str, int], np.ndarray]) -> dict:
+    """Per family and planner, from the logged rows and each scene's reachable-visible points: missions, valid
+    missions, mean coverage, mean and worst share of the reachable-visible points seen, mean mission time (s),
+    feed travel (m) and retractions, median and worst compute time (s)."""
+    table: dict[str, dict[str, dict]] = {}
+    for r in rows:
+        m = r["metrics"] or {}
+        key = (r["scene"], r["seed"])
+        seen = np.asarray(m.get("seen_points") or [], dtype=np.int64)
+        vis = visible.get(key)
+        share = None
+        if vis is not None and vis.any():
+            share = float(np.isin(np.flatnonzero(vis), seen).mean())
+        entry = table.setdefault(r["scene"], {}).setdefault(r["planner"], {"rows": []})
+        entry["rows"].append({"seed": r["seed"], "valid": bool(r["success"]), "coverage": m.get("coverage"),
+                              "visible_share": share, "mission_time_s": m.get("mission_time_s"),
+                              "motion_m": (m.get("motion_mm") or 0.0) / 1000.0,
+                              "retractions": m.get("retractions"), "compute_time_s": r["compute_time_s"],
+                              "status": r["status"]})
+    for family in table.values():
+        for entry in family.values():
+            rs = entry["rows"]
+
+            def col(k, rs=rs):
+                return np.array([x[k] for x in rs if x[k] is not None], dtype=float)
+
+            vis = col("visible_share")
+            entry.update(missions=len(rs), valid=sum(x["valid"] for x in rs),
+                         coverage=float(col("coverage").mean()),
+                         visible_share=float(vis.mean()) if vis.size else None,
+                         visible_share_min=float(vis.min()) if vis.size else None,
+                         mission_time_s=float(col("mission_time_s").mean()), motion_m=float(col("motion_m").mean()),
+                         retractions=float(col("retractions").mean()),
+                         compute_median_s=float(np.median(col("compute_time_s"))),
+                         compute_max_s=float(col("compute_time_s").max()))
+    return {"schema": SCHEMA, "families": table}
+
+
+def markdown(summary: dict) -> str:
+    """The summary as a markdown table, a row per family and planner."""
+    lines = ["| family | planner | valid | coverage | of reachable-visible (mean / worst) | mission s | feed m | "
+             "retractions | compute median / max s |", "|---|---|---|---|---|---|---|---|---|"]
+    for family, planners in summary["families"].items():
+        for name, e in planners.items():
+            vis = "n/a" if e["visible_share"] is None else f"{e['visible_share']:.1%} / {e['visible_share_min']:.1%}"
+            lines.append(f"| {family} | {name} | {e['valid']}/{e['missions']} | {e['coverage']:.1%} | {vis} | "
+                         f"{e['mission_time_s']:.0f} | {e['motion_m']:.1f} | {e['retractions']:.1f} | "
+                         f"{e['compute_median_s']:.1f} / {e['compute_max_s']:.1f} |")
+    return "\n".join(lines)
+
+
+def run_inspect_bench(families: tuple[str, ...] = FAMILIES, seeds: int = DEFAULT_SEEDS, seed0: int = 0,
+                      planners: tuple[str, ...] = PLANNERS, out_dir: str | Path = DEFAULT_OUT_DIR,
+                      backend: Backend = Backend(), fresh: bool = False, progress: bool = True) -> dict:
+    """Inspect ``seeds`` seeds of each family with each planner through the runner into ``out_dir`` (resuming what
+    it holds), compute (or load) each scene's reachable-visible points, write ``inspect.json`` and ``inspect.md``,
+    and return the summary with the runner's outcome under ``"runner"``."""
+    from snakeplan.robots import get_robot
+    from snakeplan.scenes import make_scene, scene_spec
+
+    if isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 1:
+        raise ValueError(f"seeds: must be a positive integer, got {seeds!r}")
+    seed_list = list(range(seed0, seed0 + seeds))
+    outcome = run_sweep(sweep(families, seed_list, planners), out_dir, backend, fresh=fresh, progress=progress)
+    rows = [r for r in outcome.rows if r.get("config") == CONFIG]
+    visible = {}
+    for family, seed in sorted({(r["scene"], r["seed"]) for r in rows}):
+        visible[(family, seed)] = reachable_visible(make_scene(family, seed), get_robot(scene_spec(family).robot))
+    summary = summarise(rows, visible)
+    out = Path(out_dir)
+    atomic_write(out / "inspect.json", json.dumps(jsonable(summary), indent=1))
+    atomic_write(out / "inspect.md", markdown(summary) + "\n")
+    return {**summary, "runner": outcome.to_dict()}
