@@ -8,6 +8,19 @@ from pathlib import Path
 from snakeplan.viz.mission import JudgedMission, MissionRecord, mission_title
 
 
+def _fed(episode) -> bool:
+    """Whether the episode is a fed arm's inspection by its tip camera (points of interest, not a field)."""
+    return episode.plan.mission is not None and episode.plan.mission.settings.tip_camera
+
+
+def _timeline(episode, frames: int):
+    from snakeplan.viz.coverage import Timeline, coverage_title
+
+    p = episode.problem
+    return (Timeline.of(p.scene, p.robot, episode.plan.mission, frames),
+            coverage_title(p.scene, p.robot.name, episode.plan.planner, episode.report))
+
+
 def _mission(episode) -> tuple[JudgedMission, str]:
     judged = JudgedMission.of(episode)
     return judged, mission_title(episode.problem.scene, episode.problem.robot.name, judged)
@@ -16,6 +29,11 @@ def _mission(episode) -> tuple[JudgedMission, str]:
 def save_episode_plot(filename: str | Path, episode) -> None:
     """The PNG of an episode: the plan's figure (scene, path, body, curvature), or a mission's maps."""
     problem, plan = episode.problem, episode.plan
+    if _fed(episode):
+        from snakeplan.viz.coverage import save_coverage_figure
+
+        save_coverage_figure(filename, problem.scene, *_timeline(episode, 200))
+        return
     if plan.mission is not None:
         from snakeplan.viz.mission import save_mission_maps
 
@@ -31,6 +49,12 @@ def save_episode_video(filename: str | Path, episode, frames: int, fps: float, s
                        progress: bool) -> int:
     """The video of an episode (the crawl, or the mission with the map filling in); returns its frame count."""
     problem, plan = episode.problem, episode.plan
+    if _fed(episode):
+        from snakeplan.viz.coverage import save_coverage_video
+
+        save_coverage_video(filename, problem.scene, *_timeline(episode, frames)[:1], fps, size,
+                            _timeline(episode, 2)[1], progress=progress)
+        return frames
     if plan.mission is not None:
         from snakeplan.viz.mission import save_mission_video
 
@@ -49,6 +73,16 @@ def save_episode_video(filename: str | Path, episode, frames: int, fps: float, s
 def save_episode_page(filename: str | Path, episode, crawl_frames_count: int) -> None:
     """The interactive page of an episode (a crawl with ``crawl_frames_count`` frames, or the mission)."""
     problem, plan = episode.problem, episode.plan
+    if _fed(episode):
+        from snakeplan.viz.coverage import save_coverage_page
+
+        line, title = _timeline(episode, 4 * crawl_frames_count)
+        r = episode.report
+        metrics = {"verdict": "inspected" if r.success else f"refused ({r.reason})", "views": r.views,
+                   "mission (s)": round(r.mission_time_s), "feed travel (m)": round(r.motion_mm / 1000, 1),
+                   "retractions": r.retractions}
+        save_coverage_page(filename, problem.scene, problem.robot, line, title, metrics)
+        return
     if plan.mission is not None:
         from snakeplan.viz.mission import save_mission_page
 

@@ -1,0 +1,226 @@
+"""A fed arm's inspection seen as it goes (mm, s): the points of interest coloured seen, not yet seen and (where an
+oracle says so) never visible, the branches of the tree of insertions, the arm's body along the mission, and the
+share seen filling in: a picture, a video and an interactive page with a slider over mission time.
+
+:class:`Timeline` follows a judged mission: at each frame time, which crawl moves the arm and the body fitted by
+follow-the-leader at its depth there, and which points the views up to then have seen (the judge's camera,
+:func:`snakeplan.evaluation.mission.points_seen`, view by view).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from snakeplan import ftl
+from snakeplan.files import atomic_write
+from snakeplan.scenes import Scene
+
+#: Colours (hex) of points seen, not seen, never visible (by the oracle), the branches and the body.
+SEEN_HEX, UNSEEN_HEX, NEVER_HEX = "#2ca02c", "#ff7f0e", "#b0b0b0"
+BRANCH_HEX, BODY_HEX = "#1f77b4", "#444444"
+#: Frames the page keeps at most.
+PAGE_FRAMES = 120
+
+
+@dataclass(frozen=True)
+class Timeline:
+    """Frame times (F,) s; the arm's joints at each (F, n+1, 3) mm; which points are seen by then (F, P) bool; the
+    branches' tip paths (each (m, 3) mm); the points (P, 3) mm; the views' first-seen time per point (P,) s
+    (inf: never seen); when each branch's crawl starts (s)."""
+
+    times: np.ndarray
+    joints: np.ndarray
+    seen: np.ndarray
+    branches: list[np.ndarray]
+    points: np.ndarray
+    first_seen: np.ndarray
+    branch_starts: np.ndarray
+
+    @classmethod
+    def of(cls, scene: Scene, robot, mission, frames: int) -> Timeline:
+        """The timeline of ``mission`` in ``scene`` at ``frames`` times evenly over its span."""
+        from snakeplan.world.mission import Crawl
+        from snakeplan.world.sight import PoiCamera
+
+        crawls = [m for m in mission.motions if isinstance(m, Crawl)]
+        pois = scene.points_of_interest
+        end = max((m.end_s for m in crawls), default=0.0)
+        times = np.linspace(0.0, end, max(2, frames))
+        joints = np.full((len(times), robot.n_sections + 1, 3), np.nan)
+        owner = np.clip(np.searchsorted([m.start_s for m in crawls], times, side="right") - 1, 0, len(crawls) - 1)
+        for i, m in enumerate(crawls):
+            sel = owner == i
+            if sel.any():
+                joints[sel] = ftl.fit_batch(m.path, robot.lengths, m.depth_at(times[sel]), scene.entrance.direction)
+        views = mission.views
+        first = np.full(len(pois), np.inf)
+        sight = PoiCamera(scene.obstacle_set, pois, mission.settings.camera).visible(views.positions, views.directions)
+        np.minimum.at(first, sight.node, views.times_s[sight.pose])
+        seen = first[None, :] <= times[:, None]
+        return cls(times, joints, seen, [m.path for m in crawls], pois.points, first,
+                   np.array([m.start_s for m in crawls]))
+
+    @property
+    def coverage(self) -> np.ndarray:
+        """The share of the points seen at each frame."""
+        return self.seen.mean(axis=1) if self.seen.shape[1] else np.ones(len(self.times))
+
+
+def _colours(seen: np.ndarray, never: np.ndarray | None) -> np.ndarray:
+    out = np.where(seen, SEEN_HEX, UNSEEN_HEX).astype(object)
+    if never is not None:
+        out[never & ~seen] = NEVER_HEX
+    return out
+
+
+def _inserted(scene: Scene, joints: np.ndarray) -> np.ndarray:
+    """The joints past the entrance and the last one behind it (the arm not yet fed lies outside the scene)."""
+    ahead = (joints - scene.entrance.position) @ scene.entrance.direction >= 0.0
+    first = max(int(np.argmax(ahead)) - 1, 0) if ahead.any() else len(joints) - 2
+    return joints[first:]
+
+
+def _draw(ax, scene: Scene, line: Timeline, k: int, never: np.ndarray | None) -> None:
+    from snakeplan.viz.scene_plot import draw_scene, set_flat_view
+
+    draw_scene(ax, scene.with_targets(np.zeros((0, 3))), legend=False)  # an inspection has no targets
+    for path, start in zip(line.branches, line.branch_starts):
+        if start <= line.times[k]:  # the branches flown so far
+            ax.plot(*path.T, color=BRANCH_HEX, lw=0.8, alpha=0.6)
+    ax.scatter(*line.points.T, c=list(_colours(line.seen[k], never)), s=6, depthshade=False)
+    if np.isfinite(line.joints[k]).all():
+        ax.plot(*_inserted(scene, line.joints[k]).T, color=BODY_HEX, lw=2.5, marker="o", ms=2.5)
+    set_flat_view(ax, scene)
+
+
+def coverage_figure(scene: Scene, line: Timeline, title: str, never: np.ndarray | None = None):
+    """The mission's coverage as a figure: the scene with the points coloured (seen, not seen, never visible) and
+    the branches, beside the share seen over mission time."""
+    import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
+
+    fig = plt.figure(figsize=(13, 6))
+    ax = fig.add_subplot(1, 2, 1, projection="3d")
+    _draw(ax, scene, line, len(line.times) - 1, never)
+    handles = [Line2D([], [], ls="", marker="o", color=c, label=lab) for c, lab in
+               ((SEEN_HEX, "seen"), (UNSEEN_HEX, "not seen"))] + (
+        [Line2D([], [], ls="", marker="o", color=NEVER_HEX, label="never visible (oracle)")] if never is not None
+        else []) + [Line2D([], [], color=BRANCH_HEX, label="branches (tip paths)")]
+    ax.legend(handles=handles, loc="upper left", fontsize=8)
+    c = fig.add_subplot(1, 2, 2)
+    c.plot(line.times, 100 * line.coverage, color=SEEN_HEX)
+    if never is not None and (~never).any():
+        c.plot(line.times, 100 * line.seen[:, ~never].mean(axis=1), color=BRANCH_HEX, ls="--")
+        c.legend(["of all points", "of the reachable-visible points"], fontsize=8)
+    c.set_xlabel("mission time (s)")
+    c.set_ylabel("points of interest seen (%)")
+    c.set_ylim(0, 100)
+    c.grid(alpha=0.3)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def coverage_title(scene: Scene, robot_name: str, planner: str, report) -> str:
+    return (f"{scene.label}, {robot_name}, {planner}: {report.coverage:.0%} of {report.seen.size} points seen in "
+            f"{report.mission_time_s:.0f} s, {report.retractions} retractions")
+
+
+def save_coverage_figure(filename: str | Path, scene: Scene, line: Timeline, title: str,
+                         never: np.ndarray | None = None) -> Path:
+    from snakeplan.viz.figures import save_figure
+
+    return save_figure(coverage_figure(scene, line, title, never), filename)
+
+
+def coverage_frames_rgb(scene: Scene, line: Timeline, title: str, size: tuple[int, int], progress: bool = False):
+    """The video's frames as RGB arrays: the body moving, the points turning green as they are seen."""
+    import matplotlib.pyplot as plt
+
+    from snakeplan.viz.animation import _progress
+
+    tick = _progress(len(line.times), "frames") if progress else (lambda: None)
+    w, h = size
+    for k in range(len(line.times)):
+        fig = plt.figure(figsize=(w / 100, h / 100), dpi=100)
+        ax = fig.add_subplot(1, 1, 1, projection="3d")
+        _draw(ax, scene, line, k, None)
+        ax.set_title(f"{title}\nt = {line.times[k]:.0f} s, seen {line.coverage[k]:.0%}", fontsize=8)
+        fig.canvas.draw()
+        rgb = np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
+        plt.close(fig)
+        tick()
+        yield rgb
+
+
+def save_coverage_video(filename: str | Path, scene: Scene, line: Timeline, fps: float, size: tuple[int, int],
+                        title: str, progress: bool = True) -> Path:
+    from snakeplan.viz.animation import write_video
+
+    return write_video(filename, coverage_frames_rgb(scene, line, title, size, progress), len(line.times), fps, size)
+
+
+def coverage_page(scene: Scene, robot, line: Timeline, title: str, metrics: dict) -> str:
+    """The interactive page: the scene, the points coloured as seen by the time the slider picks, the branches,
+    and the arm's body then."""
+    from snakeplan.viz.page import _COMMON_JS, _round, page_html, scene_data, scene_glb
+
+    keep = np.unique(np.round(np.linspace(0, len(line.times) - 1, min(len(line.times), PAGE_FRAMES))).astype(int))
+    scene = scene.with_targets(np.zeros((0, 3)))  # an inspection has no targets
+    first = np.where(np.isfinite(line.first_seen), line.first_seen, -1.0)
+    data = scene_data(scene) | {
+        "title": title, "times": _round(line.times[keep], 2), "joints": _round(line.joints[keep], 1),
+        "radii": _round(robot.radii), "points": _round(line.points, 1), "first_seen": _round(first, 2),
+        "coverage": _round(line.coverage[keep], 4), "branches": [_round(p, 1) for p in line.branches],
+        "metrics": metrics, "colors": scene_data(scene)["colors"] | {"seen": SEEN_HEX, "unseen": UNSEEN_HEX,
+                                                                      "branch": BRANCH_HEX, "body": BODY_HEX}}
+    return page_html(title, data, scene_glb(scene), _COMMON_JS + _COVERAGE_JS)
+
+
+def save_coverage_page(filename: str | Path, scene: Scene, robot, line: Timeline, title: str, metrics: dict) -> Path:
+    return atomic_write(filename, coverage_page(scene, robot, line, title, metrics))
+
+
+_COVERAGE_JS = r"""
+const F = D.times.length, P = D.points.length;
+D.branches.forEach(function (b) { tube(b, D.colors.branch, 0.12 * unit); });
+const pg = new THREE.BufferGeometry();
+pg.setAttribute('position', new THREE.Float32BufferAttribute([].concat.apply([], D.points), 3));
+const pc = new Float32Array(P * 3);
+pg.setAttribute('color', new THREE.BufferAttribute(pc, 3));
+scene.add(new THREE.Points(pg, new THREE.PointsMaterial({size: 2.5 * unit, vertexColors: true})));
+const seenC = new THREE.Color(D.colors.seen), unseenC = new THREE.Color(D.colors.unseen);
+const body = [];
+const panel = document.createElement('div');
+panel.id = 'panel';
+const metrics = Object.keys(D.metrics).map(function (k) { return esc(k) + ' ' + esc(D.metrics[k]); }).join(' &middot; ');
+panel.innerHTML = '<b>' + esc(D.title) + '</b><br><small>' + metrics + '</small><br><label for="depth">mission time' +
+  '</label><input type="range" id="depth" min="0" max="' + (F - 1) + '" step="1" value="' + (F - 1) + '">' +
+  '<div id="readout"></div><small>' + swatch(D.colors.seen, 'seen') + swatch(D.colors.unseen, 'not yet seen') +
+  swatch(D.colors.branch, 'branches') + swatch(D.colors.body, 'arm') + '<br>Drag to turn, right-drag to pan, ' +
+  'wheel to zoom.</small>';
+document.body.appendChild(panel);
+const slider = document.getElementById('depth'), readout = document.getElementById('readout');
+function setFrame(k) {
+  k = Math.max(0, Math.min(F - 1, k | 0));
+  const t = D.times[k];
+  for (let i = 0; i < P; i++) {
+    const c = (D.first_seen[i] >= 0 && D.first_seen[i] <= t + 1e-6) ? seenC : unseenC;
+    pc[3 * i] = c.r; pc[3 * i + 1] = c.g; pc[3 * i + 2] = c.b;
+  }
+  pg.attributes.color.needsUpdate = true;
+  body.forEach(function (m) { scene.remove(m); });
+  body.length = 0;
+  body.push(tube(D.joints[k], D.colors.body, Math.max.apply(null, D.radii)));
+  readout.innerHTML = 't = ' + t.toFixed(0) + ' s, points seen ' + (100 * D.coverage[k]).toFixed(1) + ' %';
+  slider.value = k;
+  window.snakeplan.frame = k;
+  render();
+}
+slider.addEventListener('input', function () { setFrame(parseInt(slider.value, 10)); });
+window.snakeplan.setFrame = setFrame;
+loadObstacles(function () { setFrame(F - 1); window.snakeplan.ready = true; });
+"""
