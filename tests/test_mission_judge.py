@@ -154,9 +154,9 @@ def test_a_problem_says_its_task_and_planners_refuse_tasks_they_do_not_do():
         Problem(tank, get_robot("sjtu-snake-iii"), task="explore")
     with pytest.raises(ValueError, match=r"^task: planner sp-rrt does not inspect \(it does: reach\)"):
         get_planner("sp-rrt").plan(Problem(station, get_robot("hsr-10")))
-    assert set(planner_names("inspect")) == {"informative", "coverage", "random"}
+    assert set(planner_names("inspect")) == {"informative", "coverage", "random", "iris"}
     assert "as-rrt" in planner_names("reach") and "informative" not in planner_names("reach")
-    with pytest.raises(KeyError, match="known: coverage, informative, random"):
+    with pytest.raises(KeyError, match="known: coverage, informative, iris, random"):
         get_planner("nope", task="inspect")
 
 

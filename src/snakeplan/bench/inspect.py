@@ -7,10 +7,10 @@ is drawn from the logged rows: per family and planner the share of the points of
 *reachable-visible* ones seen, the mission time, the feed's travel, the retractions, the planning compute time
 (median and worst), and how many missions the judge found valid.
 
-The reachable-visible points of a scene come from an offline oracle (:func:`reachable_visible`) with a budget far
-beyond a planner's: branches grown by the reaching planner to goals facing every point of interest not yet seen,
-from each of :data:`ORACLE_STANDOFFS` stand-offs, plus :data:`ORACLE_RANDOM_GOALS` goals anywhere free; a point
-is reachable-visible when some branch's views see it. It is a lower bound of the points some valid configuration
+The reachable-visible points of a scene come from an offline oracle (:func:`reachable_visible`) with a budget
+beyond a planner's (:data:`ORACLE_TIME_S` against the planners' 30 s): branches grown by the reaching planner to
+:data:`ORACLE_RANDOM_GOALS` goals anywhere free, then to goals facing every point of interest not yet seen, from
+each of :data:`ORACLE_STANDOFFS` stand-offs in turn; a point is reachable-visible when some branch's views see it. It is a lower bound of the points some valid configuration
 can see (a branch the oracle did not try could see more), so the share of them a planner sees is an upper bound
 of its true share; it is computed once per scene, robot and camera and kept in the cache folder.
 """
@@ -27,22 +27,23 @@ import numpy as np
 from snakeplan.bench.runner import Sweep, run_sweep
 from snakeplan.files import atomic_write, cache_root
 from snakeplan.jsonable import jsonable
-from snakeplan.parallel import Backend
+from snakeplan.parallel import Backend, streamed
 
 SCHEMA = "snakeplan.bench.inspect/1"
 CONFIG = "inspect"
 #: The families inspected by default, the planners compared, seeds, output folder and planning budget (s).
 FAMILIES = ("fuel-tank", "oil-tank", "confined", "pipework", "vessel", "engine")
-PLANNERS = ("coverage", "random")
+PLANNERS = ("coverage", "iris", "random")
 DEFAULT_SEEDS = 20
 DEFAULT_OUT_DIR = "bench-inspect"
 TIME_LIMIT_S = 30.0
 #: The oracle: stand-offs (shares of the camera's range) of the goals facing each point, random goals, the
-#: reaching planner's time per branch (s).
+#: reaching planner's time per branch (s), and its whole budget per scene (s).
 ORACLE_STANDOFFS = (0.5, 0.3, 0.15, 0.08)
 ORACLE_RANDOM_GOALS = 200
-ORACLE_BRANCH_TIME_S = 5.0
-ORACLE_VERSION = 1
+ORACLE_BRANCH_TIME_S = 2.0
+ORACLE_TIME_S = 120.0
+ORACLE_VERSION = 2
 
 
 def sweep(families: tuple[str, ...], seeds: list[int], planners: tuple[str, ...],
@@ -54,7 +55,8 @@ def sweep(families: tuple[str, ...], seeds: list[int], planners: tuple[str, ...]
 
 def _oracle_key(scene, robot) -> str:
     text = json.dumps({"scene": scene.to_dict(), "robot": robot.to_dict(), "version": ORACLE_VERSION,
-                       "standoffs": ORACLE_STANDOFFS, "random": ORACLE_RANDOM_GOALS}, sort_keys=True, default=str)
+                       "standoffs": ORACLE_STANDOFFS, "random": ORACLE_RANDOM_GOALS, "time": ORACLE_TIME_S,
+                       "branch_time": ORACLE_BRANCH_TIME_S}, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 
 
@@ -73,8 +75,10 @@ def reachable_visible(scene, robot, seed: int = 0, cache: bool = True) -> np.nda
     seen = np.zeros(n, dtype=bool)
     rng = np.random.default_rng(seed)
 
+    deadline = time.perf_counter() + ORACLE_TIME_S
+
     def grow(goal) -> None:
-        if goal is not None:
+        if goal is not None and time.perf_counter() < deadline:
             b = source.branch_to(goal, time.perf_counter() + ORACLE_BRANCH_TIME_S)
             if b is not None:
                 seen[b.seen] = True
@@ -99,6 +103,15 @@ def reachable_visible(scene, robot, seed: int = 0, cache: bool = True) -> np.nda
             np.save(f, seen)
         path.with_suffix(".tmp").replace(path)
     return seen
+
+
+def _oracle_task(scene: tuple[str, int]) -> tuple[tuple[str, int], np.ndarray]:
+    """The reachable-visible points of a family's seed with its own robot (in a worker)."""
+    from snakeplan.robots import get_robot
+    from snakeplan.scenes import make_scene, scene_spec
+
+    family, seed = scene
+    return scene, reachable_visible(make_scene(family, seed), get_robot(scene_spec(family).robot))
 
 
 def summarise(rows: list[dict], visible: dict[tuple[str, int], np.ndarray]) -> dict:
@@ -158,17 +171,18 @@ def run_inspect_bench(families: tuple[str, ...] = FAMILIES, seeds: int = DEFAULT
     """Inspect ``seeds`` seeds of each family with each planner through the runner into ``out_dir`` (resuming what
     it holds), compute (or load) each scene's reachable-visible points, write ``inspect.json`` and ``inspect.md``,
     and return the summary with the runner's outcome under ``"runner"``."""
-    from snakeplan.robots import get_robot
-    from snakeplan.scenes import make_scene, scene_spec
-
     if isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 1:
         raise ValueError(f"seeds: must be a positive integer, got {seeds!r}")
     seed_list = list(range(seed0, seed0 + seeds))
     outcome = run_sweep(sweep(families, seed_list, planners), out_dir, backend, fresh=fresh, progress=progress)
     rows = [r for r in outcome.rows if r.get("config") == CONFIG]
+    scenes = sorted({(r["scene"], r["seed"]) for r in rows})
     visible = {}
-    for family, seed in sorted({(r["scene"], r["seed"]) for r in rows}):
-        visible[(family, seed)] = reachable_visible(make_scene(family, seed), get_robot(scene_spec(family).robot))
+    with streamed(_oracle_task, scenes, backend, name="oracle", progress=progress,
+                  stopped=lambda: "stopped: the oracle's finished scenes are cached") as (results, tick):
+        for key, seen in results:
+            visible[key] = seen
+            tick(f"{key[0]} seed {key[1]}")
     summary = summarise(rows, visible)
     out = Path(out_dir)
     atomic_write(out / "inspect.json", json.dumps(jsonable(summary), indent=1))

@@ -23,6 +23,7 @@ BUILTIN_PLANNERS = {
     "informative": "snakeplan.planners.informative:InformativePlanner",
     "coverage": "snakeplan.planners.coverage:CoveragePlanner",
     "random": "snakeplan.planners.random_views:RandomPlanner",
+    "iris": "snakeplan.planners.iris:IrisPlanner",
 }
 
 PLANNERS: Registry[type[Planner]] = Registry("planner", BUILTIN_PLANNERS, load=named_subclass(Planner))

@@ -138,8 +138,30 @@ def _array(name: str, value, shape: tuple) -> np.ndarray:
     return np.ascontiguousarray(a)
 
 
+def _times(value) -> np.ndarray:
+    """A motion's sample times (k,) s: at least one, nondecreasing."""
+    t = _array("times_s", value, (None,))
+    if len(t) < 1 or np.any(np.diff(t) < 0):
+        raise ValueError("times_s: needs at least one time, nondecreasing")
+    return t
+
+
+class _Timed:
+    """A motion sampled at times ``times_s``: it starts at the first and ends at the last."""
+
+    times_s: np.ndarray
+
+    @property
+    def start_s(self) -> float:
+        return float(self.times_s[0])
+
+    @property
+    def end_s(self) -> float:
+        return float(self.times_s[-1])
+
+
 @dataclass(frozen=True)
-class JointMotion:
+class JointMotion(_Timed):
     """The arm moved by its joints: at times ``times_s`` (k,) s, nondecreasing, the base poses ``bases`` (k, 4, 4)
     (mm, world) and the joint vectors ``q`` (k, dof) (rad; mm for a feed)."""
 
@@ -148,9 +170,7 @@ class JointMotion:
     q: np.ndarray
 
     def __post_init__(self) -> None:
-        t = _array("times_s", self.times_s, (None,))
-        if len(t) < 1 or np.any(np.diff(t) < 0):
-            raise ValueError("times_s: needs at least one time, nondecreasing")
+        t = _times(self.times_s)
         object.__setattr__(self, "times_s", t)
         bases = _array("bases", self.bases, (len(t), 4, 4))
         R = bases[:, :3, :3]
@@ -162,21 +182,13 @@ class JointMotion:
         object.__setattr__(self, "bases", bases)
         object.__setattr__(self, "q", _array("q", self.q, (len(t), None)))
 
-    @property
-    def start_s(self) -> float:
-        return float(self.times_s[0])
-
-    @property
-    def end_s(self) -> float:
-        return float(self.times_s[-1])
-
     def to_dict(self) -> dict:
         return {"kind": "joints", "times_s": self.times_s.tolist(), "bases": self.bases.tolist(),
                 "q": self.q.tolist()}
 
 
 @dataclass(frozen=True)
-class Crawl:
+class Crawl(_Timed):
     """A fed arm moved by its feed along ``path`` (m, 3) mm from the entrance: at times ``times_s`` (k,) s,
     nondecreasing, the tip is ``depths_mm`` (k,) along the path, and in between the depth moves linearly. The body
     follows the leader: at depth d it lies on the path's stretch behind d. A crawl inserts, holds, retracts, in any
@@ -188,23 +200,13 @@ class Crawl:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "path", validate_path(self.path, "path"))
-        t = _array("times_s", self.times_s, (None,))
-        if len(t) < 1 or np.any(np.diff(t) < 0):
-            raise ValueError("times_s: needs at least one time, nondecreasing")
+        t = _times(self.times_s)
         d = _array("depths_mm", self.depths_mm, (len(t),))
         length = float(cumulative_length(self.path)[-1])
         if np.any(d < 0) or np.any(d > length + 1e-6):
             raise ValueError(f"depths_mm: must lie in [0, {length:.6g}] mm (the path's length)")
         object.__setattr__(self, "times_s", t)
         object.__setattr__(self, "depths_mm", d)
-
-    @property
-    def start_s(self) -> float:
-        return float(self.times_s[0])
-
-    @property
-    def end_s(self) -> float:
-        return float(self.times_s[-1])
 
     def depth_at(self, t: ArrayLike) -> np.ndarray:
         """The tip's depth (mm) at mission times ``t`` (held at the ends outside the crawl)."""

@@ -29,8 +29,9 @@ from snakeplan.world.sight import PoiCamera
 
 #: Insertion (mm) between two views along a branch.
 VIEW_STEP_MM = 50.0
-#: How long (s) the reaching planner may take for one branch.
-BRANCH_TIME_S = 2.0
+#: How long (s) the reaching planner may take for one branch (a reachable goal takes 10-50 ms in the tanks, a few
+#: hundred in the mesh families; most of a failed one's time is wasted).
+BRANCH_TIME_S = 1.0
 #: The reaching planner that grows branches.
 REACH_PLANNER = "rrt-star"
 #: Goal stand-offs off a point of interest, as shares of the camera's range, tried in turn (a far goal sees more

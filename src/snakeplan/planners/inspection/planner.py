@@ -11,7 +11,6 @@ mission is the simulated world's time, not the planner's).
 from __future__ import annotations
 
 import time
-from abc import abstractmethod
 from collections.abc import Callable
 from typing import ClassVar
 
@@ -78,8 +77,10 @@ class InspectionPlanner(Planner):
 
     name: ClassVar[str] = ""
     tasks: ClassVar[frozenset[Task]] = frozenset({Task.INSPECT})
-    #: Whether the planner inspects points of interest with a fed arm's tip camera.
+    #: Whether the planner inspects points of interest with a fed arm's tip camera, and whether it maps a surface
+    #: field from a camera path (paper 002's station).
     fed: ClassVar[bool] = False
+    maps_fields: ClassVar[bool] = True
 
     def choose_branches(self, source: BranchSource, rng: np.random.Generator, deadline: float
                         ) -> tuple[list[Branch], bool]:
@@ -91,9 +92,10 @@ class InspectionPlanner(Planner):
         """Called once before a mission (subclasses keep their seeded generator here)."""
         self.rng = rng
 
-    @abstractmethod
     def next_path(self, state: MissionState) -> CameraPath | None:
-        """The camera path to fly next from ``state.position`` (None: nothing more to do)."""
+        """The camera path to fly next from ``state.position`` (None: nothing more to do); a planner that maps
+        fields implements it."""
+        raise NotImplementedError
 
     def survey(self, problem: Problem) -> Survey:
         """The (cached) survey of the problem's station, arm and settings."""
@@ -133,7 +135,10 @@ class InspectionPlanner(Planner):
         generator and the measurements' noise are its two streams, as before missions were plans)."""
         if problem.task is Task.INSPECT and problem.inspection.tip_camera and not self.fed:
             raise ValueError(f"task: planner {self.name} maps a surface field from a camera path; "
-                             f"{problem.scene.name} is inspected by a fed arm's tip camera (coverage, random)")
+                             f"{problem.scene.name} is inspected by a fed arm's tip camera (coverage, iris, random)")
+        if problem.task is Task.INSPECT and not problem.inspection.tip_camera and not self.maps_fields:
+            raise ValueError(f"task: planner {self.name} inspects points of interest with a fed arm's tip camera; "
+                             f"{problem.scene.name} maps a surface field (informative, coverage, random)")
         self._seed = int(seed)
         return super().plan(problem, seed)
 
