@@ -12,7 +12,7 @@ from snakeplan.geometry.distance import CLEARANCE_TOLERANCE_MM, CONTACT_RESOLUTI
 from snakeplan.geometry.primitives import Box, Plate, Sphere
 from snakeplan.robots import Chain, get_robot
 from snakeplan.robots.chain import Section
-from snakeplan.scenes import Entrance, Scene, make_scene, scene_names
+from snakeplan.scenes import Entrance, Scene, make_scene, scene_names, scene_spec
 from snakeplan.scenes.mesh_families import MESH_FAMILIES
 from snakeplan.world import JUDGE, PLANNING, ROLLOUT, FullView, Tolerances, ValidityChecker, targets_reached
 from snakeplan.world.validity import coarse_to_fine, crawl_free
@@ -213,7 +213,7 @@ def random_path(scene, robot, rng):
 #: The seed of each family's scene: 1, but confined's seed 1 is one small room that random paths cannot stay in.
 FAMILY_SEED = {"confined": 0}
 FAMILIES = [(name, scene) for name, scene in ((n, make_scene(n, FAMILY_SEED.get(n, 1))) for n in scene_names()
-                                              if n not in MESH_FAMILIES)
+                                              if n not in MESH_FAMILIES and scene_spec(n).task == "reach")
             if len(scene.targets)]
 
 

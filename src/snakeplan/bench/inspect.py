@@ -117,7 +117,8 @@ def _oracle_task(scene: tuple[str, int]) -> tuple[tuple[str, int], np.ndarray]:
 def summarise(rows: list[dict], visible: dict[tuple[str, int], np.ndarray]) -> dict:
     """Per family and planner, from the logged rows and each scene's reachable-visible points: missions, valid
     missions, mean coverage, mean and worst share of the reachable-visible points seen, mean mission time (s),
-    feed travel (m) and retractions, median and worst compute time (s)."""
+    feed travel (m) and retractions, median and worst compute time (s), and for a field the mean (and standard
+    deviation) of the final map's RMSE (K) at the end of the mission."""
     table: dict[str, dict[str, dict]] = {}
     for r in rows:
         m = r["metrics"] or {}
@@ -132,7 +133,7 @@ def summarise(rows: list[dict], visible: dict[tuple[str, int], np.ndarray]) -> d
                               "visible_share": share, "mission_time_s": m.get("mission_time_s"),
                               "motion_m": (m.get("motion_mm") or 0.0) / 1000.0,
                               "retractions": m.get("retractions"), "compute_time_s": r["compute_time_s"],
-                              "status": r["status"]})
+                              "final_rmse_k": m.get("final_rmse_k"), "status": r["status"]})
     for family in table.values():
         for entry in family.values():
             rs = entry["rows"]
@@ -148,18 +149,21 @@ def summarise(rows: list[dict], visible: dict[tuple[str, int], np.ndarray]) -> d
                          mission_time_s=float(col("mission_time_s").mean()), motion_m=float(col("motion_m").mean()),
                          retractions=float(col("retractions").mean()),
                          compute_median_s=float(np.median(col("compute_time_s"))),
-                         compute_max_s=float(col("compute_time_s").max()))
+                         compute_max_s=float(col("compute_time_s").max()),
+                         final_rmse_k=float(col("final_rmse_k").mean()) if col("final_rmse_k").size else None,
+                         final_rmse_std_k=float(col("final_rmse_k").std()) if col("final_rmse_k").size else None)
     return {"schema": SCHEMA, "families": table}
 
 
 def markdown(summary: dict) -> str:
     """The summary as a markdown table, a row per family and planner."""
-    lines = ["| family | planner | valid | coverage | of reachable-visible (mean / worst) | mission s | feed m | "
-             "retractions | compute median / max s |", "|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| family | planner | valid | coverage | of reachable-visible (mean / worst) | final RMSE K | mission s | "
+             "feed m | retractions | compute median / max s |", "|---|---|---|---|---|---|---|---|---|---|"]
     for family, planners in summary["families"].items():
         for name, e in planners.items():
             vis = "n/a" if e["visible_share"] is None else f"{e['visible_share']:.1%} / {e['visible_share_min']:.1%}"
-            lines.append(f"| {family} | {name} | {e['valid']}/{e['missions']} | {e['coverage']:.1%} | {vis} | "
+            rmse = "" if e["final_rmse_k"] is None else f"{e['final_rmse_k']:.2f} ± {e['final_rmse_std_k']:.2f}"
+            lines.append(f"| {family} | {name} | {e['valid']}/{e['missions']} | {e['coverage']:.1%} | {vis} | {rmse} | "
                          f"{e['mission_time_s']:.0f} | {e['motion_m']:.1f} | {e['retractions']:.1f} | "
                          f"{e['compute_median_s']:.1f} / {e['compute_max_s']:.1f} |")
     return "\n".join(lines)

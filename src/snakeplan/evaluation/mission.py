@@ -31,6 +31,8 @@ from snakeplan.world.mission import (
     Mission,
     inspected_surface,
     mission_rngs,
+    points_field,
+    points_prior,
     tip_poses,
 )
 
@@ -80,6 +82,7 @@ class MissionReport:
     retractions: int = 0
     returned: bool = False
     seen: np.ndarray | None = None
+    tip_camera: bool = False
 
     def metrics(self) -> dict:
         """The metrics block of an inspect plan's ``snakeplan.plan/1`` document and runner rows."""
@@ -91,7 +94,7 @@ class MissionReport:
                 "coverage": self.coverage,
                 "points": None if self.seen is None else int(self.seen.size),
                 "points_seen": None if self.seen is None else int(self.seen.sum()),
-                "seen_points": None if self.seen is None or self.rmse_k.size else np.flatnonzero(self.seen).tolist(),
+                "seen_points": np.flatnonzero(self.seen).tolist() if self.tip_camera else None,
                 "motion_mm": self.motion_mm, "retractions": self.retractions, "returned": self.returned,
                 "final_rmse_k": float(self.rmse_k[-1]) if self.rmse_k.size else None,
                 "final_trace_k2": float(self.trace_k2[-1]) if self.trace_k2.size else None,
@@ -104,9 +107,10 @@ class MissionReport:
         """The verdict as console lines."""
         head = "inspected: every motion valid, every view on the arm" if self.success else (
             f"refused ({self.reason}) at {self.failure.time_s:.2f} s, motion {self.failure.motion}")
-        if self.seen is not None and not self.rmse_k.size and self.motion_mm:
+        if self.tip_camera:
+            mapped = f", final RMSE {self.rmse_k[-1]:.3f} K" if self.rmse_k.size else ""
             return [head, f"views {self.views} ({self.views_on_arm} on the arm), points of interest seen "
-                          f"{int(self.seen.sum())} of {self.seen.size} ({self.coverage:.1%}), mission "
+                          f"{int(self.seen.sum())} of {self.seen.size} ({self.coverage:.1%}){mapped}, mission "
                           f"{self.mission_time_s:.0f} s, feed travel {self.motion_mm / 1000:.1f} m, "
                           f"{self.retractions} retractions, {'back out' if self.returned else 'left inserted'}, "
                           f"min clearance {self.min_clearance_mm:.1f} mm"]
@@ -325,11 +329,18 @@ def _evaluate_mission(scene: Scene, robot: Chain, mission: Mission, settings: In
                   views=len(views), views_on_arm=int(held.sum()),
                   motion_mm=float(sum(m.travel_mm for m in crawls)),
                   retractions=int(sum(_reversals(m.depths_mm) for m in crawls)),
-                  returned=bool(crawls) and float(crawls[-1].depths_mm[-1]) <= CONTINUITY_MM)
+                  returned=bool(crawls) and float(crawls[-1].depths_mm[-1]) <= CONTINUITY_MM,
+                  tip_camera=settings.tip_camera)
     if settings.tip_camera:
         seen = points_seen(scene, settings.camera, views.positions, views.directions)
-        return MissionReport(**common, coverage=float(seen.mean()), times_s=views.times_s.copy(), rmse_k=np.zeros(0),
-                             trace_k2=np.zeros(0), final_mean_k=np.zeros(0), final_variance_k2=np.zeros(0), seen=seen)
+        if points_field(scene) is None:
+            return MissionReport(**common, coverage=float(seen.mean()), times_s=views.times_s.copy(),
+                                 rmse_k=np.zeros(0), trace_k2=np.zeros(0), final_mean_k=np.zeros(0),
+                                 final_variance_k2=np.zeros(0), seen=seen)
+        gmap, rmse, trace = measure_points(scene, replace(mission, settings=settings))
+        return MissionReport(**common, coverage=float(seen.mean()), times_s=views.times_s.copy(),
+                             rmse_k=np.array(rmse), trace_k2=np.array(trace), final_mean_k=gmap.mean.copy(),
+                             final_variance_k2=np.diag(gmap.cov).copy(), seen=seen)
     gmap, seen, rmse, trace = measure_views(scene, replace(mission, settings=settings))  # the task's camera
     return MissionReport(**common, coverage=float(seen.mean()), times_s=views.times_s.copy(), rmse_k=np.array(rmse),
                          trace_k2=np.array(trace), final_mean_k=gmap.mean.copy(),
@@ -341,6 +352,31 @@ def _reversals(depths: np.ndarray) -> int:
     step = np.sign(np.diff(depths))
     step = step[step != 0]
     return int(np.sum((step[:-1] > 0) & (step[1:] < 0)) + (1 if step.size and step[0] < 0 else 0))
+
+
+def measure_points(scene: Scene, mission: Mission, on_measure: Callable[[float, np.ndarray, object], None] | None = None
+                   ) -> tuple[object, list[float], list[float]]:
+    """A fed arm's views measured again on the scene's field at its points of interest: each view's simulated
+    measurement (the tip camera, :meth:`snakeplan.world.sight.PoiCamera.measure`, noise from the mission's
+    measurement seed) fused into the map from its prior in view order. Returns (the final map, the RMSE (K) and
+    covariance trace (K^2) after each view); ``on_measure(t, position, map)`` sees the map after each."""
+    from snakeplan.mapping import GaussianMap
+    from snakeplan.world.sight import PoiCamera
+
+    truth = points_field(scene)
+    prior = points_prior(scene, mission.settings)
+    gmap = GaussianMap(prior.mean, prior.covariance)
+    camera = PoiCamera(scene.obstacle_set, scene.points_of_interest, mission.settings.camera)
+    noise = mission_rngs(mission.measurement_seed)[1]
+    rmse, trace = [], []
+    v = mission.views
+    for t, p, d in zip(v.times_s, v.positions, v.directions):
+        gmap.update(*camera.measure(p, d, truth, noise))
+        rmse.append(gmap.rmse(truth))
+        trace.append(gmap.trace)
+        if on_measure is not None:
+            on_measure(float(t), p, gmap)
+    return gmap, rmse, trace
 
 
 def points_seen(scene: Scene, camera: CameraModel, positions: np.ndarray, directions: np.ndarray) -> np.ndarray:

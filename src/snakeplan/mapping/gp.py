@@ -146,9 +146,11 @@ def _min_duplicates(i: np.ndarray, j: np.ndarray, w: np.ndarray, n: int):
 
 
 def matern32(distance: ArrayLike, sigma_f: float, length_scale: float) -> np.ndarray:
-    """Eq. 3: sigma_f^2 (1 + sqrt(3) d / l) exp(-sqrt(3) d / l), d and l in mm."""
+    """Eq. 3: sigma_f^2 (1 + sqrt(3) d / l) exp(-sqrt(3) d / l), d and l in mm; 0 at an infinite distance."""
     r = math.sqrt(3.0) * np.asarray(distance, dtype=float) / length_scale
-    return sigma_f**2 * (1.0 + r) * np.exp(-r)
+    far = np.isinf(r)
+    r = np.where(far, 0.0, r)
+    return np.where(far, 0.0, sigma_f**2 * (1.0 + r) * np.exp(-r))
 
 
 @dataclass(frozen=True)
@@ -205,6 +207,60 @@ def surface_prior(vertices: ArrayLike, faces: ArrayLike, mean: float = 0.0, sigm
         _PRIOR_CACHE[key] = nearest_psd(matern32(D, sigma_f, length_scale), PD_FLOOR_REL * sigma_f**2)
     cov, fix = _PRIOR_CACHE[key]
     return SurfacePrior(np.full(len(V), float(mean)), cov.copy(), float(sigma_f), float(length_scale), fix)
+
+
+#: Neighbours each point of interest joins in the graph whose shortest paths stand for distances over a surface.
+POINT_NEIGHBOURS = 8
+
+
+def point_distances(points: ArrayLike, normals: ArrayLike, groups: ArrayLike, neighbours: int = POINT_NEIGHBOURS
+                    ) -> np.ndarray:
+    """Distances (n, n) mm over the surfaces between points sampled on them: shortest paths through the graph that
+    joins each point to its ``neighbours`` nearest on the same surface (``groups``: the surface each lies on) by
+    straight chords, and the straight distance between two points of one surface in one plane (their normal lines
+    parallel and through each other's plane to 1e-6 mm: on a convex face, such as a box's, the straight segment is
+    the geodesic; through a plate's hole it is shorter); inf between points of different surfaces or parts of one
+    that the graph does not join (their fields are independent)."""
+    from scipy.spatial import cKDTree
+
+    P = np.asarray(points, dtype=float)
+    N = np.asarray(normals, dtype=float)
+    g = np.asarray(groups)
+    n = len(P)
+    rows, cols, w = [], [], []
+    for k in np.unique(g):
+        idx = np.flatnonzero(g == k)
+        if idx.size < 2:
+            continue
+        d, j = cKDTree(P[idx]).query(P[idx], k=min(neighbours, idx.size - 1) + 1)
+        rows.append(np.repeat(idx, d.shape[1] - 1))
+        cols.append(idx[j[:, 1:]].ravel())
+        w.append(d[:, 1:].ravel())
+    D = np.full((n, n), np.inf)
+    if rows:
+        graph = coo_matrix((np.concatenate(w), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n)).tocsr()
+        D = dijkstra(graph, directed=False)
+    np.fill_diagonal(D, 0.0)
+    chord = np.linalg.norm(P[:, None] - P[None], axis=-1)
+    level = np.abs(np.einsum("ik,ijk->ij", N, P[None] - P[:, None]))
+    coplanar = (g[:, None] == g[None]) & (np.abs(N @ N.T) >= 1.0 - 1e-12) & (level <= 1e-6) & (level.T <= 1e-6)
+    return np.where(coplanar, chord, D)
+
+
+def point_prior(points: ArrayLike, normals: ArrayLike, groups: ArrayLike, mean: float = 0.0,
+                sigma_f: float = DEFAULT_SIGMA_F, length_scale: float = DEFAULT_LENGTH_SCALE_MM) -> SurfacePrior:
+    """GP prior over points of interest (the field's values there): Matérn 3/2 on the distance over their
+    surfaces (:func:`point_distances`), made positive-definite by eigenvalue clipping as on a mesh; cached within
+    the process."""
+    P = np.ascontiguousarray(points, dtype=float)
+    N = np.ascontiguousarray(normals, dtype=float)
+    g = np.ascontiguousarray(groups, dtype=np.int64)
+    key = (hashlib.sha1(P.tobytes() + N.tobytes() + g.tobytes()).hexdigest(), float(sigma_f), float(length_scale))
+    if key not in _PRIOR_CACHE:
+        _PRIOR_CACHE[key] = nearest_psd(matern32(point_distances(P, N, g), sigma_f, length_scale),
+                                        PD_FLOOR_REL * sigma_f**2)
+    cov, fix = _PRIOR_CACHE[key]
+    return SurfacePrior(np.full(len(P), float(mean)), cov.copy(), float(sigma_f), float(length_scale), fix)
 
 
 def batch_posterior(mean: np.ndarray, cov: np.ndarray, idx: ArrayLike, y: ArrayLike, noise_var: ArrayLike

@@ -19,6 +19,16 @@ Each plan starts where the camera is (c_1) and picks N - 1 more control points:
 4. The better feasible spline of (CMA-ES optimum, greedy) is flown (the greedy polyline, feasible by
    construction, if neither is); the map fuses the real measurements and the planner is asked again
    (replanning as measurements come in) until the budget is spent.
+
+A fed arm mapping a field at a scene's points of interest (``inspect.field``) flies a tree of insertions
+(:mod:`snakeplan.planners.inspection.branches`) chosen the same way, by information per second: in rounds, goals
+facing points drawn in proportion to their weighted posterior variance, a branch to each (the reaching planner);
+of the branches grown, the one whose views drop the weighted trace the most per second of mission it adds (its
+insertion and retraction past where it leaves the last branch) is flown next: its views' measurements are fused
+(noise from the mission's own stream, as the judge draws it), the interest weights follow the map, and the next
+is chosen from the new map. Scores are kept as bounds between rounds and only the best is scored again (lazy
+greedy: measuring lowers every gain; the interest weights may raise one, so it is near-greedy). It stops when the
+mission's budget is full, ``IDLE_ROUNDS`` rounds add nothing, or the time limit comes.
 """
 
 from __future__ import annotations
@@ -30,10 +40,12 @@ from scipy.special import ndtr
 from snakeplan.mapping import GainEvaluator, GaussianMap
 from snakeplan.planners.inspection import (
     N_CONTROL_POINTS,
+    CameraPath,
     InspectionPlanner,
     MissionState,
-    CameraPath,
 )
+from snakeplan.planners.inspection.branches import Branch, BranchSource, mission_time, shared_length
+from snakeplan.world.mission import mission_rngs, points_field, points_prior
 from snakeplan.planners.registry import register_planner
 
 #: CMA-ES: initial step (mm), population size, generations per plan.
@@ -47,6 +59,11 @@ MIN_HOP_MM = 500.0
 #: Hot-spot threshold (K above the prior mean) of the adaptive interest weights; None: plain eq. 13. Chosen
 #: on seeds 100-105 (not the bench seeds) among 10 and 20 K.
 INTEREST_DELTA_K = 10.0
+#: A fed arm's tree: branches grown before the first choice and per round after, rounds in a row that add nothing
+#: before it stops.
+FIRST_BRANCHES = 30
+ROUND_BRANCHES = 8
+IDLE_ROUNDS = 10
 
 
 def interest_weights(mean: np.ndarray, cov: np.ndarray, threshold: float) -> np.ndarray:
@@ -57,9 +74,90 @@ def interest_weights(mean: np.ndarray, cov: np.ndarray, threshold: float) -> np.
 
 @register_planner
 class InformativePlanner(InspectionPlanner):
-    """Informative path planning (IP): greedy + CMA-ES, replanned after every flown trajectory."""
+    """Informative path planning (IP): greedy + CMA-ES, replanned after every flown trajectory; for a fed arm, a
+    tree of insertions chosen by information per second, replanned after every branch."""
 
     name = "informative"
+    fed = True
+
+    def plan(self, problem, seed: int = 0):
+        """Plan the mission; a fed arm's needs a field to map (ValueError naming ``task`` otherwise)."""
+        if problem.task == "inspect" and problem.inspection.tip_camera and points_field(problem.scene) is None:
+            raise ValueError(f"task: planner informative maps a field; {problem.scene.name} has none at its points "
+                             f"of interest (inspect.field): coverage, iris or random see them")
+        return super().plan(problem, seed)
+
+    def choose_branches(self, source: BranchSource, rng: np.random.Generator, deadline: float
+                        ) -> tuple[list[Branch], bool]:
+        import heapq
+        import time
+
+        problem = source.problem
+        settings, scene = problem.inspection, problem.scene
+        truth = points_field(scene)
+        prior = points_prior(scene, settings)
+        gmap = GaussianMap(prior.mean, prior.covariance)
+        self.final_map = gmap  # the planner's own map, as its last branch left it
+        noise = mission_rngs(self._seed)[1]
+        threshold = None if self.interest_delta_k is None else float(prior.mean[0]) + self.interest_delta_k
+        direction = scene.entrance.direction
+        v = problem.robot.limits.feed_speed_mm_s
+        n = len(source.pois)
+        tries = np.zeros(n, dtype=np.int64)
+        tree: list[Branch] = []
+        bounds: list[tuple[float, int, Branch]] = []  # (-score bound, tie-break, branch)
+        alone: dict[int, float] = {}
+        idle, count = 0, 0
+        while idle < IDLE_ROUNDS:
+            weights = None if threshold is None else interest_weights(gmap.mean, gmap.cov, threshold)
+            want = np.diag(gmap.cov) * (1.0 if weights is None else weights) * (tries < 4)
+            if want.sum() <= 0.0:
+                return tree, True
+            grow = FIRST_BRANCHES if not tree and not bounds else ROUND_BRANCHES
+            for k in rng.choice(n, size=min(grow, int(np.count_nonzero(want))), replace=False, p=want / want.sum()):
+                if time.perf_counter() >= deadline:
+                    return tree, False
+                goal = source.goal_facing(int(k), int(tries[k]))
+                tries[k] += 1
+                branch = None if goal is None else source.branch_to(goal, deadline)
+                if branch is not None:
+                    count += 1
+                    alone[id(branch)] = mission_time([branch], problem.robot, direction)
+                    heapq.heappush(bounds, (-np.inf, count, branch))
+            ev = GainEvaluator(gmap.cov, weights)
+            last = tree[-1] if tree else None
+
+            def rate(b: Branch) -> float:
+                nodes, dist = b.sightings.node, b.sightings.distance
+                start = shared_length(last.path, b.path) if last is not None else 0.0
+                keep = b.depths[b.sightings.pose] > start
+                added = alone[id(b)] - 2.0 * start / v
+                gain = ev.gain(nodes[keep], settings.camera.noise_variance(dist[keep]))
+                return gain / max(added, 1e-9)
+
+            best = None
+            while bounds:
+                _, tag, b = heapq.heappop(bounds)
+                score = rate(b)
+                if not bounds or score >= -bounds[0][0]:
+                    best = (score, tag, b)
+                    break
+                heapq.heappush(bounds, (-score, tag, b))
+            if best is None or best[0] <= 0.0:
+                idle += 1
+                if best is not None:
+                    heapq.heappush(bounds, (-best[0], best[1], best[2]))
+                continue
+            b = best[2]
+            if mission_time(tree + [b], problem.robot, direction) > settings.budget_s:
+                idle += 1
+                continue
+            start = shared_length(last.path, b.path) if last is not None else 0.0
+            for i in np.flatnonzero(b.depths > start):
+                gmap.update(*source.camera.measure(b.positions[i], b.directions[i], truth, noise))
+            tree.append(b)
+            idle = 0
+        return tree, True
 
     def __init__(self, n_control: int = N_CONTROL_POINTS, generations: int = CMA_GENERATIONS,
                  popsize: int = CMA_POPSIZE, sigma0: float = CMA_SIGMA0_MM,

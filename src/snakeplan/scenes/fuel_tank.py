@@ -381,3 +381,20 @@ def fuel_tank(seed: int, *, arm_length_mm: float = ARM_LENGTH_MM, reach_fraction
                 return Scene("fuel-tank", seed, bounds_min, bounds_max, entrance, target[None], obstacles, meta,
                              discovered=tuple(range(len(fixed), len(obstacles))))
     raise RuntimeError(f"fuel-tank: no valid scene for seed {seed} in {MAX_ATTEMPTS} attempts")
+
+
+#: Mission time (s) of a thermal tank's inspection.
+THERMAL_BUDGET_S = 600.0
+
+
+@register_scene("thermal-tank", robot=ROBOT, planner="informative", task="inspect")
+def thermal_tank(seed: int) -> Scene:
+    """The fuel tank of ``seed`` with a seeded temperature-like field on its walls, baffles and clutter (hot spots
+    at its points of interest, :func:`snakeplan.scenes.inspect.with_hot_spots`), to be mapped by the tip camera
+    within :data:`THERMAL_BUDGET_S`."""
+    from dataclasses import replace
+
+    from snakeplan.scenes.inspect import InspectSpec, with_hot_spots
+
+    tank = replace(fuel_tank(seed), name="thermal-tank")
+    return with_hot_spots(tank, seed, InspectSpec(budget_s=THERMAL_BUDGET_S))

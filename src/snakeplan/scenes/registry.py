@@ -43,6 +43,7 @@ DEFAULT_PLANNER = {Task.REACH: "as-rrt", Task.INSPECT: "informative"}
 
 BUILTIN_SCENES = {
     "fuel-tank": "snakeplan.scenes.fuel_tank:fuel_tank",
+    "thermal-tank": "snakeplan.scenes.fuel_tank:thermal_tank",
     "oil-tank": "snakeplan.scenes.oil_tank:oil_tank",
     "confined": "snakeplan.scenes.confined:confined",
     "pipe": "snakeplan.scenes.pipe:pipe",

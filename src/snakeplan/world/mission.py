@@ -85,6 +85,10 @@ class InspectionSettings:
 
 #: Mission time (s) of a fed arm's inspection when the scene's ``inspect`` block names none: half an hour.
 FED_BUDGET_S = 1800.0
+#: A fed arm's map prior: amplitude (K) and Matérn length scale (mm), chosen for the seeded hot spots
+#: (:func:`snakeplan.scenes.inspect.with_hot_spots`: 15-40 K, 100-250 mm wide) on a tank's walls.
+FED_SIGMA_F_K = 20.0
+FED_LENGTH_SCALE_MM = 200.0
 
 
 def default_settings(scene: Scene, robot=None) -> InspectionSettings:
@@ -96,7 +100,22 @@ def default_settings(scene: Scene, robot=None) -> InspectionSettings:
     spec = scene.inspect
     budget = FED_BUDGET_S if spec is None or spec.budget_s is None else spec.budget_s
     return InspectionSettings(budget_s=budget, speed_mm_s=robot.limits.feed_speed_mm_s, measurement_hz=None,
-                              camera=robot.camera)
+                              camera=robot.camera, sigma_f=FED_SIGMA_F_K, length_scale=FED_LENGTH_SCALE_MM)
+
+
+def points_field(scene: Scene) -> np.ndarray | None:
+    """The true field (K) at the scene's points of interest, or None when its inspection maps none."""
+    return None if scene.inspect is None else scene.inspect.field
+
+
+def points_prior(scene: Scene, settings: InspectionSettings):
+    """The map's prior over the scene's points of interest (:func:`snakeplan.mapping.gp.point_prior`) under
+    ``settings``: mean from the settings or the scene's base temperature."""
+    from snakeplan.mapping.gp import point_prior
+
+    p = scene.points_of_interest
+    return point_prior(p.points, p.normals, p.obstacle, settings.prior_mean(scene.metadata), settings.sigma_f,
+                       settings.length_scale)
 
 
 def measures_field(scene: Scene) -> bool:

@@ -44,6 +44,14 @@ class PoiCamera:
         clear = hit >= s.distance - self.pois.depth[s.node] - OCCLUSION_MM
         return Sightings(s.pose[clear], s.node[clear], s.distance[clear])
 
+    def measure(self, position: ArrayLike, direction: ArrayLike, truth: ArrayLike, rng: np.random.Generator
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """A simulated measurement of a field from one view: (points seen, noisy values K, noise variances K^2),
+        the camera model's noise at each point's distance, drawn from ``rng``."""
+        s = self.visible(np.reshape(position, (1, 3)), np.reshape(direction, (1, 3)))
+        r = self.model.noise_variance(s.distance)
+        return s.node, np.asarray(truth, dtype=float)[s.node] + rng.normal(0.0, np.sqrt(r)), r
+
     def seen(self, positions: ArrayLike, directions: ArrayLike) -> np.ndarray:
         """Which points of interest (n,) bool any of the views sees."""
         out = np.zeros(len(self.pois), dtype=bool)

@@ -23,6 +23,7 @@ from snakeplan import ftl
 from snakeplan.geometry.polyline import cumulative_length
 from snakeplan.planners.base import Problem
 from snakeplan.robots import Chain
+from snakeplan.mapping.camera import Sightings
 from snakeplan.world import FullView
 from snakeplan.world.mission import Crawl, InspectionSettings, Mission, Views, tip_poses
 from snakeplan.world.sight import PoiCamera
@@ -44,13 +45,15 @@ GOAL_CLEARANCE_MM = 15.0
 @dataclass(frozen=True)
 class Branch:
     """One insertion from the entrance: the tip path (m, 3) mm, the depths (k,) mm of its views, their positions
-    (k, 3) mm and directions (k, 3), and the indices of the points of interest they see."""
+    (k, 3) mm and directions (k, 3), the indices of the points of interest they see, and each sighting (view,
+    point, distance mm)."""
 
     path: np.ndarray
     depths: np.ndarray
     positions: np.ndarray
     directions: np.ndarray
     seen: np.ndarray
+    sightings: Sightings
 
     @property
     def length(self) -> float:
@@ -129,8 +132,8 @@ class BranchSource:
         length = float(cumulative_length(path)[-1])
         depths = np.unique(np.r_[np.arange(VIEW_STEP_MM, length, VIEW_STEP_MM), length])
         pos, axes = tip_poses(path, depths, self.robot.lengths, self.scene.entrance.direction)
-        seen = np.unique(self.camera.visible(pos, axes).node)
-        return Branch(np.asarray(path, dtype=float), depths, pos, axes, seen)
+        sight = self.camera.visible(pos, axes)
+        return Branch(np.asarray(path, dtype=float), depths, pos, axes, np.unique(sight.node), sight)
 
 
 def _timed(path: np.ndarray, depths: np.ndarray, robot: Chain, entrance_direction: np.ndarray) -> np.ndarray:
