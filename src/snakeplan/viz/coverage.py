@@ -96,21 +96,23 @@ def _draw(ax, scene: Scene, line: Timeline, k: int, never: np.ndarray | None) ->
     set_flat_view(ax, scene)
 
 
-def coverage_figure(scene: Scene, line: Timeline, title: str, never: np.ndarray | None = None):
+def coverage_figure(scene: Scene, line: Timeline, title: str, never: np.ndarray | None = None, report=None):
     """The mission's coverage as a figure: the scene with the points coloured (seen, not seen, never visible) and
-    the branches, beside the share seen over mission time."""
+    the branches, beside the share seen over mission time; with a judged field (``report``'s RMSE curve), the map's
+    RMSE over mission time too and the final map's error at each point."""
     import matplotlib.pyplot as plt
     from matplotlib.lines import Line2D
 
-    fig = plt.figure(figsize=(13, 6))
-    ax = fig.add_subplot(1, 2, 1, projection="3d")
+    mapped = report is not None and report.rmse_k.size > 0
+    fig = plt.figure(figsize=(19 if mapped else 13, 6))
+    ax = fig.add_subplot(1, 3 if mapped else 2, 1, projection="3d")
     _draw(ax, scene, line, len(line.times) - 1, never)
     handles = [Line2D([], [], ls="", marker="o", color=c, label=lab) for c, lab in
                ((SEEN_HEX, "seen"), (UNSEEN_HEX, "not seen"))] + (
         [Line2D([], [], ls="", marker="o", color=NEVER_HEX, label="never visible (oracle)")] if never is not None
         else []) + [Line2D([], [], color=BRANCH_HEX, label="branches (tip paths)")]
     ax.legend(handles=handles, loc="upper left", fontsize=8)
-    c = fig.add_subplot(1, 2, 2)
+    c = fig.add_subplot(1, 3 if mapped else 2, 2)
     c.plot(line.times, 100 * line.coverage, color=SEEN_HEX)
     if never is not None and (~never).any():
         c.plot(line.times, 100 * line.seen[:, ~never].mean(axis=1), color=BRANCH_HEX, ls="--")
@@ -119,21 +121,36 @@ def coverage_figure(scene: Scene, line: Timeline, title: str, never: np.ndarray 
     c.set_ylabel("points of interest seen (%)")
     c.set_ylim(0, 100)
     c.grid(alpha=0.3)
+    if mapped:
+        r = c.twinx()
+        r.plot(report.times_s, report.rmse_k, color="#d62728")
+        r.set_ylabel("map RMSE (K)", color="#d62728")
+        r.set_ylim(bottom=0)
+        e = fig.add_subplot(1, 3, 3, projection="3d")
+        from snakeplan.viz.scene_plot import draw_scene, set_flat_view
+
+        draw_scene(e, scene.with_targets(np.zeros((0, 3))), legend=False)
+        err = np.abs(report.final_mean_k - scene.inspect.field)
+        dots = e.scatter(*line.points.T, c=err, cmap="magma_r", s=8, depthshade=False, vmin=0.0)
+        set_flat_view(e, scene)
+        fig.colorbar(dots, ax=e, shrink=0.6, label="final map error (K)")
+        e.set_title("the map's error at each point", fontsize=9)
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     return fig
 
 
 def coverage_title(scene: Scene, robot_name: str, planner: str, report) -> str:
+    mapped = f", final RMSE {report.rmse_k[-1]:.2f} K" if report.rmse_k.size else ""
     return (f"{scene.label}, {robot_name}, {planner}: {report.coverage:.0%} of {report.seen.size} points seen in "
-            f"{report.mission_time_s:.0f} s, {report.retractions} retractions")
+            f"{report.mission_time_s:.0f} s{mapped}, {report.retractions} retractions")
 
 
 def save_coverage_figure(filename: str | Path, scene: Scene, line: Timeline, title: str,
-                         never: np.ndarray | None = None) -> Path:
+                         never: np.ndarray | None = None, report=None) -> Path:
     from snakeplan.viz.figures import save_figure
 
-    return save_figure(coverage_figure(scene, line, title, never), filename)
+    return save_figure(coverage_figure(scene, line, title, never, report), filename)
 
 
 def coverage_frames_rgb(scene: Scene, line: Timeline, title: str, size: tuple[int, int], progress: bool = False):

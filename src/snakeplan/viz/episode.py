@@ -32,7 +32,7 @@ def save_episode_plot(filename: str | Path, episode) -> None:
     if _fed(episode):
         from snakeplan.viz.coverage import save_coverage_figure
 
-        save_coverage_figure(filename, problem.scene, *_timeline(episode, 200))
+        save_coverage_figure(filename, problem.scene, *_timeline(episode, 200), report=episode.report)
         return
     if plan.mission is not None:
         from snakeplan.viz.mission import save_mission_maps
