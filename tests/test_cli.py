@@ -334,8 +334,10 @@ def test_bench_kernels_reports_each_kernel_beside_its_baseline(capsys):
 
 def test_a_task_the_scene_or_the_planner_does_not_do_is_one_line_exit_2_and_nothing_written(tmp_path, capsys):
     png = tmp_path / "plan.png"
-    code, out, err = run(capsys, "plan", "--scene", "fuel-tank", "--task", "inspect", "--plot", str(png))
-    assert (code, out) == (2, "") and err == "snakeplan: error: --task: fuel-tank has no surface field to inspect\n"
+    code, out, err = run(capsys, "plan", "--scene", "fuel-tank", "--task", "inspect", "--planner", "informative",
+                         "--plot", str(png))
+    assert (code, out) == (2, "") and err.startswith("snakeplan: error: task: planner informative maps a field, and "
+                                                     "fuel-tank has none at its points of interest (no inspect.field)")
     code, out, err = run(capsys, "plan", "--scene", "station", "--task", "inspect", "--planner", "sp-rrt", "--plot",
                          str(png))
     assert (code, out) == (2, "") and err == ("snakeplan: error: --task: planner sp-rrt does not inspect (it does: "
@@ -380,7 +382,7 @@ def test_check_judges_an_inspect_plans_mission_from_its_document_alone(tmp_path,
     import snakeplan.world.mission as missions
     from snakeplan.world.mission import InspectionSettings
 
-    monkeypatch.setattr(missions, "default_settings", lambda scene: InspectionSettings(budget_s=16.0))
+    monkeypatch.setattr(missions, "default_settings", lambda scene, robot=None: InspectionSettings(budget_s=16.0))
     code, out, _ = run(capsys, "plan", "--scene", "station", "--planner", "coverage", "--json")
     doc = json.loads(out)
     assert code == 0 and doc["mission"]["settings"]["budget_s"] == 16.0

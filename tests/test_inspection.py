@@ -53,7 +53,7 @@ def world(problem):
 
 
 def test_registry_names():
-    assert inspection_planner_names() == ["coverage", "informative", "random"]
+    assert inspection_planner_names() == ["coverage", "informative", "iris", "random"]
     with pytest.raises(KeyError, match="known: coverage, informative, iris, random"):
         get_inspection_planner("nope")
 

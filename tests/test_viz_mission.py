@@ -66,7 +66,7 @@ def test_plan_station_writes_plot_video_and_page(tmp_path, monkeypatch, capsys):
     import snakeplan.world.mission as missions
     from snakeplan.cli import main
 
-    monkeypatch.setattr(missions, "default_settings", lambda scene: InspectionSettings(budget_s=10.0))
+    monkeypatch.setattr(missions, "default_settings", lambda scene, robot=None: InspectionSettings(budget_s=10.0))
     png, mp4, page = tmp_path / "maps.png", tmp_path / "flight.mp4", tmp_path / "flight.html"
     assert main(["plan", "--scene", "station", "--planner", "random", "--plot", str(png), "--animate", str(mp4),
                  "--frames", "6", "--frame-size", "480x272", "--html", str(page)]) == 0

@@ -128,15 +128,17 @@ class Problem:
             raise ValueError(f"scene: {self.scene.name} has no targets to plan to")
         if not isinstance(self.robot, Chain):
             raise ValueError(f"robot: must be a Chain, got {type(self.robot).__name__}")
-        if self.task is Task.INSPECT:
-            if missions.measures_field(self.scene):
-                inspected_surface(self.scene)
-            else:
-                _ = self.scene.points_of_interest  # sampled now: a bad inspect block is refused here
         if self.inspection is None:
             object.__setattr__(self, "inspection", missions.default_settings(self.scene, self.robot))
         if not isinstance(self.inspection, InspectionSettings):
             raise ValueError(f"inspection: must be InspectionSettings, got {type(self.inspection).__name__}")
+        if self.task is Task.INSPECT:
+            if self.inspection.tip_camera:
+                if not self.scene.obstacles:
+                    raise ValueError(f"scene: {self.scene.name} has no surface to inspect (no obstacles)")
+                _ = self.scene.points_of_interest  # sampled now: a bad inspect block is refused here
+            else:
+                inspected_surface(self.scene)  # a measurement clock maps a surface field (the station)
         if not _positive(self.sensor_range_mm):
             raise ValueError(f"sensor_range_mm: must be a positive number of mm, got {self.sensor_range_mm!r}")
         if self.world is None:

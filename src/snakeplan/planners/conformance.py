@@ -59,7 +59,7 @@ from snakeplan.world import (
     guarded,
     targets_reached,
 )
-from snakeplan.world.mission import InspectionSettings
+from snakeplan.world.mission import InspectionSettings, default_settings
 
 #: The problems used when none are given: these scene families (seed ``scene_seed``) with this robot.
 DEFAULT_SCENES = ("fuel-tank", "oil-tank")
@@ -71,6 +71,10 @@ DEFAULT_TIME_LIMIT_S = 5.0
 INSPECT_SCENE = "station"
 INSPECT_ROBOT = "hsr-10"
 INSPECT_BUDGET_S = 10.0
+#: A fed arm's inspect problem (the tip camera, a field to map), and its mission budget (s).
+FED_SCENE = "thermal-tank"
+FED_ROBOT = "sjtu-snake-iii"
+FED_BUDGET_S = 120.0
 #: Time limit (s) of the hard problems of the deadline rule.
 TINY_TIME_LIMIT_S = 0.05
 #: Allowed overrun of the time limit: the larger of this (s) and this fraction of the limit.
@@ -112,6 +116,20 @@ def default_problems(scenes: Sequence[str] = DEFAULT_SCENES, robot: str = DEFAUL
     return [Problem(make_scene(name, scene_seed), chain, time_limit_s) for name in scenes]
 
 
+def inspect_problems(planner: Planner, scene_seed: int, time_limit_s: float) -> list[Problem]:
+    """An inspection planner's problems: the station's field from a camera path where it maps one, a fed arm's tip
+    camera in the thermal tank where it does that (short budgets, so the check is quick)."""
+    out = []
+    if getattr(planner, "maps_fields", True):
+        out.append(Problem(make_scene(INSPECT_SCENE, scene_seed), get_robot(INSPECT_ROBOT), time_limit_s,
+                           task=Task.INSPECT, inspection=InspectionSettings(budget_s=INSPECT_BUDGET_S)))
+    if getattr(planner, "fed", False):
+        scene, robot = make_scene(FED_SCENE, scene_seed), get_robot(FED_ROBOT)
+        settings = dataclasses.replace(default_settings(scene, robot), budget_s=FED_BUDGET_S)
+        out.append(Problem(scene, robot, time_limit_s, task=Task.INSPECT, inspection=settings))
+    return out
+
+
 def check_planner(planner: Planner | str, problems: Sequence[Problem] | None = None, *,
                   scenes: Sequence[str] = DEFAULT_SCENES, robot: str = DEFAULT_ROBOT, scene_seed: int = 1,
                   time_limit_s: float = DEFAULT_TIME_LIMIT_S, seed: int = 0) -> ConformanceReport:
@@ -122,8 +140,7 @@ def check_planner(planner: Planner | str, problems: Sequence[Problem] | None = N
     if isinstance(planner, str):
         planner = get_planner(planner)
     if problems is None and Task.REACH not in planner.tasks:
-        problems = [Problem(make_scene(INSPECT_SCENE, scene_seed), get_robot(INSPECT_ROBOT), time_limit_s,
-                            task=Task.INSPECT, inspection=InspectionSettings(budget_s=INSPECT_BUDGET_S))]
+        problems = inspect_problems(planner, scene_seed, time_limit_s)
     elif problems is None:
         problems = default_problems(scenes, robot, scene_seed, time_limit_s)
     if not problems:
@@ -262,8 +279,12 @@ def _malformed(problem: Problem, needs_full_scene: bool) -> list[tuple[str, obje
     fields = {"scene": scene, "robot": problem.robot, "time_limit_s": problem.time_limit_s,
               "knowledge": problem.knowledge, "sensor_range_mm": problem.sensor_range_mm, "task": problem.task,
               "inspection": problem.inspection}
-    empty = (dataclasses.replace(scene, targets=np.zeros((0, 3))) if problem.task is Task.REACH
-             else dataclasses.replace(scene, metadata={}))
+    if problem.task is Task.REACH:
+        empty = dataclasses.replace(scene, targets=np.zeros((0, 3)))
+    elif problem.inspection.tip_camera:
+        empty = dataclasses.replace(scene, obstacles=(), discovered=(), inspect=None)
+    else:
+        empty = dataclasses.replace(scene, metadata={})
     cases: list[tuple[str, object]] = [
         ("time_limit_s", 0.0), ("time_limit_s", -1.0), ("time_limit_s", math.nan), ("time_limit_s", math.inf),
         ("time_limit_s", "1"), ("knowledge", "psychic"), ("sensor_range_mm", 0.0), ("sensor_range_mm", math.nan),

@@ -83,8 +83,8 @@ class InformativePlanner(InspectionPlanner):
     def plan(self, problem, seed: int = 0):
         """Plan the mission; a fed arm's needs a field to map (ValueError naming ``task`` otherwise)."""
         if problem.task == "inspect" and problem.inspection.tip_camera and points_field(problem.scene) is None:
-            raise ValueError(f"task: planner informative maps a field; {problem.scene.name} has none at its points "
-                             f"of interest (inspect.field): coverage, iris or random see them")
+            raise ValueError(f"task: planner informative maps a field, and {problem.scene.name} has none at its points "
+                             f"of interest (no inspect.field); coverage, iris or random inspect it")
         return super().plan(problem, seed)
 
     def choose_branches(self, source: BranchSource, rng: np.random.Generator, deadline: float

@@ -39,7 +39,7 @@ class Task(StrEnum):
 TASKS = tuple(t.value for t in Task)
 #: A spec's defaults where its family names none: the robot and, per task, the planner.
 DEFAULT_ROBOT = "sjtu-snake-iii"
-DEFAULT_PLANNER = {Task.REACH: "as-rrt", Task.INSPECT: "informative"}
+DEFAULT_PLANNER = {Task.REACH: "as-rrt", Task.INSPECT: "coverage"}
 
 BUILTIN_SCENES = {
     "fuel-tank": "snakeplan.scenes.fuel_tank:fuel_tank",
