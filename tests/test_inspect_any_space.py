@@ -422,3 +422,24 @@ def test_informative_maps_a_thermal_tank_better_than_coverage_and_coverage_bette
         assert 0.85 * problem.inspection.budget_s <= min(times) <= max(times) <= problem.inspection.budget_s
     mean = {k: float(np.mean(v)) for k, v in rmse.items()}
     assert mean["informative"] < mean["coverage"] < mean["random"], mean
+
+
+def test_a_sensed_inspection_aims_only_at_known_surfaces_and_is_judged_against_all():
+    """With sensed knowledge the branches grow by as-rrt in what the tip has sensed, the planner's points of interest
+    lie on the prior structure alone (none on clutter nobody has seen), and the mission is judged against the whole
+    tank, valid."""
+    from snakeplan.planners.inspection.branches import BranchSource
+
+    scene, robot = make_scene("fuel-tank", 3), get_robot("sjtu-snake-iii")
+    assert scene.discovered
+    problem = Problem(scene, robot, time_limit_s=20.0, task="inspect", knowledge="sensed")
+    source = BranchSource(problem, 0)
+    assert source.reach.name == "as-rrt"
+    prior = ObstacleSet([o for o, known in zip(scene.obstacles, scene.prior) if known])
+    on = prior.signed_distance(source.pois.points)
+    assert on.max() <= 1e-6 and on.min() >= -1.0  # on a prior surface (at most 1 mm into another, as everywhere)
+    task = scene.points_of_interest
+    assert np.isin(task.obstacle, scene.discovered).sum() >= 5  # the task has points on the clutter; the planner none
+    plan = get_planner("coverage").plan(problem, seed=0)
+    report = evaluate_mission(scene, robot, plan.mission, problem.inspection)
+    assert report.success and report.coverage > 0.3

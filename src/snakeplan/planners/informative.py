@@ -79,6 +79,8 @@ class InformativePlanner(InspectionPlanner):
 
     name = "informative"
     fed = True
+    #: Its map covers every point of interest, clutter nobody has seen included: it plans with the whole scene.
+    needs_full_scene = True
 
     def plan(self, problem, seed: int = 0):
         """Plan the mission; a fed arm's needs a field to map (ValueError naming ``task`` otherwise)."""

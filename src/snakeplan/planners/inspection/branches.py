@@ -24,7 +24,7 @@ from snakeplan.geometry.polyline import cumulative_length
 from snakeplan.planners.base import Problem
 from snakeplan.robots import Chain
 from snakeplan.mapping.camera import Sightings
-from snakeplan.world import FullView
+from snakeplan.world import FullView, Knowledge
 from snakeplan.world.mission import Crawl, InspectionSettings, Mission, Views, tip_poses
 from snakeplan.world.sight import PoiCamera
 
@@ -33,8 +33,9 @@ VIEW_STEP_MM = 50.0
 #: How long (s) the reaching planner may take for one branch (a reachable goal takes 10-50 ms in the tanks, a few
 #: hundred in the mesh families; most of a failed one's time is wasted).
 BRANCH_TIME_S = 1.0
-#: The reaching planner that grows branches.
+#: The reaching planner that grows branches, with the whole scene known and with sensed knowledge.
 REACH_PLANNER = "rrt-star"
+SENSED_REACH_PLANNER = "as-rrt"
 #: Goal stand-offs off a point of interest, as shares of the camera's range, tried in turn (a far goal sees more
 #: round it, a near one fits where a far one is blocked).
 STANDOFF_SHARES = (0.5, 0.3, 0.15, 0.08)
@@ -71,7 +72,10 @@ def shared_length(a: np.ndarray, b: np.ndarray) -> float:
 
 class BranchSource:
     """Grows branches for one problem: goals near points of interest or anywhere free, reached by the reaching
-    planner :data:`REACH_PLANNER` from the entrance, and what each branch's views see."""
+    planner :data:`REACH_PLANNER` from the entrance (:data:`SENSED_REACH_PLANNER` with sensed knowledge: it plans
+    in what the tip has sensed, and each branch starts knowing the prior structure), and what each branch's views
+    see of the points the planner knows of (with sensed knowledge: points on the known surfaces alone, drawn
+    again, since those on clutter nobody has seen would give the clutter away; the judge counts the task's own)."""
 
     def __init__(self, problem: Problem, seed: int) -> None:
         from snakeplan.planners.registry import get_planner
@@ -79,9 +83,10 @@ class BranchSource:
         self.problem = problem
         self.scene = problem.scene
         self.robot: Chain = problem.robot
-        self.pois = problem.scene.points_of_interest
+        self.sensed = problem.knowledge is not Knowledge.FULL
+        self.pois = _known_points(problem) if self.sensed else problem.scene.points_of_interest
         self.camera = PoiCamera(problem.world.obstacle_set, self.pois, problem.inspection.camera)
-        self.reach = get_planner(REACH_PLANNER)
+        self.reach = get_planner(SENSED_REACH_PLANNER if self.sensed else REACH_PLANNER)
         self.seed = seed
         self.calls = 0
         self.clearance = self.robot.radii[-1] + GOAL_CLEARANCE_MM
@@ -118,8 +123,9 @@ class BranchSource:
         if left <= 0.05:
             return None
         sub = self.scene.with_targets(goal[None])
-        problem = Problem(sub, self.robot, time_limit_s=left, world=FullView(sub, self.problem.world.obstacle_set),
-                          task="reach")
+        world = None if self.sensed else FullView(sub, self.problem.world.obstacle_set)
+        problem = Problem(sub, self.robot, time_limit_s=left, knowledge=self.problem.knowledge,
+                          sensor_range_mm=self.problem.sensor_range_mm, world=world, task="reach")
         plan = self.reach.plan(problem, seed=self.seed + self.calls)
         self.calls += 1
         if plan.status != "found":
@@ -134,6 +140,22 @@ class BranchSource:
         pos, axes = tip_poses(path, depths, self.robot.lengths, self.scene.entrance.direction)
         sight = self.camera.visible(pos, axes)
         return Branch(np.asarray(path, dtype=float), depths, pos, axes, np.unique(sight.node), sight)
+
+
+def _known_points(problem: Problem):
+    """Points of interest on the surfaces a sensed planner knows before the job (the prior structure), in the task's
+    region, at its spacing (or about as many per area as the task's default)."""
+    import math
+
+    from snakeplan.geometry.surface_points import sample_surfaces, surface_area
+    from snakeplan.scenes.inspect import DEFAULT_POINTS, InspectSpec
+
+    known = list(problem.world.obstacle_set.obstacles)
+    spec = problem.scene.inspect or InspectSpec()
+    which = list(range(len(known)))
+    spacing = spec.spacing_mm or math.sqrt(max(surface_area(known, which), 1e-300) / DEFAULT_POINTS)
+    region = spec.region or (problem.scene.bounds_min, problem.scene.bounds_max)
+    return sample_surfaces(known, which, spacing, region)
 
 
 def _timed(path: np.ndarray, depths: np.ndarray, robot: Chain, entrance_direction: np.ndarray) -> np.ndarray:

@@ -81,6 +81,9 @@ class InspectionPlanner(Planner):
     #: field from a camera path (paper 002's station).
     fed: ClassVar[bool] = False
     maps_fields: ClassVar[bool] = True
+    #: A fed arm's inspection may plan with sensed knowledge (its branches grown by a sensing reaching planner);
+    #: the station's needs the whole scene (refused in :meth:`plan`).
+    needs_full_scene: ClassVar[bool] = False
 
     def choose_branches(self, source: BranchSource, rng: np.random.Generator, deadline: float
                         ) -> tuple[list[Branch], bool]:
@@ -139,6 +142,9 @@ class InspectionPlanner(Planner):
         if problem.task is Task.INSPECT and not problem.inspection.tip_camera and not self.maps_fields:
             raise ValueError(f"task: planner {self.name} inspects points of interest with a fed arm's tip camera; "
                              f"{problem.scene.name} maps a surface field (informative, coverage, random)")
+        if problem.task is Task.INSPECT and not problem.inspection.tip_camera and problem.knowledge != "full":
+            raise ValueError(f"knowledge: planner {self.name} needs the whole scene ('full') to map a surface field "
+                             f"from a camera path")
         self._seed = int(seed)
         return super().plan(problem, seed)
 
