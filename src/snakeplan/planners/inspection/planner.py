@@ -36,6 +36,10 @@ from snakeplan.planners.inspection.survey import Survey, survey_for
 from snakeplan.scenes import Task
 from snakeplan.world.mission import inspected_surface, mission_rngs
 
+#: Time kept back from a fed arm's planner for building its mission from the branches: at most this (s), or this
+#: share of the time limit.
+ASSEMBLY_RESERVE_S = 1.0
+ASSEMBLY_RESERVE_SHARE = 0.05
 #: Control points per planned camera path (paper 002 §4), the current position included.
 N_CONTROL_POINTS = 5
 #: Why a mission ended short of its budget -> the plan's ``details["stopped"]``.
@@ -162,7 +166,8 @@ class InspectionPlanner(Planner):
     def _solve_branches(self, problem: Problem, deadline: float) -> Solution:
         """A fed arm's mission: the branches :meth:`choose_branches` picks, flown in their order."""
         source = BranchSource(problem, self._seed)
-        branches, finished = self.choose_branches(source, mission_rngs(self._seed)[0], deadline)
+        reserve = min(ASSEMBLY_RESERVE_S, ASSEMBLY_RESERVE_SHARE * problem.time_limit_s)  # to build the mission
+        branches, finished = self.choose_branches(source, mission_rngs(self._seed)[0], deadline - reserve)
         e = problem.scene.entrance
         mission = mission_of(branches, problem.robot, problem.inspection, e.direction, self._seed)
         coverage = coverage_of(branches, len(source.pois))
