@@ -155,6 +155,32 @@ def summarise(rows: list[dict], visible: dict[tuple[str, int], np.ndarray]) -> d
     return {"schema": SCHEMA, "families": table}
 
 
+def coverage_maps(rows: list[dict], visible: dict[tuple[str, int], np.ndarray], summary: dict, out: Path
+                  ) -> list[str]:
+    """Per family, the coverage map of the first seed's mission by the planner that saw the most of the
+    reachable-visible points (``inspect-<family>.png``): seen, not seen, never visible; the file names."""
+    from snakeplan.bench.runner import row_path
+    from snakeplan.scenes import make_scene
+    from snakeplan.viz.coverage import coverage_map_figure
+    from snakeplan.viz.figures import save_figure
+
+    names = []
+    for family, planners in summary["families"].items():
+        best = max(planners, key=lambda p: planners[p]["visible_share"] or 0.0)
+        row = min((r for r in rows if r["scene"] == family and r["planner"] == best), key=lambda r: r["seed"])
+        scene = make_scene(family, row["seed"])
+        seen = np.zeros(len(scene.points_of_interest), dtype=bool)
+        seen[np.asarray(row["metrics"]["seen_points"], dtype=np.int64)] = True
+        vis = visible.get((family, row["seed"]))
+        title = (f"{scene.label}, {row['robot']}, {best}: {seen.mean():.0%} of the points seen"
+                 + ("" if vis is None else f", {seen[vis].mean():.0%} of the reachable-visible"))
+        name = f"inspect-{family}.png"
+        save_figure(coverage_map_figure(scene, seen, None if vis is None else ~vis, row_path(out, row), title),
+                    out / name)
+        names.append(name)
+    return names
+
+
 def markdown(summary: dict) -> str:
     """The summary as a markdown table, a row per family and planner."""
     lines = ["| family | planner | valid | coverage | of reachable-visible (mean / worst) | final RMSE K | mission s | "
@@ -173,8 +199,8 @@ def run_inspect_bench(families: tuple[str, ...] = FAMILIES, seeds: int = DEFAULT
                       planners: tuple[str, ...] = PLANNERS, out_dir: str | Path = DEFAULT_OUT_DIR,
                       backend: Backend = Backend(), fresh: bool = False, progress: bool = True) -> dict:
     """Inspect ``seeds`` seeds of each family with each planner through the runner into ``out_dir`` (resuming what
-    it holds), compute (or load) each scene's reachable-visible points, write ``inspect.json`` and ``inspect.md``,
-    and return the summary with the runner's outcome under ``"runner"``."""
+    it holds), compute (or load) each scene's reachable-visible points, write ``inspect.json``, ``inspect.md`` and a
+    coverage map per family, and return the summary with the runner's outcome under ``"runner"``."""
     if isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 1:
         raise ValueError(f"seeds: must be a positive integer, got {seeds!r}")
     seed_list = list(range(seed0, seed0 + seeds))
@@ -189,6 +215,7 @@ def run_inspect_bench(families: tuple[str, ...] = FAMILIES, seeds: int = DEFAULT
             tick(f"{key[0]} seed {key[1]}")
     summary = summarise(rows, visible)
     out = Path(out_dir)
+    summary["figures"] = coverage_maps(rows, visible, summary, out)
     atomic_write(out / "inspect.json", json.dumps(jsonable(summary), indent=1))
     atomic_write(out / "inspect.md", markdown(summary) + "\n")
     return {**summary, "runner": outcome.to_dict()}

@@ -45,5 +45,6 @@ def cmd_bench_inspect(args: argparse.Namespace) -> int:
     if args.json:
         print_json(summary)
     else:
-        sys.stdout.write(markdown(summary) + f"\n\nwrote {args.out}/inspect.md, inspect.json, runs.jsonl\n")
+        sys.stdout.write(markdown(summary) + f"\n\nwrote {args.out}/inspect.md, inspect.json, runs.jsonl, "
+                         + ", ".join(summary["figures"]) + "\n")
     return EXIT_OK

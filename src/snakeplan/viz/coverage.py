@@ -140,6 +140,34 @@ def coverage_figure(scene: Scene, line: Timeline, title: str, never: np.ndarray 
     return fig
 
 
+def coverage_map_figure(scene: Scene, seen: np.ndarray, never: np.ndarray | None, path: np.ndarray | None,
+                        title: str):
+    """A finished mission's coverage from its record alone (a benchmark row): the points of interest coloured seen,
+    not seen and never visible (by the oracle), and the tip's route."""
+    import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
+
+    from snakeplan.viz.scene_plot import draw_scene, set_flat_view
+
+    points = scene.points_of_interest.points
+    fig = plt.figure(figsize=(8, 6.5))
+    ax = fig.add_subplot(1, 1, 1, projection="3d")
+    draw_scene(ax, scene.with_targets(np.zeros((0, 3))), legend=False)
+    if path is not None:
+        ax.plot(*path.T, color=BRANCH_HEX, lw=0.6, alpha=0.5)
+    ax.scatter(*points.T, c=list(_colours(seen, never)), s=6, depthshade=False)
+    set_flat_view(ax, scene)
+    counts = [("seen", SEEN_HEX, int(seen.sum())), ("not seen", UNSEEN_HEX,
+              int((~seen & (~never if never is not None else True)).sum()))]
+    if never is not None:
+        counts.append(("never visible (oracle)", NEVER_HEX, int((never & ~seen).sum())))
+    ax.legend(handles=[Line2D([], [], ls="", marker="o", color=c, label=f"{lab}: {n}") for lab, c, n in counts]
+              + [Line2D([], [], color=BRANCH_HEX, label="tip route")], loc="upper left", fontsize=8)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
 def coverage_title(scene: Scene, robot_name: str, planner: str, report) -> str:
     mapped = f", final RMSE {report.rmse_k[-1]:.2f} K" if report.rmse_k.size else ""
     return (f"{scene.label}, {robot_name}, {planner}: {report.coverage:.0%} of {report.seen.size} points seen in "
