@@ -86,7 +86,8 @@ def test_an_open_shell_has_its_points_half_its_thickness_deep():
 ])
 def test_a_bad_inspect_block_is_refused_naming_its_field(tmp_path, capsys, block, message):
     """From the command line: exit 2, one line naming the field, nothing written."""
-    doc = {"schema": "snakeplan.scene/1", "name": "room", "bounds": {"min": [-500, -500, -500], "max": [1000, 1000, 1000]},
+    doc = {"schema": "snakeplan.scene/1", "name": "room",
+           "bounds": {"min": [-500, -500, -500], "max": [1000, 1000, 1000]},
            "entrance": {"position": [-400, 0, 0], "direction": [1, 0, 0]},
            "obstacles": [{"type": "box", "center": [300, 0, 0], "size": [200, 200, 200]}], "inspect": block}
     path = tmp_path / "room.json"

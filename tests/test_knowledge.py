@@ -88,7 +88,7 @@ def test_a_planner_that_reads_unsensed_obstacles_fails_the_honesty_test():
         _Peeking().plan(Problem(guarded(scene), ROBOT, knowledge="sensed", world=SensedView.of(scene)))
 
 
-SENSED = [name for name in planner_names() if not get_planner(name).needs_full_scene and name != "sac"]
+SENSED = [name for name in planner_names("reach") if not get_planner(name).needs_full_scene and name != "sac"]
 
 
 @pytest.mark.parametrize("name", SENSED)

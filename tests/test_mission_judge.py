@@ -148,7 +148,7 @@ def test_a_problem_says_its_task_and_planners_refuse_tasks_they_do_not_do():
     assert Problem(station, get_robot("hsr-10")).task == "inspect" and Problem(tank, get_robot("sjtu-snake-iii")).task == "reach"
     fed = Problem(tank, get_robot("sjtu-snake-iii"), task="inspect")
     assert fed.inspection.tip_camera and fed.inspection.camera == get_robot("sjtu-snake-iii").camera
-    with pytest.raises(ValueError, match="^task: planner informative maps a surface field"):
+    with pytest.raises(ValueError, match="^task: planner informative maps a field, and fuel-tank has none"):
         get_planner("informative").plan(fed)
     with pytest.raises(ValueError, match="^task: must be one of reach, inspect"):
         Problem(tank, get_robot("sjtu-snake-iii"), task="explore")

@@ -78,9 +78,9 @@ def test_listing_names_imports_no_planner_or_generator_module():
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           env={**os.environ, "PYTHONPATH": str(SRC)})
     out = json.loads(proc.stdout)
-    assert len(out["names"]) == 7 + 9 + 3
+    assert len(out["names"]) == 7 + 10 + 4
     plugins = ["planners.rrt_star", "planners.sp_rrt", "planners.as_rrt", "planners.sac", "planners.sscc",
-               "planners.coverage", "planners.informative", "planners.random_views", "scenes.fuel_tank",
+               "planners.coverage", "planners.informative", "planners.random_views", "planners.iris", "scenes.fuel_tank",
                "scenes.oil_tank", "scenes.pipe", "scenes.station", "scenes.mesh_families"]
     assert not [m for m in plugins if f"snakeplan.{m}" in out["modules"]]
 

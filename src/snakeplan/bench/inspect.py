@@ -10,9 +10,10 @@ is drawn from the logged rows: per family and planner the share of the points of
 The reachable-visible points of a scene come from an offline oracle (:func:`reachable_visible`) with a budget
 beyond a planner's (:data:`ORACLE_TIME_S` against the planners' 30 s): branches grown by the reaching planner to
 :data:`ORACLE_RANDOM_GOALS` goals anywhere free, then to goals facing every point of interest not yet seen, from
-each of :data:`ORACLE_STANDOFFS` stand-offs in turn; a point is reachable-visible when some branch's views see it. It is a lower bound of the points some valid configuration
-can see (a branch the oracle did not try could see more), so the share of them a planner sees is an upper bound
-of its true share; it is computed once per scene, robot and camera and kept in the cache folder.
+each of :data:`ORACLE_STANDOFFS` stand-offs in turn; a point is reachable-visible when some branch's views see it. It
+is a lower bound of the points some valid configuration can see (a branch the oracle did not try could see more),
+so the share of them a planner sees is an upper bound of its true share; it is computed once per scene, robot and
+camera and kept in the cache folder.
 """
 
 from __future__ import annotations

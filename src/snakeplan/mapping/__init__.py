@@ -11,7 +11,8 @@ import importlib
 
 _WHERE = {
     "CameraModel": "models", "Sightings": "camera", "SurfaceCamera": "camera", "PDFix": "gp", "SurfacePrior": "gp",
-    "batch_posterior": "gp", "geodesic_distances": "gp", "matern32": "gp", "nearest_psd": "gp", "point_distances": "gp", "point_prior": "gp",
+    "batch_posterior": "gp", "geodesic_distances": "gp", "matern32": "gp", "nearest_psd": "gp",
+    "point_distances": "gp", "point_prior": "gp",
     "surface_prior": "gp", "vertex_normals": "gp", "GainEvaluator": "kalman", "GaussianMap": "kalman",
     "fuse_repeats": "kalman", "kalman": None,
 }

@@ -100,8 +100,8 @@ class Problem:
     """What to plan: a robot in a scene, its task, within a time budget.
 
     ``task``: reach the scene's targets from the entrance, or inspect its surfaces (its field, or its points of
-    interest; ``inspection`` says how the mission is flown and measured; None: the scene's and robot's defaults); None takes the task of the scene's family
-    (:func:`spec_for`).
+    interest; ``inspection`` says how the mission is flown and measured; None: the scene's and robot's defaults); None
+    takes the task of the scene's family (:func:`spec_for`).
     ``knowledge`` says what the planner may use: ``"full"`` the whole scene, ``"sensed"`` only obstacles within
     ``sensor_range_mm`` of where the tip has been. ``world`` is the knowledge view that says it
     (:mod:`snakeplan.world.knowledge`; built from ``knowledge`` when not given): the only way a planner reaches

@@ -5,9 +5,9 @@ A fed arm's tree (:mod:`snakeplan.planners.inspection.branches`): in rounds, goa
 interest not yet seen (drawn at random among them, seeded; each aim at a point from the next stand-off), and the
 reaching planner grows a branch from the entrance to each; of all branches grown so far, the one that sees the
 most new points per mm of added motion (its insertion and retraction past where it leaves the tree) joins the
-tree, if the mission still fits its time budget. A point aimed at ``MAX_TRIES`` times is no longer aimed at. The tree stops growing when every
-point is seen or aimed at too often, or ``IDLE_ROUNDS`` rounds in a row add nothing; the branches are flown in
-an order that cuts retractions (:func:`tree_order`).
+tree, if the mission still fits its time budget. A point aimed at ``MAX_TRIES`` times is no longer aimed at. The tree
+stops growing when every point is seen or aimed at too often, or ``IDLE_ROUNDS`` rounds in a row add nothing; the
+branches are flown in an order that cuts retractions (:func:`tree_order`).
 
 Around the station:
 

@@ -3,9 +3,9 @@ interest sampled on them (``snakeplan.scene/1``'s ``inspect`` block; mm).
 
 ``{"surfaces": "all" | [obstacle indices], "region": {"min": [x, y, z], "max": [x, y, z]}, "spacing_mm": s,
 "budget_s": t, "field": {"values": [v, ...]}}``, every field optional; ``field`` is a measured quantity's true value
-(K) at each point of interest, in their order, which an inspection maps. The region defaults to the scene's bounds; the spacing to the one that
-puts about :data:`DEFAULT_POINTS` points on the chosen surfaces; the mission's time budget (s) to
-:data:`snakeplan.world.mission.FED_BUDGET_S`. A scene without the block is inspected with every default.
+(K) at each point of interest, in their order, which an inspection maps. The region defaults to the scene's bounds;
+the spacing to the one that puts about :data:`DEFAULT_POINTS` points on the chosen surfaces; the mission's time
+budget (s) to :data:`snakeplan.world.mission.FED_BUDGET_S`. A scene without the block is inspected with every default.
 """
 
 from __future__ import annotations

@@ -241,7 +241,8 @@ const seenC = new THREE.Color(D.colors.seen), unseenC = new THREE.Color(D.colors
 const body = [];
 const panel = document.createElement('div');
 panel.id = 'panel';
-const metrics = Object.keys(D.metrics).map(function (k) { return esc(k) + ' ' + esc(D.metrics[k]); }).join(' &middot; ');
+const metrics = Object.keys(D.metrics).map(function (k) { return esc(k) + ' ' + esc(D.metrics[k]); })
+  .join(' &middot; ');
 panel.innerHTML = '<b>' + esc(D.title) + '</b><br><small>' + metrics + '</small><br><label for="depth">mission time' +
   '</label><input type="range" id="depth" min="0" max="' + (F - 1) + '" step="1" value="' + (F - 1) + '">' +
   '<div id="readout"></div><small>' + swatch(D.colors.seen, 'seen') + swatch(D.colors.unseen, 'not yet seen') +

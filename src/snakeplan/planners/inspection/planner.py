@@ -21,7 +21,6 @@ from snakeplan.mapping import GaussianMap, kalman
 from snakeplan.planners.base import Planner, Problem, Solution, Status
 from snakeplan.planners.inspection.branches import (
     BRANCH_TIME_S,
-    REACH_PLANNER,
     VIEW_STEP_MM,
     Branch,
     BranchSource,
@@ -171,7 +170,7 @@ class InspectionPlanner(Planner):
         e = problem.scene.entrance
         mission = mission_of(branches, problem.robot, problem.inspection, e.direction, self._seed)
         coverage = coverage_of(branches, len(source.pois))
-        details = {"branches": len(branches), "reach_calls": source.calls, "reach_planner": REACH_PLANNER,
+        details = {"branches": len(branches), "reach_calls": source.calls, "reach_planner": source.reach.name,
                    "points": len(source.pois), "coverage": coverage,
                    "mission_time_s": max((m.end_s for m in mission.motions), default=0.0)}
         if not branches:
