@@ -444,3 +444,29 @@ def test_a_sensed_inspection_aims_only_at_known_surfaces_and_is_judged_against_a
     plan = get_planner("coverage").plan(problem, seed=0)
     report = evaluate_mission(scene, robot, plan.mission, problem.inspection)
     assert report.success and report.coverage > 0.3
+
+
+def test_a_field_missions_page_slides_through_mission_time_and_colours_the_map(tmp_path, browser):
+    """The page of a thermal-tank mission in Chromium: no script error; early in the mission fewer points are seen
+    than at its end; switched to the map's mean, the points change colour; the readout follows the slider."""
+    from snakeplan.episode import run_episode
+    from snakeplan.viz.episode import save_episode_page
+
+    scene = make_scene("thermal-tank", 2)
+    problem = Problem(scene, get_robot("sjtu-snake-iii"), time_limit_s=10.0)
+    episode = run_episode(problem, get_planner("informative"), seed=2)
+    page = tmp_path / "mission.html"
+    save_episode_page(page, episode, 30)
+    browser.events.clear()
+    browser.open(page, "window.snakeplan && window.snakeplan.ready")
+    end = browser.evaluate("document.getElementById('readout').textContent")
+    browser.evaluate("window.snakeplan.setFrame(5)")
+    early = browser.evaluate("document.getElementById('readout').textContent")
+    seen = [float(t.split("points seen ")[1].split(" %")[0]) for t in (early, end)]
+    assert seen[0] < seen[1] and abs(seen[1] - 100 * episode.report.coverage) < 0.1
+    browser.evaluate("document.getElementById('panel').style.visibility = 'hidden'")
+    before = browser.screenshot()
+    browser.evaluate("document.querySelector('input[value=mean]').click()")
+    after = browser.screenshot()
+    assert (np.abs(before.astype(int) - after.astype(int)).max(axis=2) > 40).sum() > 200
+    assert browser.errors() == []

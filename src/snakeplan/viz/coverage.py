@@ -208,12 +208,29 @@ def save_coverage_video(filename: str | Path, scene: Scene, line: Timeline, fps:
     return write_video(filename, coverage_frames_rgb(scene, line, title, size, progress), len(line.times), fps, size)
 
 
-def coverage_page(scene: Scene, robot, line: Timeline, title: str, metrics: dict) -> str:
-    """The interactive page: the scene, the points coloured as seen by the time the slider picks, the branches,
-    and the arm's body then."""
+def map_frames(scene: Scene, mission, times: np.ndarray) -> np.ndarray | None:
+    """The map's mean (K) at the points of interest at each of ``times`` (F, P), as the judge measures the mission's
+    views again; None when the scene has no field."""
+    from snakeplan.evaluation.mission import measure_points
+    from snakeplan.world.mission import points_field, points_prior
+
+    if points_field(scene) is None:
+        return None
+    at, means = [], []
+    measure_points(scene, mission, lambda t, p, gmap: (at.append(t), means.append(gmap.mean.copy())))
+    prior = points_prior(scene, mission.settings).mean
+    k = np.searchsorted(np.asarray(at), times, side="right") - 1
+    return np.array([prior if i < 0 else means[i] for i in k])
+
+
+def coverage_page(scene: Scene, robot, line: Timeline, title: str, metrics: dict, mission=None) -> str:
+    """The interactive page: the scene, the points coloured as seen by the time the slider picks (or, with a field,
+    by the map's mean then, beside the truth), the branches, and the arm's body then."""
     from snakeplan.viz.page import _COMMON_JS, _round, page_html, scene_data, scene_glb
 
     keep = np.unique(np.round(np.linspace(0, len(line.times) - 1, min(len(line.times), PAGE_FRAMES))).astype(int))
+    means = None if mission is None else map_frames(scene, mission, line.times[keep])
+    truth = None if means is None else scene.inspect.field
     scene = scene.with_targets(np.zeros((0, 3)))  # an inspection has no targets
     first = np.where(np.isfinite(line.first_seen), line.first_seen, -1.0)
     data = scene_data(scene) | {
@@ -221,12 +238,16 @@ def coverage_page(scene: Scene, robot, line: Timeline, title: str, metrics: dict
         "radii": _round(robot.radii), "points": _round(line.points, 1), "first_seen": _round(first, 2),
         "coverage": _round(line.coverage[keep], 4), "branches": [_round(p, 1) for p in line.branches],
         "metrics": metrics, "colors": scene_data(scene)["colors"] | {"seen": SEEN_HEX, "unseen": UNSEEN_HEX,
-                                                                      "branch": BRANCH_HEX, "body": BODY_HEX}}
+                                                                      "branch": BRANCH_HEX, "body": BODY_HEX},
+        "mean": None if means is None else _round(means, 2), "truth": None if truth is None else _round(truth, 2),
+        "range": None if means is None else [float(min(truth.min(), means.min())),
+                                             float(max(truth.max(), means.max()))]}
     return page_html(title, data, scene_glb(scene), _COMMON_JS + _COVERAGE_JS)
 
 
-def save_coverage_page(filename: str | Path, scene: Scene, robot, line: Timeline, title: str, metrics: dict) -> Path:
-    return atomic_write(filename, coverage_page(scene, robot, line, title, metrics))
+def save_coverage_page(filename: str | Path, scene: Scene, robot, line: Timeline, title: str, metrics: dict,
+                       mission=None) -> Path:
+    return atomic_write(filename, coverage_page(scene, robot, line, title, metrics, mission))
 
 
 _COVERAGE_JS = r"""
@@ -245,18 +266,38 @@ const metrics = Object.keys(D.metrics).map(function (k) { return esc(k) + ' ' + 
   .join(' &middot; ');
 panel.innerHTML = '<b>' + esc(D.title) + '</b><br><small>' + metrics + '</small><br><label for="depth">mission time' +
   '</label><input type="range" id="depth" min="0" max="' + (F - 1) + '" step="1" value="' + (F - 1) + '">' +
-  '<div id="readout"></div><small>' + swatch(D.colors.seen, 'seen') + swatch(D.colors.unseen, 'not yet seen') +
+  '<div id="readout"></div>' + (D.mean ? '<label><input type="radio" name="field" value="seen" checked> seen' +
+  '</label> <label><input type="radio" name="field" value="mean"> map mean (K)</label> <label><input type="radio" ' +
+  'name="field" value="truth"> true field (K)</label><div id="scale"></div>' : '') +
+  '<small>' + swatch(D.colors.seen, 'seen') + swatch(D.colors.unseen, 'not yet seen') +
   swatch(D.colors.branch, 'branches') + swatch(D.colors.body, 'arm') + '<br>Drag to turn, right-drag to pan, ' +
   'wheel to zoom.</small>';
 document.body.appendChild(panel);
 const slider = document.getElementById('depth'), readout = document.getElementById('readout');
+// inferno, 9 stops, for the map's mean and the true field
+const INFERNO = [[0,0,4],[40,11,84],[101,21,110],[159,42,99],[212,72,66],[245,125,21],[250,193,39],[252,255,164],
+  [252,255,164]];
+function inferno(x) {
+  x = Math.max(0, Math.min(1, x)) * (INFERNO.length - 1);
+  const i = Math.min(INFERNO.length - 2, Math.floor(x)), f = x - i;
+  return INFERNO[i].map(function (c, j) { return (c + f * (INFERNO[i + 1][j] - c)) / 255; });
+}
+let mode = 'seen';
 function setFrame(k) {
   k = Math.max(0, Math.min(F - 1, k | 0));
   const t = D.times[k];
   for (let i = 0; i < P; i++) {
-    const c = (D.first_seen[i] >= 0 && D.first_seen[i] <= t + 1e-6) ? seenC : unseenC;
-    pc[3 * i] = c.r; pc[3 * i + 1] = c.g; pc[3 * i + 2] = c.b;
+    if (mode === 'seen') {
+      const c = (D.first_seen[i] >= 0 && D.first_seen[i] <= t + 1e-6) ? seenC : unseenC;
+      pc[3 * i] = c.r; pc[3 * i + 1] = c.g; pc[3 * i + 2] = c.b;
+    } else {
+      const v = mode === 'mean' ? D.mean[k][i] : D.truth[i];
+      const c = inferno((v - D.range[0]) / (D.range[1] - D.range[0] || 1));
+      pc[3 * i] = c[0]; pc[3 * i + 1] = c[1]; pc[3 * i + 2] = c[2];
+    }
   }
+  if (D.mean) document.getElementById('scale').innerHTML = mode === 'seen' ? '' : '<small>colour scale ' +
+    D.range[0].toFixed(1) + ' .. ' + D.range[1].toFixed(1) + ' K (inferno)</small>';
   pg.attributes.color.needsUpdate = true;
   body.forEach(function (m) { scene.remove(m); });
   body.length = 0;
@@ -267,6 +308,9 @@ function setFrame(k) {
   render();
 }
 slider.addEventListener('input', function () { setFrame(parseInt(slider.value, 10)); });
+document.querySelectorAll('input[name=field]').forEach(function (r) {
+  r.addEventListener('change', function () { mode = r.value; setFrame(parseInt(slider.value, 10)); });
+});
 window.snakeplan.setFrame = setFrame;
 loadObstacles(function () { setFrame(F - 1); window.snakeplan.ready = true; });
 """

@@ -81,7 +81,7 @@ def save_episode_page(filename: str | Path, episode, crawl_frames_count: int) ->
         metrics = {"verdict": "inspected" if r.success else f"refused ({r.reason})", "views": r.views,
                    "mission (s)": round(r.mission_time_s), "feed travel (m)": round(r.motion_mm / 1000, 1),
                    "retractions": r.retractions}
-        save_coverage_page(filename, problem.scene, problem.robot, line, title, metrics)
+        save_coverage_page(filename, problem.scene, problem.robot, line, title, metrics, plan.mission)
         return
     if plan.mission is not None:
         from snakeplan.viz.mission import save_mission_page
