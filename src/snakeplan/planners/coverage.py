@@ -3,7 +3,8 @@ scan round its side, fitted to the motion budget; with a fed arm's tip camera a 
 
 A fed arm's tree (:mod:`snakeplan.planners.inspection.branches`): in rounds, goals are set facing points of
 interest not yet seen (drawn at random among them, seeded; each aim at a point from the next stand-off), and the
-reaching planner grows a branch from the entrance to each; of all branches grown so far, the one that sees the
+reaching planner grows a branch from the entrance to each (half of the goals are first tried as a graft onto the
+tree branch that passes nearest them, :meth:`BranchSource.graft`); of all branches grown so far, the one that sees the
 most new points per mm of added motion (its insertion and retraction past where it leaves the tree) joins the
 tree, if the mission still fits its time budget. A point aimed at ``MAX_TRIES`` times is no longer aimed at. The tree
 stops growing when every point is seen or aimed at too often, or ``IDLE_ROUNDS`` rounds in a row add nothing; the
@@ -41,6 +42,8 @@ HELIX_STEP_MM = 200.0
 ROUND_BRANCHES = 6
 MAX_TRIES = 4
 IDLE_ROUNDS = 10
+#: Share of the goals first tried as a graft onto the tree branch that passes nearest them (a shorter retraction).
+GRAFT_SHARE = 0.5
 
 
 def helix_points(radius: float, z0: float, z1: float, length: float, theta0: float = 0.0,
@@ -96,7 +99,12 @@ class CoveragePlanner(InspectionPlanner):
                 if time.perf_counter() >= deadline:
                     return tree, False
                 goal = source.goal_facing(int(k), int(tries[k]))
-                branch = None if goal is None else source.branch_to(goal, deadline)
+                branch = None
+                if goal is not None and tree and rng.random() < GRAFT_SHARE:
+                    trunk = min(tree, key=lambda b: float(np.min(np.linalg.norm(b.positions - goal, axis=1))))
+                    branch = source.graft(trunk, goal, deadline)
+                if goal is not None and branch is None:
+                    branch = source.branch_to(goal, deadline)
                 tries[k] += 1
                 if branch is not None:
                     pool.append(branch)

@@ -6,8 +6,8 @@ lazy search", IJRR 2023): a roadmap of configurations, each with the points of i
 graph search over (vertex, points seen so far) nodes whose approximate dominance keeps the search small.
 
 For a fed arm the roadmap's configurations are branches, insertions from the entrance
-(:mod:`snakeplan.planners.inspection.branches`), and an edge between two is a retraction to where they part and an
-insertion along the next. The roadmap grows for ``ROADMAP_SHARE`` of the time limit: branches to goals drawn
+(:mod:`snakeplan.planners.inspection.branches`), some grafted onto another branch's trunk, and an edge between two
+is a retraction to where they part and an insertion along the next. The roadmap grows for ``ROADMAP_SHARE`` of the time limit: branches to goals drawn
 anywhere free and facing points of interest not yet seen by any branch (the same reaching planner as every fed
 inspection planner). The search then takes the rest: best first by points seen, a node (last branch, points seen,
 mission time) expands by every branch not yet in it that fits the mission's budget, and a new node is dropped
@@ -15,9 +15,9 @@ when a kept node ending at the same branch has seen all but ``p`` of its points 
 of interest) in at most ``1 + EPSILON`` times its mission time: IRIS's (epsilon, p) approximate dominance. The best
 node found (most points seen, then least time) is flown in its order.
 
-Differences from IRIS, each because the arm is fed: the roadmap is star-shaped (every configuration is reached
-from the entrance along its own branch, as follow-the-leader demands), so an edge's cost is the feed's travel out
-and back in, not a straight-line motion; and the search ends at the time limit, not at a proven bound.
+Differences from IRIS, each because the arm is fed: the roadmap is a tree of insertions (every configuration is
+reached from the entrance along its own branch, as follow-the-leader demands), so an edge's cost is the feed's
+travel back to where two branches part and in again, not a straight-line motion; and the search ends at the time limit, not at a proven bound.
 """
 
 from __future__ import annotations
@@ -36,8 +36,10 @@ ROADMAP_SHARE = 0.6
 #: IRIS's approximate dominance: time slack (relative) and points slack (share of the points of interest).
 EPSILON = 0.1
 P_SLACK = 0.01
-#: Every how many roadmap branches one aims at a point not yet seen (the others go anywhere free).
+#: Every how many roadmap branches one goes anywhere free (the others aim at a point not yet seen); the share of
+#: goals first tried as a graft onto the roadmap branch that passes nearest them.
 RANDOM_EVERY = 3
+GRAFT_SHARE = 0.5
 
 
 @register_planner
@@ -64,7 +66,12 @@ class IrisPlanner(InspectionPlanner):
                 p = int(rng.choice(aim))
                 goal = source.goal_facing(p, int(tries[p]))
                 tries[p] += 1
-            branch = None if goal is None else source.branch_to(goal, until)
+            branch = None
+            if goal is not None and out and rng.random() < GRAFT_SHARE:
+                trunk = min(out, key=lambda b: float(np.min(np.linalg.norm(b.positions - goal, axis=1))))
+                branch = source.graft(trunk, goal, until)
+            if goal is not None and branch is None:
+                branch = source.branch_to(goal, until)
             if branch is not None:
                 out.append(branch)
                 seen[branch.seen] = True

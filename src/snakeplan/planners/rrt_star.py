@@ -186,7 +186,7 @@ def _furthest_visible(arm: ValidityChecker, point: np.ndarray, later: np.ndarray
     return int(hits[-1]) if hits.size else 0
 
 
-def _shortcut(arm: ValidityChecker, dense: np.ndarray, radius: float) -> list[np.ndarray]:
+def shortcut(arm: ValidityChecker, dense: np.ndarray, radius: float) -> list[np.ndarray]:
     """Greedy shortcut of a densified leg (mm): from each kept point, jump to the furthest later point that a
     ball of ``radius`` reaches in a straight line; both ends are kept."""
     keep = [dense[0]]
@@ -339,8 +339,8 @@ def _smooth(arm: ValidityChecker, start: np.ndarray, legs: list[np.ndarray], tar
     turn_radius = arm.turn_radius * RADIUS_FACTOR
     dense = [densify(leg, SHORTCUT_STEP_MM) for leg in legs]
     corner, j = _entry(arm, start, dense[0], radius, turn_radius, len(dense) == 1)
-    pieces = [[start, corner, *_shortcut(arm, dense[0][j:], radius)]]
-    pieces += [_shortcut(arm, d, radius) for d in dense[1:]]
+    pieces = [[start, corner, *shortcut(arm, dense[0][j:], radius)]]
+    pieces += [shortcut(arm, d, radius) for d in dense[1:]]
     points = pieces[0][:-1]
     for k in range(1, len(pieces)):
         points.extend(_pass_through(arm, points[-1], pieces[k][0], pieces[k][1], radius, turn_radius))

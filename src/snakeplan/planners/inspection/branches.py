@@ -41,6 +41,10 @@ SENSED_REACH_PLANNER = "as-rrt"
 STANDOFF_SHARES = (0.5, 0.3, 0.15, 0.08)
 #: Clearance (mm) a goal keeps beyond the tip's radius.
 GOAL_CLEARANCE_MM = 15.0
+#: A graft leaves its trunk this far (mm) back from the trunk's view nearest its goal, and runs straight along the
+#: trunk's heading this far (mm) before it may turn (the fillet's room).
+GRAFT_BACKOFF_MM = 150.0
+GRAFT_LEAD_MM = 120.0
 
 
 @dataclass(frozen=True)
@@ -131,6 +135,53 @@ class BranchSource:
         if plan.status != "found":
             return None
         return self.branch(plan.path)
+
+    def graft(self, trunk: Branch, goal: np.ndarray, deadline: float) -> Branch | None:
+        """A branch that leaves ``trunk`` (a branch of the tree) and goes on to ``goal``: the trunk's path up to
+        :data:`GRAFT_BACKOFF_MM` before its view nearest the goal, straight on along its heading for
+        :data:`GRAFT_LEAD_MM`, then the leg the compiled RRT* finds (shortcut and filleted within the arm's turning
+        radius, as ``rrt-star`` smooths its own); None when no leg is found in :data:`BRANCH_TIME_S` or the whole
+        path fails the crawl check. Its retraction back to the trunk is all a mission pays for it beyond the trunk.
+        The whole scene only (RRT* plans in it)."""
+        import time
+
+        from snakeplan.geometry.polyline import densify, drop_duplicates, fillet, point_at
+        from snakeplan.planners import rrt_star, tip_rrt_star
+
+        left = min(BRANCH_TIME_S, deadline - time.perf_counter())
+        if self.sensed or left <= 0.05:
+            return None
+        arm = self._checker()
+        cum = cumulative_length(trunk.path)
+        near = int(np.argmin(np.linalg.norm(trunk.positions - goal, axis=1)))
+        depth = max(float(trunk.depths[near]) - GRAFT_BACKOFF_MM, float(cum[1]) if len(cum) > 1 else 0.0)
+        i = min(int(np.searchsorted(cum, depth, side="right")) - 1, len(cum) - 2)
+        heading = trunk.path[i + 1] - trunk.path[i]
+        start = point_at(trunk.path, depth)
+        lead = start + GRAFT_LEAD_MM * heading / np.linalg.norm(heading)
+        if not bool(arm.segment_free(start[None], lead[None])[0]):
+            return None
+        tip_rrt_star.seed_stream(self.seed + self.calls)
+        self.calls += 1
+        leg, _ = tip_rrt_star.plan_leg(arm, lead, goal, arm.tip_radius, time.perf_counter() + left, rrt_star.RANGE_MM,
+                                       rrt_star.GOAL_BIAS, rrt_star.IMPROVE_ITERATIONS)
+        if leg is None:
+            return None
+        radius = arm.tip_radius + rrt_star.SHORTCUT_MARGINS_MM[0]
+        corners = [start, *rrt_star.shortcut(arm, densify(leg, rrt_star.SHORTCUT_STEP_MM), radius)]
+        tail = fillet(np.array(corners), arm.turn_radius * rrt_star.RADIUS_FACTOR, rrt_star.ARC_STEP_MM)
+        path = drop_duplicates(np.vstack([trunk.path[cum < depth], tail]))
+        if not (np.all(arm.segment_free(path[:-1], path[1:])) and arm.first_failure(path) is None):
+            return None
+        return self.branch(path)
+
+    def _checker(self):
+        """The planning profile's validity checker of this problem's robot in what the planner knows."""
+        if not hasattr(self, "_arm"):
+            from snakeplan.world import PLANNING, ValidityChecker
+
+            self._arm = ValidityChecker(self.problem.world, self.robot, PLANNING)
+        return self._arm
 
     def branch(self, path: np.ndarray) -> Branch:
         """The branch along ``path``: views every :data:`VIEW_STEP_MM` of insertion once the tip is past the
