@@ -21,10 +21,10 @@ import numpy as np
 
 from snakeplan import ftl
 from snakeplan.geometry.polyline import cumulative_length
+from snakeplan.mapping.camera import Sightings
 from snakeplan.planners.base import Problem
 from snakeplan.robots import Chain
-from snakeplan.mapping.camera import Sightings
-from snakeplan.world import FullView, Knowledge
+from snakeplan.world import PLANNING, FullView, Knowledge, ValidityChecker
 from snakeplan.world.mission import Crawl, InspectionSettings, Mission, Views, tip_poses
 from snakeplan.world.sight import PoiCamera
 
@@ -94,6 +94,7 @@ class BranchSource:
         self.seed = seed
         self.calls = 0
         self.clearance = self.robot.radii[-1] + GOAL_CLEARANCE_MM
+        self._arm: ValidityChecker | None = None
 
     def free(self, points: np.ndarray) -> np.ndarray:
         """Where a goal may lie: inside the bounds and clear of every known obstacle by the goal clearance."""
@@ -175,11 +176,9 @@ class BranchSource:
             return None
         return self.branch(path)
 
-    def _checker(self):
+    def _checker(self) -> ValidityChecker:
         """The planning profile's validity checker of this problem's robot in what the planner knows."""
-        if not hasattr(self, "_arm"):
-            from snakeplan.world import PLANNING, ValidityChecker
-
+        if self._arm is None:
             self._arm = ValidityChecker(self.problem.world, self.robot, PLANNING)
         return self._arm
 
