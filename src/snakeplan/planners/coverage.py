@@ -42,8 +42,6 @@ HELIX_STEP_MM = 200.0
 ROUND_BRANCHES = 6
 MAX_TRIES = 4
 IDLE_ROUNDS = 10
-#: Share of the goals first tried as a graft onto the tree branch that passes nearest them (a shorter retraction).
-GRAFT_SHARE = 0.5
 
 
 def helix_points(radius: float, z0: float, z1: float, length: float, theta0: float = 0.0,
@@ -98,13 +96,7 @@ class CoveragePlanner(InspectionPlanner):
             for k in rng.choice(aim, size=min(ROUND_BRANCHES, aim.size), replace=False):
                 if time.perf_counter() >= deadline:
                     return tree, False
-                goal = source.goal_facing(int(k), int(tries[k]))
-                branch = None
-                if goal is not None and tree and rng.random() < GRAFT_SHARE:
-                    trunk = min(tree, key=lambda b: float(np.min(np.linalg.norm(b.positions - goal, axis=1))))
-                    branch = source.graft(trunk, goal, deadline)
-                if goal is not None and branch is None:
-                    branch = source.branch_to(goal, deadline)
+                branch = source.grow(source.goal_facing(int(k), int(tries[k])), tree, rng, deadline)
                 tries[k] += 1
                 if branch is not None:
                     pool.append(branch)

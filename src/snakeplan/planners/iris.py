@@ -36,10 +36,8 @@ ROADMAP_SHARE = 0.6
 #: IRIS's approximate dominance: time slack (relative) and points slack (share of the points of interest).
 EPSILON = 0.1
 P_SLACK = 0.01
-#: Every how many roadmap branches one goes anywhere free (the others aim at a point not yet seen); the share of
-#: goals first tried as a graft onto the roadmap branch that passes nearest them.
+#: Every how many roadmap branches one goes anywhere free (the others aim at a point not yet seen).
 RANDOM_EVERY = 3
-GRAFT_SHARE = 0.5
 
 
 @register_planner
@@ -66,12 +64,7 @@ class IrisPlanner(InspectionPlanner):
                 p = int(rng.choice(aim))
                 goal = source.goal_facing(p, int(tries[p]))
                 tries[p] += 1
-            branch = None
-            if goal is not None and out and rng.random() < GRAFT_SHARE:
-                trunk = min(out, key=lambda b: float(np.min(np.linalg.norm(b.positions - goal, axis=1))))
-                branch = source.graft(trunk, goal, until)
-            if goal is not None and branch is None:
-                branch = source.branch_to(goal, until)
+            branch = source.grow(goal, out, rng, until)
             if branch is not None:
                 out.append(branch)
                 seen[branch.seen] = True

@@ -45,6 +45,8 @@ GOAL_CLEARANCE_MM = 15.0
 #: trunk's heading this far (mm) before it may turn (the fillet's room).
 GRAFT_BACKOFF_MM = 150.0
 GRAFT_LEAD_MM = 120.0
+#: Share of the goals first tried as a graft onto the grown branch that passes nearest them.
+GRAFT_SHARE = 0.5
 
 
 @dataclass(frozen=True)
@@ -136,6 +138,18 @@ class BranchSource:
         if plan.status != "found":
             return None
         return self.branch(plan.path)
+
+    def grow(self, goal: np.ndarray | None, grown: list[Branch], rng: np.random.Generator, deadline: float
+             ) -> Branch | None:
+        """A branch to ``goal`` (None: none): with chance :data:`GRAFT_SHARE`, first a graft onto the branch of
+        ``grown`` that passes nearest it, else (or when the graft fails) one from the entrance."""
+        if goal is None:
+            return None
+        branch = None
+        if grown and rng.random() < GRAFT_SHARE:
+            trunk = min(grown, key=lambda b: float(np.min(np.linalg.norm(b.positions - goal, axis=1))))
+            branch = self.graft(trunk, goal, deadline)
+        return branch if branch is not None else self.branch_to(goal, deadline)
 
     def graft(self, trunk: Branch, goal: np.ndarray, deadline: float) -> Branch | None:
         """A branch that leaves ``trunk`` (a branch of the tree) and goes on to ``goal``: the trunk's path up to
