@@ -331,17 +331,12 @@ def _evaluate_mission(scene: Scene, robot: Chain, mission: Mission, settings: In
                   retractions=int(sum(_reversals(m.depths_mm) for m in crawls)),
                   returned=bool(crawls) and float(crawls[-1].depths_mm[-1]) <= CONTINUITY_MM,
                   tip_camera=settings.tip_camera)
-    if settings.tip_camera:
+    if settings.tip_camera and points_field(scene) is None:  # points to see, no field to map
         seen = points_seen(scene, settings.camera, views.positions, views.directions)
-        if points_field(scene) is None:
-            return MissionReport(**common, coverage=float(seen.mean()), times_s=views.times_s.copy(),
-                                 rmse_k=np.zeros(0), trace_k2=np.zeros(0), final_mean_k=np.zeros(0),
-                                 final_variance_k2=np.zeros(0), seen=seen)
-        gmap, rmse, trace = measure_points(scene, replace(mission, settings=settings))
-        return MissionReport(**common, coverage=float(seen.mean()), times_s=views.times_s.copy(),
-                             rmse_k=np.array(rmse), trace_k2=np.array(trace), final_mean_k=gmap.mean.copy(),
-                             final_variance_k2=np.diag(gmap.cov).copy(), seen=seen)
-    gmap, seen, rmse, trace = measure_views(scene, replace(mission, settings=settings))  # the task's camera
+        return MissionReport(**common, coverage=float(seen.mean()), times_s=views.times_s.copy(), rmse_k=np.zeros(0),
+                             trace_k2=np.zeros(0), final_mean_k=np.zeros(0), final_variance_k2=np.zeros(0), seen=seen)
+    measure = measure_points if settings.tip_camera else measure_views
+    gmap, seen, rmse, trace = measure(scene, replace(mission, settings=settings))  # the task's camera
     return MissionReport(**common, coverage=float(seen.mean()), times_s=views.times_s.copy(), rmse_k=np.array(rmse),
                          trace_k2=np.array(trace), final_mean_k=gmap.mean.copy(),
                          final_variance_k2=np.diag(gmap.cov).copy(), seen=seen)
@@ -355,11 +350,12 @@ def _reversals(depths: np.ndarray) -> int:
 
 
 def measure_points(scene: Scene, mission: Mission, on_measure: Callable[[float, np.ndarray, object], None] | None = None
-                   ) -> tuple[object, list[float], list[float]]:
+                   ) -> tuple[object, np.ndarray, list[float], list[float]]:
     """A fed arm's views measured again on the scene's field at its points of interest: each view's simulated
     measurement (the tip camera, :meth:`snakeplan.world.sight.PoiCamera.measure`, noise from the mission's
-    measurement seed) fused into the map from its prior in view order. Returns (the final map, the RMSE (K) and
-    covariance trace (K^2) after each view); ``on_measure(t, position, map)`` sees the map after each."""
+    measurement seed) fused into the map from its prior in view order. Returns (the final map, which points were
+    seen, the RMSE (K) and covariance trace (K^2) after each view), as :func:`measure_views` does for the station;
+    ``on_measure(t, position, map)`` sees the map after each."""
     from snakeplan.mapping import GaussianMap
     from snakeplan.world.sight import PoiCamera
 
@@ -368,15 +364,18 @@ def measure_points(scene: Scene, mission: Mission, on_measure: Callable[[float, 
     gmap = GaussianMap(prior.mean, prior.covariance)
     camera = PoiCamera(scene.obstacle_set, scene.points_of_interest, mission.settings.camera)
     noise = mission_rngs(mission.measurement_seed)[1]
+    seen = np.zeros(len(truth), dtype=bool)
     rmse, trace = [], []
     v = mission.views
     for t, p, d in zip(v.times_s, v.positions, v.directions):
-        gmap.update(*camera.measure(p, d, truth, noise))
+        nodes, y, r = camera.measure(p, d, truth, noise)
+        gmap.update(nodes, y, r)
+        seen[nodes] = True
         rmse.append(gmap.rmse(truth))
         trace.append(gmap.trace)
         if on_measure is not None:
             on_measure(float(t), p, gmap)
-    return gmap, rmse, trace
+    return gmap, seen, rmse, trace
 
 
 def points_seen(scene: Scene, camera: CameraModel, positions: np.ndarray, directions: np.ndarray) -> np.ndarray:
