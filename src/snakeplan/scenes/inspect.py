@@ -88,6 +88,15 @@ class InspectSpec:
             field = np.array([inputs.real(v, f"inspect.field.values[{i}]") for i, v in enumerate(values)])
         return cls(which, region, spacing, budget, field)
 
+    def spacing(self, obstacles, which) -> float:
+        """The points' spacing (mm) on ``obstacles[k]`` for k in ``which``: the block's, else the one that puts about
+        :data:`DEFAULT_POINTS` points on them."""
+        from snakeplan.geometry.surface_points import surface_area
+
+        if self.spacing_mm is not None:
+            return self.spacing_mm
+        return math.sqrt(max(surface_area(obstacles, which), 1e-300) / DEFAULT_POINTS)
+
     def obstacles(self, n_obstacles: int) -> tuple[int, ...]:
         """The indices of the surfaces of interest."""
         return tuple(range(n_obstacles)) if self.surfaces is None else self.surfaces
@@ -97,15 +106,13 @@ def points_of_interest(scene, spec: InspectSpec | None = None):
     """The points of interest of ``scene`` (:class:`snakeplan.geometry.surface_points.SurfacePoints`) under
     ``spec`` (default: the scene's own block, else every default); ValueError naming ``inspect`` when there are
     none or too many."""
-    from snakeplan.geometry.surface_points import sample_surfaces, surface_area
+    from snakeplan.geometry.surface_points import sample_surfaces
 
     spec = spec or scene.inspect or InspectSpec()
     which = spec.obstacles(len(scene.obstacles))
     if not which:
         raise ValueError("inspect.surfaces: the scene has no obstacles, so no surface to inspect")
-    spacing = spec.spacing_mm
-    if spacing is None:
-        spacing = math.sqrt(max(surface_area(scene.obstacles, which), 1e-300) / DEFAULT_POINTS)
+    spacing = spec.spacing(scene.obstacles, which)
     where = "inspect.spacing_mm" if spec.spacing_mm is not None else "inspect"
     try:
         pois = sample_surfaces(scene.obstacles, which, spacing, spec.region or (scene.bounds_min, scene.bounds_max))

@@ -209,15 +209,13 @@ class BranchSource:
 def _known_points(problem: Problem):
     """Points of interest on the surfaces a sensed planner knows before the job (the prior structure), in the task's
     region, at its spacing (or about as many per area as the task's default)."""
-    import math
-
-    from snakeplan.geometry.surface_points import sample_surfaces, surface_area
-    from snakeplan.scenes.inspect import DEFAULT_POINTS, InspectSpec
+    from snakeplan.geometry.surface_points import sample_surfaces
+    from snakeplan.scenes.inspect import InspectSpec
 
     known = list(problem.world.obstacle_set.obstacles)
     spec = problem.scene.inspect or InspectSpec()
     which = list(range(len(known)))
-    spacing = spec.spacing_mm or math.sqrt(max(surface_area(known, which), 1e-300) / DEFAULT_POINTS)
+    spacing = spec.spacing(known, which)
     region = spec.region or (problem.scene.bounds_min, problem.scene.bounds_max)
     return sample_surfaces(known, which, spacing, region)
 
