@@ -151,4 +151,6 @@ def with_hot_spots(scene, seed: int, spec: InspectSpec | None = None):
         peak, width = rng.uniform(*HOT_SPOT_PEAK_K), rng.uniform(*HOT_SPOT_WIDTH_MM)
         values += peak * np.exp(-0.5 * (np.linalg.norm(pois.points - pois.points[k], axis=1) / width) ** 2)
     parameters = {**scene.metadata.get("parameters", {}), "base_temperature_k": BASE_TEMPERATURE_K}
-    return replace(scene, inspect=replace(spec, field=values), metadata={**scene.metadata, "parameters": parameters})
+    out = replace(scene, inspect=replace(spec, field=values), metadata={**scene.metadata, "parameters": parameters})
+    out.__dict__["points_of_interest"] = pois  # the same obstacles and spec but the field: the same points
+    return out
