@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from snakeplan.evaluation import MissionReport, Report, judge
+from snakeplan.evaluation import MissionReport, Report, SearchReport, judge
 from snakeplan.jsonable import jsonable
 from snakeplan.planners import Plan, Planner, Problem, get_planner
 from snakeplan.robots import Chain
@@ -22,7 +22,7 @@ CHECK_SCHEMA = "snakeplan.check/1"
 #: An inspect plan's document keeps the name of the inspection documents before plan/1 held missions: the plan/1
 #: fields, the mission, and inspection/1's own top-level fields (docs/ARCHITECTURE.md).
 INSPECTION_SCHEMA = "snakeplan.inspection/1"
-SCHEMAS = {Task.REACH: PLAN_SCHEMA, Task.INSPECT: INSPECTION_SCHEMA}
+SCHEMAS = {Task.REACH: PLAN_SCHEMA, Task.INSPECT: INSPECTION_SCHEMA, Task.SEARCH: PLAN_SCHEMA}
 
 
 @dataclass(frozen=True)
@@ -31,7 +31,7 @@ class Episode:
 
     problem: Problem
     plan: Plan
-    report: Report | MissionReport | None
+    report: Report | MissionReport | SearchReport | None
 
     @property
     def success(self) -> bool:
@@ -59,7 +59,7 @@ class Episode:
                "details": jsonable(plan.details)}
         if plan.mission is not None:
             doc["mission"] = plan.mission.to_dict()
-            if self.report is not None:
+            if self.report is not None and self.problem.task is Task.INSPECT:
                 doc.update(self._inspection_fields())
         return jsonable(doc)
 
@@ -82,7 +82,8 @@ def run_episode(problem: Problem, planner: Planner | str, seed: int = 0, **optio
     if isinstance(planner, str):
         planner = get_planner(planner, **options)
     plan = planner.plan(problem, seed=seed)
-    return Episode(problem, plan, judge(problem.scene, problem.robot, plan.path, plan.mission, problem.inspection))
+    return Episode(problem, plan, judge(problem.scene, problem.robot, plan.path, plan.mission, problem.inspection,
+                                        problem.task))
 
 
 def check_document(scene: Scene, robot: Chain, report: Report) -> dict:

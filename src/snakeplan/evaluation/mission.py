@@ -281,6 +281,24 @@ def evaluate_mission(scene: Scene, robot: Chain, mission: Mission, settings: Ins
 def _evaluate_mission(scene: Scene, robot: Chain, mission: Mission, settings: InspectionSettings) -> MissionReport:
     if not settings.tip_camera:
         inspected_surface(scene)
+    common = replay(scene, robot, mission, settings)
+    views = mission.views
+    if settings.tip_camera and points_field(scene) is None:  # points to see, no field to map
+        seen = points_seen(scene, settings.camera, views.positions, views.directions)
+        return MissionReport(**common, coverage=float(seen.mean()), times_s=views.times_s.copy(), rmse_k=np.zeros(0),
+                             trace_k2=np.zeros(0), final_mean_k=np.zeros(0), final_variance_k2=np.zeros(0), seen=seen)
+    measure = measure_points if settings.tip_camera else measure_views
+    gmap, seen, rmse, trace = measure(scene, replace(mission, settings=settings))  # the task's camera
+    return MissionReport(**common, coverage=float(seen.mean()), times_s=views.times_s.copy(), rmse_k=np.array(rmse),
+                         trace_k2=np.array(trace), final_mean_k=gmap.mean.copy(),
+                         final_variance_k2=np.diag(gmap.cov).copy(), seen=seen)
+
+
+def replay(scene: Scene, robot: Chain, mission: Mission, settings: InspectionSettings) -> dict:
+    """The judge's replay of a mission's motions and views, whatever the task: the mission as a whole, every motion
+    through the checker under ``JUDGE`` in order and joined to the one before, every view on the tip. Returns the
+    :class:`MissionReport` fields it decides (verdict, failure, motions, clearance, views on the arm, feed travel,
+    retractions, whether the arm came back out)."""
     for i, m in enumerate(mission.motions):
         if isinstance(m, JointMotion) and m.q.shape[1] != robot.dof:
             raise ValueError(f"mission.motions[{i}].q: {m.q.shape[1]} joints per sample; {robot.name} has "
@@ -331,15 +349,7 @@ def _evaluate_mission(scene: Scene, robot: Chain, mission: Mission, settings: In
                   retractions=int(sum(_reversals(m.depths_mm) for m in crawls)),
                   returned=bool(crawls) and float(crawls[-1].depths_mm[-1]) <= CONTINUITY_MM,
                   tip_camera=settings.tip_camera)
-    if settings.tip_camera and points_field(scene) is None:  # points to see, no field to map
-        seen = points_seen(scene, settings.camera, views.positions, views.directions)
-        return MissionReport(**common, coverage=float(seen.mean()), times_s=views.times_s.copy(), rmse_k=np.zeros(0),
-                             trace_k2=np.zeros(0), final_mean_k=np.zeros(0), final_variance_k2=np.zeros(0), seen=seen)
-    measure = measure_points if settings.tip_camera else measure_views
-    gmap, seen, rmse, trace = measure(scene, replace(mission, settings=settings))  # the task's camera
-    return MissionReport(**common, coverage=float(seen.mean()), times_s=views.times_s.copy(), rmse_k=np.array(rmse),
-                         trace_k2=np.array(trace), final_mean_k=gmap.mean.copy(),
-                         final_variance_k2=np.diag(gmap.cov).copy(), seen=seen)
+    return common
 
 
 def _reversals(depths: np.ndarray) -> int:

@@ -44,6 +44,7 @@ from snakeplan.world import (
 )
 from snakeplan.world import mission as missions
 from snakeplan.world.mission import InspectionSettings, Mission, inspected_surface
+from snakeplan.world.search import TargetSight, hide_targets
 
 #: Default planning budget (s), the same for every planner in a comparison.
 DEFAULT_TIME_LIMIT_S = 30.0
@@ -99,8 +100,10 @@ class Solution(NamedTuple):
 class Problem:
     """What to plan: a robot in a scene, its task, within a time budget.
 
-    ``task``: reach the scene's targets from the entrance, or inspect its surfaces (its field, or its points of
-    interest; ``inspection`` says how the mission is flown and measured; None: the scene's and robot's defaults); None
+    ``task``: reach the scene's targets from the entrance, inspect its surfaces (its field, or its points of
+    interest; ``inspection`` says how the mission is flown and measured; None: the scene's and robot's defaults), or
+    search for its targets (sensed knowledge only; the planner finds them through ``sight``, a
+    :class:`~snakeplan.world.search.TargetSight` built from the scene, with the tip camera of ``inspection``); None
     takes the task of the scene's family (:func:`spec_for`).
     ``knowledge`` says what the planner may use: ``"full"`` the whole scene, ``"sensed"`` only obstacles within
     ``sensor_range_mm`` of where the tip has been. ``world`` is the knowledge view that says it
@@ -116,6 +119,7 @@ class Problem:
     world: KnowledgeView | None = None
     task: Task | None = None
     inspection: InspectionSettings | None = None
+    sight: TargetSight | None = None
 
     def __post_init__(self) -> None:
         if not _positive(self.time_limit_s):
@@ -126,12 +130,16 @@ class Problem:
         object.__setattr__(self, "task", spec_for(self.scene).task if self.task is None else as_task(self.task))
         if self.task is Task.REACH and len(self.scene.targets) == 0:
             raise ValueError(f"scene: {self.scene.name} has no targets to plan to")
+        if self.task is Task.SEARCH and self.knowledge is not Knowledge.SENSED:
+            raise ValueError("knowledge: a search task knows the scene only through its sensor and camera ('sensed')")
         if not isinstance(self.robot, Chain):
             raise ValueError(f"robot: must be a Chain, got {type(self.robot).__name__}")
         if self.inspection is None:
             object.__setattr__(self, "inspection", missions.default_settings(self.scene, self.robot))
         if not isinstance(self.inspection, InspectionSettings):
             raise ValueError(f"inspection: must be InspectionSettings, got {type(self.inspection).__name__}")
+        if self.task is Task.SEARCH and not self.inspection.tip_camera:
+            raise ValueError("inspection: a search task looks with a fed arm's tip camera (measurement_hz None)")
         if self.task is Task.INSPECT:
             if self.inspection.tip_camera:
                 if not self.scene.obstacles:
@@ -139,6 +147,11 @@ class Problem:
                 _ = self.scene.points_of_interest  # sampled now: a bad inspect block is refused here
             else:
                 inspected_surface(self.scene)  # a measurement clock maps a surface field (the station)
+        if self.task is Task.SEARCH and self.sight is None:
+            if len(self.scene.targets) == 0:
+                raise ValueError(f"scene: {self.scene.name} has no targets to search for")
+            object.__setattr__(self, "sight", TargetSight(self.scene.targets, self.scene.obstacle_set,
+                                                          self.inspection.camera))
         if not _positive(self.sensor_range_mm):
             raise ValueError(f"sensor_range_mm: must be a positive number of mm, got {self.sensor_range_mm!r}")
         if self.world is None:
@@ -152,8 +165,15 @@ class Problem:
 
     @property
     def goals(self) -> np.ndarray:
-        """Targets in visiting order, ``(k, 3)`` mm."""
+        """Targets in visiting order, ``(k, 3)`` mm (a search planner's raise: it finds them through ``sight``)."""
         return self.scene.targets
+
+    def hidden(self) -> Problem:
+        """The problem as a planner is handed it, before anything is sensed or seen: a search problem's scene with
+        its targets hidden (:func:`snakeplan.world.search.hide_targets`) and a fresh sight of them."""
+        if self.task is not Task.SEARCH:
+            return replace(self, world=self.world.fresh())
+        return replace(self, scene=hide_targets(self.scene), world=self.world.fresh(), sight=self.sight.fresh())
 
 
 def _positive(value) -> bool:
@@ -259,7 +279,7 @@ class Planner(ABC):
         self.check_task(problem.task)
         if self.needs_full_scene and problem.knowledge is not Knowledge.FULL:
             raise ValueError(f"knowledge: planner {self.name} needs the whole scene ('full')")
-        problem = replace(problem, world=problem.world.fresh())  # every plan starts knowing only the prior
+        problem = problem.hidden()  # every plan starts knowing only the prior
         with single_threaded():
             if type(self) not in _WARM:
                 self.warm_up(replace(problem, world=problem.world.fresh()))

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Generator
 
 import numpy as np
 
@@ -81,39 +82,53 @@ class CoveragePlanner(InspectionPlanner):
 
     def choose_branches(self, source: BranchSource, rng: np.random.Generator, deadline: float
                         ) -> tuple[list[Branch], bool]:
-        n = len(source.pois)
-        seen = np.zeros(n, dtype=bool)
-        tries = np.zeros(n, dtype=np.int64)
+        seen = np.zeros(len(source.pois), dtype=bool)
         tree: list[Branch] = []
-        pool: list[Branch] = []
-        budget = source.problem.inspection.budget_s
+        proposals = greedy_branches(source, rng, deadline, tree, seen)
         direction = source.scene.entrance.direction
-        idle = 0
-        while idle < IDLE_ROUNDS:
-            aim = np.flatnonzero(~seen & (tries < MAX_TRIES))
-            if aim.size == 0:
-                return tree, True
-            for k in rng.choice(aim, size=min(ROUND_BRANCHES, aim.size), replace=False):
-                if time.perf_counter() >= deadline:
-                    return tree, False
-                branch = source.grow(source.goal_facing(int(k), int(tries[k])), tree, rng, deadline)
-                tries[k] += 1
-                if branch is not None:
-                    pool.append(branch)
-            best, score = None, 0.0
-            for b in pool:
-                gain = int(np.count_nonzero(~seen[b.seen]))
-                cost = 2.0 * (b.length - max((shared_length(b.path, t.path) for t in tree), default=0.0))
-                if gain and gain / max(cost, 1.0) > score:
-                    best, score = b, gain / max(cost, 1.0)
-            if best is None:
-                idle += 1
-                continue
-            pool = [b for b in pool if b is not best]
-            trial = tree_order(tree + [best])
-            if mission_time(trial, source.robot, direction) > budget:
-                idle += 1
-                continue
-            tree, idle = trial, 0
-            seen[best.seen] = True
-        return tree, True
+        try:
+            best = next(proposals)
+            while True:
+                trial = tree_order(tree + [best])
+                fits = mission_time(trial, source.robot, direction) <= source.problem.inspection.budget_s
+                if fits:
+                    tree[:] = trial
+                    seen[best.seen] = True
+                best = proposals.send(fits)
+        except StopIteration as end:
+            return tree, end.value
+
+
+def greedy_branches(source: BranchSource, rng: np.random.Generator, deadline: float, tree: list[Branch],
+                    seen: np.ndarray) -> Generator[Branch, bool, bool]:
+    """The greedy tree's proposals (see the module): in rounds, branches grown towards points of interest not yet
+    ``seen`` (n,) bool, the one that sees the most new points per mm of motion added to ``tree`` (the branches
+    flown, the caller's list) proposed; the caller sends whether it joined the tree, and updates ``tree`` and
+    ``seen``. Returns whether it finished (every point seen or aimed at too often, or ``IDLE_ROUNDS`` idle rounds)
+    rather than ran out of time at ``deadline``."""
+    tries = np.zeros(len(seen), dtype=np.int64)
+    pool: list[Branch] = []
+    idle = 0
+    while idle < IDLE_ROUNDS:
+        aim = np.flatnonzero(~seen & (tries < MAX_TRIES))
+        if aim.size == 0:
+            return True
+        for k in rng.choice(aim, size=min(ROUND_BRANCHES, aim.size), replace=False):
+            if time.perf_counter() >= deadline:
+                return False
+            branch = source.grow(source.goal_facing(int(k), int(tries[k])), tree, rng, deadline)
+            tries[k] += 1
+            if branch is not None:
+                pool.append(branch)
+        best, score = None, 0.0
+        for b in pool:
+            gain = int(np.count_nonzero(~seen[b.seen]))
+            cost = 2.0 * (b.length - max((shared_length(b.path, t.path) for t in tree), default=0.0))
+            if gain and gain / max(cost, 1.0) > score:
+                best, score = b, gain / max(cost, 1.0)
+        if best is None:
+            idle += 1
+            continue
+        pool = [b for b in pool if b is not best]
+        idle = 0 if (yield best) else idle + 1
+    return True

@@ -24,6 +24,8 @@ BUILTIN_PLANNERS = {
     "coverage": "snakeplan.planners.coverage:CoveragePlanner",
     "random": "snakeplan.planners.random_views:RandomPlanner",
     "iris": "snakeplan.planners.iris:IrisPlanner",
+    "explore-reach": "snakeplan.planners.search.explore_reach:ExploreReach",
+    "frontier": "snakeplan.planners.search.frontier:Frontier",
 }
 
 PLANNERS: Registry[type[Planner]] = Registry("planner", BUILTIN_PLANNERS, load=named_subclass(Planner))

@@ -2,8 +2,6 @@
 
 from snakeplan.scenes.registry import (
     SceneSpec,
-    Task,
-    as_task,
     make_scene,
     register_scene,
     scene_names,
@@ -12,6 +10,7 @@ from snakeplan.scenes.registry import (
 )
 from snakeplan.scenes.scale import scale_warnings
 from snakeplan.scenes.scene import Entrance, Scene
+from snakeplan.scenes.task import TASKS, Task, as_task
 
-__all__ = ["Entrance", "Scene", "SceneSpec", "Task", "as_task", "make_scene", "register_scene", "scale_warnings",
-           "scene_names", "scene_spec", "spec_for"]
+__all__ = ["Entrance", "Scene", "SceneSpec", "TASKS", "Task", "as_task", "make_scene", "register_scene",
+           "scale_warnings", "scene_names", "scene_spec", "spec_for"]

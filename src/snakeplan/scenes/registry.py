@@ -15,31 +15,21 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
-from enum import StrEnum
 from importlib.resources import files
 from pathlib import Path
 from types import MappingProxyType
 
 from snakeplan.registry import Registry, describe
 from snakeplan.scenes.scene import Scene
+from snakeplan.scenes.task import Task, as_task
 
 SceneGenerator = Callable[..., Scene]
 
 
 
-class Task(StrEnum):
-    """What a problem asks of the arm: reach the targets in order, or inspect the scene's surfaces (views that
-    measure them). A ``str`` so that JSON and the command line hold the plain value (``"reach"``)."""
-
-    REACH = "reach"
-    INSPECT = "inspect"
-
-
-#: The task kinds, as their plain values.
-TASKS = tuple(t.value for t in Task)
 #: A spec's defaults where its family names none: the robot and, per task, the planner.
 DEFAULT_ROBOT = "sjtu-snake-iii"
-DEFAULT_PLANNER = {Task.REACH: "as-rrt", Task.INSPECT: "coverage"}
+DEFAULT_PLANNER = {Task.REACH: "as-rrt", Task.INSPECT: "coverage", Task.SEARCH: "explore-reach"}
 
 BUILTIN_SCENES = {
     "fuel-tank": "snakeplan.scenes.fuel_tank:fuel_tank",
@@ -95,14 +85,6 @@ class SceneSpec:
         return Path(str(files(package).joinpath(*path.split("/"))))
 
 
-def as_task(value) -> Task:
-    """``value`` (a :class:`Task` or its plain value) as a Task; ValueError naming ``task`` otherwise."""
-    try:
-        return Task(value)
-    except ValueError:
-        raise ValueError(f"task: must be one of {', '.join(TASKS)}, got {value!r}") from None
-
-
 def _as_spec(name: str, obj) -> SceneSpec:
     """An entry-point object its module did not register: a spec, or a bare generator with the default spec."""
     if isinstance(obj, SceneSpec):
@@ -139,11 +121,16 @@ def scene_spec(name: str) -> SceneSpec:
 
 def spec_for(scene: Scene) -> SceneSpec:
     """The spec of ``scene``'s family; the default spec when the family is not registered (a scene file), whose
-    task is inspect when the file has an ``inspect`` block and no targets."""
+    task is inspect when the file has an ``inspect`` block and no targets. A scene that names its ``task`` (a file's
+    ``"task"``) has it, with that task's default planner where it differs from its family's."""
     if scene.name in SCENES:
-        return scene_spec(scene.name)
-    inspects = scene.inspect is not None and len(scene.targets) == 0
-    return SceneSpec(scene.name, task=Task.INSPECT if inspects else Task.REACH)
+        spec = scene_spec(scene.name)
+    else:
+        inspects = scene.inspect is not None and len(scene.targets) == 0
+        spec = SceneSpec(scene.name, task=Task.INSPECT if inspects else Task.REACH)
+    if scene.task is None or scene.task is spec.task:
+        return spec
+    return replace(spec, task=scene.task, planner=DEFAULT_PLANNER[scene.task])
 
 
 def make_scene(name: str, seed: int = 0, **params) -> Scene:

@@ -21,6 +21,7 @@ from snakeplan import inputs
 from snakeplan.geometry.distance import CONTACT_RESOLUTION_MM, ObstacleSet
 from snakeplan.geometry.primitives import Mesh, Obstacle, obstacle_from_dict, open_mesh_note
 from snakeplan.scenes.inspect import InspectSpec, points_of_interest
+from snakeplan.scenes.task import Task, as_task
 
 SCHEMA = "snakeplan.scene/1"
 #: How deep (mm) a scene file's entrance may lie inside an obstacle's surface (it may sit on a wall's port).
@@ -61,6 +62,7 @@ class Scene:
     ``discovered``: indices of the obstacles that are not known before the job (clutter, debris: a sensed planner
     meets them only through its sensor); every other obstacle is prior (walls, partitions, the CAD structure).
     ``inspect``: what an inspect task looks at (:mod:`snakeplan.scenes.inspect`); None: every surface.
+    ``task``: the task a scene file asks for (``"task"``: reach, inspect or search); None: its family's.
 
     Immutable: its arrays are read-only and its obstacles a tuple, so the packed obstacles it caches can never go
     stale. Build a changed scene with ``dataclasses.replace``.
@@ -76,6 +78,7 @@ class Scene:
     metadata: dict = field(default_factory=dict)
     discovered: tuple[int, ...] = ()
     inspect: InspectSpec | None = None
+    task: Task | None = None
 
     def __post_init__(self) -> None:
         lo, hi = inputs.corners(self.bounds_min, self.bounds_max, "bounds")
@@ -90,7 +93,8 @@ class Scene:
                   "bounds_min": _frozen(lo), "bounds_max": _frozen(hi),
                   "targets": _frozen(inputs.points(self.targets, "targets")), "obstacles": obstacles,
                   "metadata": inputs.mapping(self.metadata, "metadata"),
-                  "discovered": _indices(self.discovered, len(obstacles))}
+                  "discovered": _indices(self.discovered, len(obstacles)),
+                  "task": None if self.task is None else as_task(self.task)}
         if self.inspect is not None:
             if not isinstance(self.inspect, InspectSpec):
                 raise ValueError(f"inspect: expected an InspectSpec, got {inputs.show(self.inspect)}")
@@ -174,6 +178,8 @@ class Scene:
         }
         if self.inspect is not None:
             d["inspect"] = self.inspect.to_dict()
+        if self.task is not None:
+            d["task"] = str(self.task)
         return d
 
     def to_json(self, indent: int | None = None) -> str:
@@ -221,7 +227,8 @@ class Scene:
         scene = cls(name=d["name"], seed=d.get("seed"), bounds_min=bounds["min"], bounds_max=bounds["max"],
                     entrance=Entrance(entrance["position"], entrance["direction"]), targets=d.get("targets", []),
                     obstacles=obstacles, metadata=metadata, discovered=tuple(discovered),
-                    inspect=None if d.get("inspect") is None else InspectSpec.from_dict(d["inspect"], len(obstacles)))
+                    inspect=None if d.get("inspect") is None else InspectSpec.from_dict(d["inspect"], len(obstacles)),
+                    task=d.get("task"))
         check_placement(scene)
         return scene
 

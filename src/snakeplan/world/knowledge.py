@@ -137,6 +137,12 @@ class KnowledgeView(ABC):
     def fresh(self) -> KnowledgeView:
         """The same view before anything was sensed (every plan starts from one)."""
 
+    @abstractmethod
+    def for_targets(self, targets) -> KnowledgeView:
+        """A view of the same structure with other ``targets`` (k, 3) mm that knows, before anything is sensed, what
+        this view knows now: a sub-problem's (a branch of a mission, a reach to a target found), which starts from
+        what the mission has sensed so far."""
+
 
 class FullView(KnowledgeView):
     """Every obstacle of the scene."""
@@ -157,6 +163,9 @@ class FullView(KnowledgeView):
 
     def fresh(self) -> FullView:
         return self
+
+    def for_targets(self, targets) -> FullView:
+        return FullView(self.scene.with_targets(targets), self._set)
 
 
 class SensedView(KnowledgeView):
@@ -210,6 +219,10 @@ class SensedView(KnowledgeView):
     def fresh(self) -> SensedView:
         return SensedView(self.scene, self._truth_set.obstacles, self.sensor_range_mm, self._prior, self._truth_set)
 
+    def for_targets(self, targets) -> SensedView:
+        return SensedView(self.scene.with_targets(targets), self._truth_set.obstacles, self.sensor_range_mm,
+                          self.known.copy(), self._truth_set)
+
 
 def view_for(scene: Scene, knowledge: Knowledge | str, sensor_range_mm: float = DEFAULT_SENSOR_RANGE_MM
              ) -> KnowledgeView:
@@ -229,15 +242,25 @@ class _GuardedScene(Scene):
                                         f"obstacles instead of its knowledge view")
         return super().__getattribute__(name)
 
+    def with_targets(self, targets) -> Scene:
+        """The structure with other ``targets`` (k, 3) mm, its obstacles still unreadable."""
+        return guarded(self, _GuardedScene, targets=np.asarray(targets, dtype=float).reshape(-1, 3))
+
 
 _OBSTACLE_READS = frozenset({"obstacles", "obstacle_set", "signed_distance", "chain_clearance", "chain_collides",
                              "line_of_sight"})
 
 
-def guarded(scene: Scene) -> Scene:
-    """``scene`` with its structure (bounds, entrance, targets, metadata) but obstacles that raise when read."""
-    g = object.__new__(_GuardedScene)
-    for f in ("name", "seed", "bounds_min", "bounds_max", "entrance", "targets", "metadata", "discovered"):
-        object.__setattr__(g, f, getattr(scene, f))
+#: The fields of a scene's structure: what a guarded scene keeps.
+STRUCTURE = ("name", "seed", "bounds_min", "bounds_max", "entrance", "targets", "metadata", "discovered", "inspect",
+             "task")
+
+
+def guarded(scene: Scene, kind: type[Scene] | None = None, **fields) -> Scene:
+    """``scene`` with its structure (bounds, entrance, targets, metadata, what to inspect) but obstacles that raise
+    when read; ``fields`` replace parts of the structure (``targets=``); ``kind``: a subclass of the guarded scene."""
+    g = object.__new__(kind or _GuardedScene)
+    for f in STRUCTURE:
+        object.__setattr__(g, f, fields[f] if f in fields else object.__getattribute__(scene, f))
     object.__setattr__(g, "obstacles", ())
     return g

@@ -24,9 +24,10 @@ from snakeplan.geometry.polyline import cumulative_length
 from snakeplan.mapping.camera import Sightings
 from snakeplan.planners.base import Problem
 from snakeplan.robots import Chain
-from snakeplan.world import PLANNING, FullView, Knowledge, ValidityChecker
+from snakeplan.world import PLANNING, Knowledge, ValidityChecker
 from snakeplan.world.mission import Crawl, InspectionSettings, Mission, Views, tip_poses
 from snakeplan.world.sight import PoiCamera
+from snakeplan.geometry.surface_points import SurfacePoints
 
 #: Insertion (mm) between two views along a branch.
 VIEW_STEP_MM = 50.0
@@ -47,6 +48,10 @@ GRAFT_BACKOFF_MM = 150.0
 GRAFT_LEAD_MM = 120.0
 #: Share of the goals first tried as a graft onto the grown branch that passes nearest them.
 GRAFT_SHARE = 0.5
+#: Spacing (mm) of the points along a flown path at which the tip senses (well within the sensor's 400 mm range).
+SENSE_STEP_MM = 20.0
+#: Plans a reaching planner that needs the whole scene makes for one goal in a sensed problem (plan, sense, replan).
+KNOWN_REPLANS = 3
 
 
 @dataclass(frozen=True)
@@ -83,16 +88,19 @@ class BranchSource:
     see of the points the planner knows of (with sensed knowledge: points on the known surfaces alone, drawn
     again, since those on clutter nobody has seen would give the clutter away; the judge counts the task's own)."""
 
-    def __init__(self, problem: Problem, seed: int) -> None:
+    def __init__(self, problem: Problem, seed: int, reach: str | None = None, pois: SurfacePoints | None = None
+                 ) -> None:
         from snakeplan.planners.registry import get_planner
 
         self.problem = problem
         self.scene = problem.scene
         self.robot: Chain = problem.robot
         self.sensed = problem.knowledge is not Knowledge.FULL
-        self.pois = _known_points(problem) if self.sensed else problem.scene.points_of_interest
+        if pois is None:
+            pois = _known_points(problem) if self.sensed else problem.scene.points_of_interest
+        self.pois = pois
         self.camera = PoiCamera(problem.world.obstacle_set, self.pois, problem.inspection.camera)
-        self.reach = get_planner(SENSED_REACH_PLANNER if self.sensed else REACH_PLANNER)
+        self.reach = get_planner(reach or (SENSED_REACH_PLANNER if self.sensed else REACH_PLANNER))
         self.seed = seed
         self.calls = 0
         self.clearance = self.robot.radii[-1] + GOAL_CLEARANCE_MM
@@ -121,23 +129,54 @@ class BranchSource:
         ok = np.flatnonzero(self.free(pts))
         return pts[ok[0]] if ok.size else None
 
-    def branch_to(self, goal: np.ndarray, deadline: float) -> Branch | None:
-        """The branch the reaching planner finds from the entrance to ``goal`` within :data:`BRANCH_TIME_S` (and
-        ``deadline``, a time.perf_counter() value), or None."""
+    def branch_to(self, goal: np.ndarray, deadline: float, time_s: float = BRANCH_TIME_S) -> Branch | None:
+        """The branch the reaching planner finds from the entrance to ``goal`` within ``time_s`` (and ``deadline``,
+        a time.perf_counter() value), or None. With sensed knowledge it starts from what the problem's view knows
+        (:meth:`snakeplan.world.KnowledgeView.for_targets`); a reaching planner that needs the whole scene plans in
+        the obstacles known (:meth:`_in_known`)."""
         import time
 
-        left = min(BRANCH_TIME_S, deadline - time.perf_counter())
-        if left <= 0.05:
+        until = min(time.perf_counter() + time_s, deadline)
+        if until - time.perf_counter() <= 0.05:
             return None
-        sub = self.scene.with_targets(goal[None])
-        world = None if self.sensed else FullView(sub, self.problem.world.obstacle_set)
-        problem = Problem(sub, self.robot, time_limit_s=left, knowledge=self.problem.knowledge,
-                          sensor_range_mm=self.problem.sensor_range_mm, world=world, task="reach")
-        plan = self.reach.plan(problem, seed=self.seed + self.calls)
+        if self.sensed and self.reach.needs_full_scene:
+            path = self._in_known(goal, until)
+            return None if path is None else self.branch(path)
+        plan = self.reach.plan(reach_problem(self.problem, goal, until - time.perf_counter(), False),
+                               seed=self.seed + self.calls)
         self.calls += 1
         if plan.status != "found":
             return None
         return self.branch(plan.path)
+
+    def _in_known(self, goal: np.ndarray, until: float) -> np.ndarray | None:
+        """A path to ``goal`` by a reaching planner that needs the whole scene, in a sensed problem: planned in a
+        scene of the obstacles known now, then checked against what the tip senses along it (every
+        :data:`SENSE_STEP_MM`) under ``PLANNING``, and planned again in what is known then, at most
+        :data:`KNOWN_REPLANS` times (the classic plan, sense, replan); None when none holds by ``until``."""
+        import time
+
+        from snakeplan.geometry.polyline import densify
+
+        for _ in range(KNOWN_REPLANS):
+            left = until - time.perf_counter()
+            if left <= 0.05:
+                return None
+            plan = self.reach.plan(reach_problem(self.problem, goal, left, True), seed=self.seed + self.calls)
+            self.calls += 1
+            if plan.status != "found":
+                return None
+            self.problem.world.sense(densify(plan.path, SENSE_STEP_MM))
+            if self._checker().first_failure(plan.path) is None:
+                return plan.path
+        return None
+
+    def fly(self, branch: Branch) -> None:
+        """What the tip senses along ``branch`` as the arm is inserted along it, into the problem's view (a sensed
+        mission's later branches start knowing it)."""
+        from snakeplan.geometry.polyline import densify
+
+        self.problem.world.sense(densify(branch.path, SENSE_STEP_MM))
 
     def grow(self, goal: np.ndarray | None, grown: list[Branch], rng: np.random.Generator, deadline: float
              ) -> Branch | None:
@@ -204,6 +243,22 @@ class BranchSource:
         pos, axes = tip_poses(path, depths, self.robot.lengths, self.scene.entrance.direction)
         sight = self.camera.visible(pos, axes)
         return Branch(np.asarray(path, dtype=float), depths, pos, axes, np.unique(sight.node), sight)
+
+
+def reach_problem(problem: Problem, goal: np.ndarray, time_s: float, whole_scene: bool) -> Problem:
+    """The reach problem of a branch to ``goal`` (mm) within ``time_s`` in ``problem``: its view retargeted, knowing
+    what the problem's view knows now (:meth:`snakeplan.world.KnowledgeView.for_targets`); ``whole_scene``: a
+    scene of the obstacles known now, with full knowledge of it, for a reaching planner that needs the whole scene."""
+    world = problem.world.for_targets(np.reshape(goal, (1, 3)))
+    if not whole_scene:
+        return Problem(world.scene, problem.robot, time_limit_s=time_s, knowledge=problem.knowledge,
+                       sensor_range_mm=problem.sensor_range_mm, world=world, task="reach")
+    from snakeplan.scenes import Scene
+
+    s = world.scene
+    known = Scene(s.name, s.seed, s.bounds_min, s.bounds_max, s.entrance, s.targets, problem.world.obstacle_set.obstacles,
+                  s.metadata)
+    return Problem(known, problem.robot, time_limit_s=time_s, task="reach")
 
 
 def _known_points(problem: Problem):
