@@ -30,7 +30,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     check_picture(args.plot, "--plot")
     check_views(args)
     scene = load_scene(args)
-    path, arm, mission = load_plan_file(args.path_file)
+    path, arm, mission, task = load_plan_file(args.path_file)
     given = robot_for(args, scene) if args.robot is not None or arm is None else None
     if arm is not None and given is not None and given.to_dict() != arm.to_dict():
         raise UsageError(f"--robot: {args.robot} is not the arm the plan was made with ({arm.name}); check judges "
@@ -38,7 +38,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     robot = given if arm is None else arm
     source = "--robot" if args.robot else "the plan's" if arm is not None else "the scene's"
     if mission is not None:
-        report = _judge_mission(args, scene, robot, path, mission)
+        report = _judge_mission(args, scene, robot, path, mission, "search" if task == "search" else "inspect")
     else:
         report = evaluate(scene, robot, path)
         if args.plot:
@@ -53,19 +53,20 @@ def cmd_check(args: argparse.Namespace) -> int:
     return EXIT_OK if report.success else EXIT_INFEASIBLE
 
 
-def _judge_mission(args: argparse.Namespace, scene, robot, path, mission):
-    """The judge's report on an inspect plan's mission (its motions, its views, the views measured again) under the
-    scene's inspect task, as plan judged it; its pictures written as asked."""
+def _judge_mission(args: argparse.Namespace, scene, robot, path, mission, task: str):
+    """The judge's report on an inspect or search plan's mission (its motions, its views, the views measured again,
+    or when they saw and reached each target) under the scene's ``task``, as plan judged it; its pictures written as
+    asked."""
     from snakeplan.episode import Episode
     from snakeplan.evaluation import judge
     from snakeplan.planners import Plan, Problem
 
     try:
-        problem = Problem(scene, robot, task="inspect")
+        problem = Problem(scene, robot, task=task, knowledge="sensed" if task == "search" else "full")
     except ValueError as exc:
         raise UsageError(f"--scene: {str(exc).removeprefix('scene: ')}") from None
     try:
-        report = judge(scene, robot, path, mission, problem.inspection)
+        report = judge(scene, robot, path, mission, problem.inspection, task)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
     write_episode_views(args, Episode(problem, Plan("check", "found", path, 0.0, {}, mission), report), args.plot)

@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import inspect
+
 import argparse
 import sys
 from pathlib import Path
@@ -75,10 +77,10 @@ def load_path_file(filename: str) -> np.ndarray:
     return load_plan_file(filename)[0]
 
 
-def load_plan_file(filename: str) -> tuple[np.ndarray, object | None, object | None]:
+def load_plan_file(filename: str) -> tuple[np.ndarray, object | None, object | None, str | None]:
     """(the path of a path or plan file, as :func:`load_path_file` reads it; the arm a plan document carries, its
-    ``arm``, a robot, or None; an inspect plan's ``mission``, or None). A bad ``arm`` or ``mission`` is one line
-    naming the field."""
+    ``arm``, a robot, or None; an inspect or search plan's ``mission``, or None; its ``task``, or None). A bad
+    ``arm``, ``mission`` or ``task`` is one line naming the field."""
     from snakeplan.inputs import load_json, points, show
 
     data = load_json(read_text(filename, "PATH"), "PATH")
@@ -99,12 +101,17 @@ def load_plan_file(filename: str) -> tuple[np.ndarray, object | None, object | N
             mission = Mission.from_dict(data["mission"])
         except ValueError as exc:
             raise UsageError(str(exc)) from None
+    task = data.get("task")
+    if task is not None:
+        from snakeplan.scenes import as_task
+
+        task = str(as_task(task))
     arm = data.get("arm")
     if arm is None:
-        return path, None, mission
+        return path, None, mission, task
     if not isinstance(arm, dict):
         raise UsageError(f"arm: expected a snakeplan.robot/1 object, got {show(arm)}")
-    return path, load_robot(arm, "arm"), mission
+    return path, load_robot(arm, "arm"), mission, task
 
 
 def load_planner(name: str, **options):
@@ -117,4 +124,11 @@ def load_planner(name: str, **options):
         raise UsageError(f"--planner: {exc.args[0]}") from None
     if "policy" in options and not cls.takes_policy:
         raise UsageError(f"--policy: planner {name} rolls out no trained policy")
-    return cls(**options)
+    if "reach" in options and "reach" not in inspect.signature(cls).parameters:
+        raise UsageError(f"--reach: planner {name} has no reaching planner to choose (the search planners do)")
+    try:
+        return cls(**options)
+    except KeyError as exc:
+        if "reach" in options:
+            raise UsageError(f"--reach: {exc.args[0]}") from None
+        raise

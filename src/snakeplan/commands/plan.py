@@ -25,6 +25,7 @@ from snakeplan.commands.inputs import load_planner, load_scene, robot_for
 from snakeplan.commands.options import ROBOT_HELP, TRAJECTORY_HELP, scene_args, view_args
 from snakeplan.commands.trajectory import check_trajectories, write_trajectories
 from snakeplan.commands.views import check_picture, check_views, write_episode_views
+from snakeplan.scenes.task import TASKS
 
 
 def add_parser(sub) -> None:
@@ -40,10 +41,15 @@ def add_parser(sub) -> None:
                                     "sscc (default: the shipped one for the scene and robot; the learned planners: "
                                     "the generalist where the scene's family ships none)")
     p.add_argument("--time-limit", type=finite, default=30.0, help="planning budget in seconds (default 30)")
-    p.add_argument("--knowledge", choices=("full", "sensed"), default="full",
-                   help="what the planner may know: the whole scene, or what its sensor revealed")
-    p.add_argument("--task", choices=("reach", "inspect"),
-                   help="reach the scene's targets, or inspect its surface (default: the scene's task)")
+    p.add_argument("--knowledge", choices=("full", "sensed"),
+                   help="what the planner may know: the whole scene, or what its sensor revealed (default: full; "
+                        "sensed for a search)")
+    p.add_argument("--task", choices=TASKS,
+                   help="reach the scene's targets, inspect its surface, or search for its targets, hidden until the "
+                        "tip camera sees them (default: the scene's task)")
+    p.add_argument("--reach", metavar="PLANNER",
+                   help="a search planner's reaching planner, which grows its branches and reaches each target seen "
+                        "(default as-rrt; any reaching planner: rrt-star, sp-rrt, sac-her, ...)")
     p.add_argument("--json", action="store_true", help="print snakeplan.plan/1 JSON")
     p.add_argument("--plot", help="also write a PNG picture of the plan (an inspection mission: its maps)")
     view_args(p, "the plan (an inspection mission: the camera's flight and the map filling in)")
@@ -54,7 +60,7 @@ def add_parser(sub) -> None:
 def cmd_plan(args: argparse.Namespace) -> int:
     from snakeplan.episode import run_episode
     from snakeplan.planners import Problem
-    from snakeplan.scenes import scale_warnings, spec_for
+    from snakeplan.scenes import Task, as_task, scale_warnings, spec_for
     from snakeplan.world.validity import kernels_ready
 
     check_picture(args.plot, "--plot")
@@ -63,8 +69,13 @@ def cmd_plan(args: argparse.Namespace) -> int:
     scene = load_scene(args)
     robot = robot_for(args, scene)
     spec = spec_for(scene)
-    task = args.task or spec.task
+    task = as_task(args.task or spec.task)
     options = {} if args.policy is None else {"policy": args.policy}
+    if args.reach is not None:
+        if task is not Task.SEARCH:
+            raise UsageError(f"--reach: only a search task has a reaching planner to choose (this one is {task})")
+        options["reach"] = args.reach
+    knowledge = args.knowledge or ("sensed" if task is Task.SEARCH else "full")
     planner = load_planner(args.planner or spec.planner_for(task), **options)
     blame = "--task" if args.task else "--planner"
     try:
@@ -73,10 +84,12 @@ def cmd_plan(args: argparse.Namespace) -> int:
         raise UsageError(f"{blame}: {str(exc).removeprefix('task: ')}; scene {scene.name}'s task is "
                          f"{spec.task}") from None
     try:
-        problem = Problem(scene, robot, time_limit_s=args.time_limit, knowledge=args.knowledge, task=task)
+        problem = Problem(scene, robot, time_limit_s=args.time_limit, knowledge=knowledge, task=task)
     except ValueError as exc:
         if args.task and str(exc).startswith("scene:"):
             raise UsageError(f"--task: {str(exc).removeprefix('scene: ')}") from None
+        if str(exc).startswith("knowledge:"):
+            raise UsageError(f"--{exc}") from None
         raise
     for line in scale_warnings(scene, robot):
         sys.stderr.write(f"snakeplan: warning: {line}\n")

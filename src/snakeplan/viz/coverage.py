@@ -38,15 +38,18 @@ class Timeline:
     points: np.ndarray
     first_seen: np.ndarray
     branch_starts: np.ndarray
+    search: bool = False
 
     @classmethod
-    def of(cls, scene: Scene, robot, mission, frames: int) -> Timeline:
-        """The timeline of ``mission`` in ``scene`` at ``frames`` times evenly over its span."""
+    def of(cls, scene: Scene, robot, mission, frames: int, search: bool = False) -> Timeline:
+        """The timeline of ``mission`` in ``scene`` at ``frames`` times evenly over its span; ``search``: its points
+        are the scene's targets, seen as the judge finds them (:func:`snakeplan.world.search.first_sightings`)."""
         from snakeplan.world.mission import Crawl
+        from snakeplan.world.search import first_sightings
         from snakeplan.world.sight import PoiCamera
 
         crawls = [m for m in mission.motions if isinstance(m, Crawl)]
-        pois = scene.points_of_interest
+        pois = None if search else scene.points_of_interest
         end = max((m.end_s for m in crawls), default=0.0)
         times = np.linspace(0.0, end, max(2, frames))
         joints = np.full((len(times), robot.n_sections + 1, 3), np.nan)
@@ -56,12 +59,18 @@ class Timeline:
             if sel.any():
                 joints[sel] = ftl.fit_batch(m.path, robot.lengths, m.depth_at(times[sel]), scene.entrance.direction)
         views = mission.views
-        first = np.full(len(pois), np.inf)
-        sight = PoiCamera(scene.obstacle_set, pois, mission.settings.camera).visible(views.positions, views.directions)
-        np.minimum.at(first, sight.node, views.times_s[sight.pose])
+        if search:
+            k = first_sightings(scene.obstacle_set, scene.targets, mission.settings.camera, views.positions,
+                                views.directions)
+            points, first = scene.targets, np.where(k >= 0, views.times_s[np.maximum(k, 0)], np.inf)
+        else:
+            points, first = pois.points, np.full(len(pois), np.inf)
+            sight = PoiCamera(scene.obstacle_set, pois, mission.settings.camera).visible(views.positions,
+                                                                                         views.directions)
+            np.minimum.at(first, sight.node, views.times_s[sight.pose])
         seen = first[None, :] <= times[:, None]
-        return cls(times, joints, seen, [m.path for m in crawls], pois.points, first,
-                   np.array([m.start_s for m in crawls]))
+        return cls(times, joints, seen, [m.path for m in crawls], points, first,
+                   np.array([m.start_s for m in crawls]), search)
 
     @property
     def coverage(self) -> np.ndarray:
@@ -90,7 +99,8 @@ def _draw(ax, scene: Scene, line: Timeline, k: int, never: np.ndarray | None) ->
     for path, start in zip(line.branches, line.branch_starts):
         if start <= line.times[k]:  # the branches flown so far
             ax.plot(*path.T, color=BRANCH_HEX, lw=0.8, alpha=0.6)
-    ax.scatter(*line.points.T, c=list(_colours(line.seen[k], never)), s=6, depthshade=False)
+    ax.scatter(*line.points.T, c=list(_colours(line.seen[k], never)), s=140 if line.search else 6,
+               marker="*" if line.search else "o", depthshade=False, edgecolors="k" if line.search else None)
     if np.isfinite(line.joints[k]).all():
         ax.plot(*_inserted(scene, line.joints[k]).T, color=BODY_HEX, lw=2.5, marker="o", ms=2.5)
     set_flat_view(ax, scene)
@@ -103,22 +113,28 @@ def coverage_figure(scene: Scene, line: Timeline, title: str, never: np.ndarray 
     import matplotlib.pyplot as plt
     from matplotlib.lines import Line2D
 
-    mapped = report is not None and report.rmse_k.size > 0
+    mapped = report is not None and getattr(report, "rmse_k", np.zeros(0)).size > 0
     fig = plt.figure(figsize=(19 if mapped else 13, 6))
     ax = fig.add_subplot(1, 3 if mapped else 2, 1, projection="3d")
     _draw(ax, scene, line, len(line.times) - 1, never)
-    handles = [Line2D([], [], ls="", marker="o", color=c, label=lab) for c, lab in
-               ((SEEN_HEX, "seen"), (UNSEEN_HEX, "not seen"))] + (
+    what = "target" if line.search else "o"
+    handles = [Line2D([], [], ls="", marker="*" if line.search else "o", color=c, label=lab) for c, lab in
+               ((SEEN_HEX, "seen" if what == "o" else "target seen"),
+                (UNSEEN_HEX, "not seen" if what == "o" else "target not yet seen"))] + (
         [Line2D([], [], ls="", marker="o", color=NEVER_HEX, label="never visible (oracle)")] if never is not None
         else []) + [Line2D([], [], color=BRANCH_HEX, label="branches (tip paths)")]
     ax.legend(handles=handles, loc="upper left", fontsize=8)
     c = fig.add_subplot(1, 3 if mapped else 2, 2)
     c.plot(line.times, 100 * line.coverage, color=SEEN_HEX)
+    if line.search and report is not None:
+        c.plot(line.times, 100 * (report.reached_s[None, :] <= line.times[:, None]).mean(axis=1), color=BRANCH_HEX,
+               ls="--")
+        c.legend(["seen", "reached"], fontsize=8)
     if never is not None and (~never).any():
         c.plot(line.times, 100 * line.seen[:, ~never].mean(axis=1), color=BRANCH_HEX, ls="--")
         c.legend(["of all points", "of the reachable-visible points"], fontsize=8)
     c.set_xlabel("mission time (s)")
-    c.set_ylabel("points of interest seen (%)")
+    c.set_ylabel("targets (%)" if line.search else "points of interest seen (%)")
     c.set_ylim(0, 100)
     c.grid(alpha=0.3)
     if mapped:
@@ -169,6 +185,11 @@ def coverage_map_figure(scene: Scene, seen: np.ndarray, never: np.ndarray | None
 
 
 def coverage_title(scene: Scene, robot_name: str, planner: str, report) -> str:
+    if hasattr(report, "found_s"):  # a search
+        n = report.found_s.size
+        return (f"{scene.label}, {robot_name}, {planner}: found {int(np.isfinite(report.found_s).sum())} of {n} "
+                f"targets, reached {int(np.isfinite(report.reached_s).sum())} of {n}, in {report.mission_time_s:.0f} s,"
+                f" {report.retractions} retractions")
     mapped = f", final RMSE {report.rmse_k[-1]:.2f} K" if report.rmse_k.size else ""
     return (f"{scene.label}, {robot_name}, {planner}: {report.coverage:.0%} of {report.seen.size} points seen in "
             f"{report.mission_time_s:.0f} s{mapped}, {report.retractions} retractions")
@@ -193,7 +214,9 @@ def coverage_frames_rgb(scene: Scene, line: Timeline, title: str, size: tuple[in
         fig = plt.figure(figsize=(w / 100, h / 100), dpi=100)
         ax = fig.add_subplot(1, 1, 1, projection="3d")
         _draw(ax, scene, line, k, None)
-        ax.set_title(f"{title}\nt = {line.times[k]:.0f} s, seen {line.coverage[k]:.0%}", fontsize=8)
+        seen = (f"targets seen {int(line.seen[k].sum())} of {line.seen.shape[1]}" if line.search else
+                f"seen {line.coverage[k]:.0%}")
+        ax.set_title(f"{title}\nt = {line.times[k]:.0f} s, {seen}", fontsize=8)
         fig.canvas.draw()
         rgb = np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
         plt.close(fig)
@@ -237,7 +260,7 @@ def coverage_page(scene: Scene, robot, line: Timeline, title: str, metrics: dict
         "title": title, "times": _round(line.times[keep], 2), "joints": _round(line.joints[keep], 1),
         "radii": _round(robot.radii), "points": _round(line.points, 1), "first_seen": _round(first, 2),
         "coverage": _round(line.coverage[keep], 4), "branches": [_round(p, 1) for p in line.branches],
-        "metrics": metrics, "colors": scene_data(scene)["colors"] | {"seen": SEEN_HEX, "unseen": UNSEEN_HEX,
+        "point_size": 12.0 if line.search else 2.5, "metrics": metrics, "colors": scene_data(scene)["colors"] | {"seen": SEEN_HEX, "unseen": UNSEEN_HEX,
                                                                       "branch": BRANCH_HEX, "body": BODY_HEX},
         "mean": None if means is None else _round(means, 2), "truth": None if truth is None else _round(truth, 2),
         "range": None if means is None else [float(min(truth.min(), means.min())),
@@ -257,7 +280,7 @@ const pg = new THREE.BufferGeometry();
 pg.setAttribute('position', new THREE.Float32BufferAttribute([].concat.apply([], D.points), 3));
 const pc = new Float32Array(P * 3);
 pg.setAttribute('color', new THREE.BufferAttribute(pc, 3));
-scene.add(new THREE.Points(pg, new THREE.PointsMaterial({size: 2.5 * unit, vertexColors: true})));
+scene.add(new THREE.Points(pg, new THREE.PointsMaterial({size: D.point_size * unit, vertexColors: true})));
 const seenC = new THREE.Color(D.colors.seen), unseenC = new THREE.Color(D.colors.unseen);
 const body = [];
 const panel = document.createElement('div');

@@ -14,10 +14,11 @@ def _fed(episode) -> bool:
 
 
 def _timeline(episode, frames: int):
+    from snakeplan.scenes import Task
     from snakeplan.viz.coverage import Timeline, coverage_title
 
     p = episode.problem
-    return (Timeline.of(p.scene, p.robot, episode.plan.mission, frames),
+    return (Timeline.of(p.scene, p.robot, episode.plan.mission, frames, search=p.task is Task.SEARCH),
             coverage_title(p.scene, p.robot.name, episode.plan.planner, episode.report))
 
 
@@ -78,7 +79,10 @@ def save_episode_page(filename: str | Path, episode, crawl_frames_count: int) ->
 
         line, title = _timeline(episode, 4 * crawl_frames_count)
         r = episode.report
-        metrics = {"verdict": "inspected" if r.success else f"refused ({r.reason})", "views": r.views,
+        verdict = "inspected" if r.success else f"refused ({r.reason})"
+        if hasattr(r, "found_s"):  # a search
+            verdict = f"{r.reason}: found {r.found:.0%}, reached {r.reached:.0%}" if r.failure is None else verdict
+        metrics = {"verdict": verdict, "views": r.views,
                    "mission (s)": round(r.mission_time_s), "feed travel (m)": round(r.motion_mm / 1000, 1),
                    "retractions": r.retractions}
         save_coverage_page(filename, problem.scene, problem.robot, line, title, metrics, plan.mission)
