@@ -22,8 +22,15 @@ def add_parser(bsub) -> None:
     p.add_argument("--scenes", default="fuel-tank,oil-tank", help="comma-separated scene names")
     p.add_argument("--runs", type=int, default=10, help="seeds per scene (default 10, as the paper)")
     p.add_argument("--seed", type=seed, default=0, help="first seed (default 0)")
-    p.add_argument("--time-limit", type=finite, default=10.0, help="budget per plan in seconds (default 10)")
-    p.add_argument("--out", default="bench-table2", help="output folder (default bench-table2)")
+    p.add_argument("--time-limit", type=finite, help="budget per plan in seconds (default 10; 30 per mission with "
+                                                      "--search)")
+    p.add_argument("--out", help="output folder (default bench-table2; bench-search with --search)")
+    p.add_argument("--search", action="store_true",
+                   help="the search setting: targets hidden until the tip camera sees them, clutter unknown; each "
+                        "planner reaches for each search explorer (explore-reach, frontier), and search.md/json and "
+                        "search-<scene>.png give found, reached and the times to find and reach")
+    p.add_argument("--explorers", help="with --search: comma-separated search planners (default explore-reach,"
+                                       "frontier)")
     p.add_argument("--fresh", action="store_true", help="discard earlier runs instead of resuming")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     backend_args(p)
@@ -37,17 +44,49 @@ def cmd_bench_table2(args: argparse.Namespace) -> int:
 
     if args.runs < 1:
         raise UsageError(f"--runs: expected a positive integer, got {args.runs}")
-    planners = DEFAULT_PLANNERS if args.planners is None else name_list(args.planners, planner_names(), "--planners")
-    config = Table2Config(planners=planners,
-                          scenes=name_list(args.scenes, list(SCENES), "--scenes"),
-                          seeds=tuple(range(args.seed, args.seed + args.runs)),
-                          time_limit_s=args.time_limit)
+    if args.explorers is not None and not args.search:
+        raise UsageError("--explorers: only the search setting (--search) has explorers")
+    planners = DEFAULT_PLANNERS if args.planners is None else name_list(args.planners, planner_names("reach"),
+                                                                         "--planners")
+    scenes = name_list(args.scenes, list(SCENES), "--scenes")
+    seeds = tuple(range(args.seed, args.seed + args.runs))
+    if args.search:
+        return _search(args, planners, scenes, seeds)
+    config = Table2Config(planners=planners, scenes=scenes, seeds=seeds,
+                          time_limit_s=10.0 if args.time_limit is None else args.time_limit)
     config.check("--planners")
-    outcome = run_sweep(config.sweep(), args.out, backend(args), fresh=args.fresh, progress=not args.json)
-    summary = table2_outputs(config, outcome.rows, Path(args.out))
+    out = args.out or "bench-table2"
+    outcome = run_sweep(config.sweep(), out, backend(args), fresh=args.fresh, progress=not args.json)
+    summary = table2_outputs(config, outcome.rows, Path(out))
     if args.json:
         print_json({"summary": summary, "runner": outcome.to_dict()})
     else:
-        sys.stdout.write(summary_markdown(summary, config) + f"\n\n{outcome_line(outcome)}\nwrote {args.out}/"
+        sys.stdout.write(summary_markdown(summary, config) + f"\n\n{outcome_line(outcome)}\nwrote {out}/"
                          f"table2.md, table2.csv, runs.jsonl, fig7_*.png\n")
+    return EXIT_OK
+
+
+def _search(args: argparse.Namespace, planners: tuple[str, ...], scenes: tuple[str, ...], seeds: tuple[int, ...]
+            ) -> int:
+    """Table 2 in the search setting (:mod:`snakeplan.bench.search`)."""
+    from snakeplan.bench.runner import run_sweep
+    from snakeplan.bench.search import DEFAULT_OUT_DIR, EXPLORERS, TIME_LIMIT_S, SearchConfig, search_outputs
+    from snakeplan.bench.search import summary_markdown
+    from snakeplan.planners import planner_names
+
+    explorers = EXPLORERS if args.explorers is None else name_list(args.explorers, planner_names("search"),
+                                                                     "--explorers")
+    config = SearchConfig(scenes, seeds, tuple(planners), tuple(explorers),
+                          TIME_LIMIT_S if args.time_limit is None else args.time_limit)
+    if not any(config.entries_in(s) for s in scenes):
+        raise UsageError("--planners: none is compared in these scenes (a learned planner only where its policy "
+                         "ships)")
+    out = args.out or DEFAULT_OUT_DIR
+    outcome = run_sweep(config.sweep(), out, backend(args), fresh=args.fresh, progress=not args.json)
+    summary = search_outputs(config, outcome.rows, Path(out))
+    if args.json:
+        print_json({"summary": summary, "runner": outcome.to_dict()})
+    else:
+        sys.stdout.write(summary_markdown(summary, config) + f"\n\n{outcome_line(outcome)}\nwrote {out}/search.md, "
+                         "search.json, runs.jsonl, search-*.png\n")
     return EXIT_OK
