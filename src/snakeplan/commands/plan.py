@@ -25,7 +25,6 @@ from snakeplan.commands.inputs import load_planner, load_scene, robot_for
 from snakeplan.commands.options import ROBOT_HELP, TRAJECTORY_HELP, scene_args, view_args
 from snakeplan.commands.trajectory import check_trajectories, write_trajectories
 from snakeplan.commands.views import check_picture, check_views, write_episode_views
-from snakeplan.scenes.task import TASKS
 
 
 def add_parser(sub) -> None:
@@ -44,7 +43,7 @@ def add_parser(sub) -> None:
     p.add_argument("--knowledge", choices=("full", "sensed"),
                    help="what the planner may know: the whole scene, or what its sensor revealed (default: full; "
                         "sensed for a search)")
-    p.add_argument("--task", choices=TASKS,
+    p.add_argument("--task", choices=("reach", "inspect", "search"),  # scenes.TASKS, without importing the scenes
                    help="reach the scene's targets, inspect its surface, or search for its targets, hidden until the "
                         "tip camera sees them (default: the scene's task)")
     p.add_argument("--reach", metavar="PLANNER",

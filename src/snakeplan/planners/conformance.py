@@ -33,6 +33,12 @@ short mission): ``runs``, ``status-path`` (a plan with a path carries its missio
 ``determinism`` (the same path and views), ``malformed`` (the fields above, a ``scene`` with nothing to inspect),
 and ``deadline`` on the planner's own calls (``details["planning_time_s"]``), which ``time_limit_s`` bounds for
 an inspect task. ``entrance`` and the walled-in target are reaching's and are listed as skipped.
+
+A search planner is checked on search problems (:data:`SEARCH_SCENES`, sensed knowledge): ``runs``, ``entrance``,
+``status-path`` (its mission, with at least one view), ``deadline``, ``determinism``, ``malformed`` (the fields
+above, ``knowledge="full"`` too) and ``honesty``: a search planner is handed the scene with its targets hidden and
+its obstacles guarded (:meth:`Problem.hidden`), so a planner that reads a target before one of its views has seen
+it, or an obstacle it has not sensed, raises, and the rule names it.
 """
 
 from __future__ import annotations
@@ -60,6 +66,7 @@ from snakeplan.world import (
     targets_reached,
 )
 from snakeplan.world.mission import InspectionSettings, default_settings
+from snakeplan.world.search import UnseenTargetError
 
 #: The problems used when none are given: these scene families (seed ``scene_seed``) with this robot.
 DEFAULT_SCENES = ("fuel-tank", "oil-tank")
@@ -75,6 +82,8 @@ INSPECT_BUDGET_S = 10.0
 FED_SCENE = "thermal-tank"
 FED_ROBOT = "sjtu-snake-iii"
 FED_BUDGET_S = 120.0
+#: A search planner's problems: these families (seed ``scene_seed``), sensed knowledge.
+SEARCH_SCENES = ("oil-tank", "fuel-tank")
 #: Time limit (s) of the hard problems of the deadline rule.
 TINY_TIME_LIMIT_S = 0.05
 #: Allowed overrun of the time limit: the larger of this (s) and this fraction of the limit.
@@ -130,6 +139,13 @@ def inspect_problems(planner: Planner, scene_seed: int, time_limit_s: float) -> 
     return out
 
 
+def search_problems(scene_seed: int, time_limit_s: float, robot: str = DEFAULT_ROBOT) -> list[Problem]:
+    """A search planner's problems: :data:`SEARCH_SCENES` with sensed knowledge."""
+    chain = get_robot(robot)
+    return [Problem(make_scene(name, scene_seed), chain, time_limit_s, knowledge="sensed", task=Task.SEARCH)
+            for name in SEARCH_SCENES]
+
+
 def check_planner(planner: Planner | str, problems: Sequence[Problem] | None = None, *,
                   scenes: Sequence[str] = DEFAULT_SCENES, robot: str = DEFAULT_ROBOT, scene_seed: int = 1,
                   time_limit_s: float = DEFAULT_TIME_LIMIT_S, seed: int = 0) -> ConformanceReport:
@@ -139,7 +155,9 @@ def check_planner(planner: Planner | str, problems: Sequence[Problem] | None = N
     the first rule broken; returns what it ran."""
     if isinstance(planner, str):
         planner = get_planner(planner)
-    if problems is None and Task.REACH not in planner.tasks:
+    if problems is None and Task.SEARCH in planner.tasks:
+        problems = search_problems(scene_seed, time_limit_s, robot)
+    elif problems is None and Task.REACH not in planner.tasks:
         problems = inspect_problems(planner, scene_seed, time_limit_s)
     elif problems is None:
         problems = default_problems(scenes, robot, scene_seed, time_limit_s)
@@ -156,7 +174,7 @@ def check_planner(planner: Planner | str, problems: Sequence[Problem] | None = N
             _check_same(first, again, where)
         if problem.task is not Task.REACH:
             plans.append(f"{where}: {first.status}")
-            skipped.append(f"entrance and the walled-in target on {where}: rules of the reach task")
+            skipped.append(f"the walled-in target on {where}: a rule of the reach task")
             continue
         hard = dataclasses.replace(problem, scene=_enclose_last_target(problem.scene), time_limit_s=TINY_TIME_LIMIT_S,
                                    world=None)  # a view of the walled scene, not the old one
@@ -188,6 +206,8 @@ def _plan(planner: Planner, problem: Problem, seed: int, where: str, timed: bool
     t0 = time.perf_counter()
     try:
         plan = planner.plan(problem, seed=seed)
+    except (UnseenTargetError, UnsensedObstacleError) as exc:
+        raise ConformanceError("honesty", f"{planner.name} on {where}: {exc}") from exc
     except Exception as exc:
         raise ConformanceError("runs", f"{planner.name} on {where} raised {type(exc).__name__}: {exc}") from exc
     wall = time.perf_counter() - t0
@@ -196,7 +216,7 @@ def _plan(planner: Planner, problem: Problem, seed: int, where: str, timed: bool
     if plan.planner != planner.name:
         raise ConformanceError("runs", f"{planner.name} on {where} returned a plan named {plan.planner!r}")
     limit = problem.time_limit_s
-    if problem.task is not Task.REACH:
+    if problem.task is Task.INSPECT:
         wall = float(plan.details.get("planning_time_s", wall))
     if timed and wall > limit + deadline_slack_s(limit):
         raise ConformanceError("deadline", f"{planner.name} on {where} took {wall:.3f} s, more than the time limit "
@@ -223,12 +243,15 @@ def _check_status_path(plan: Plan, problem: Problem, where: str) -> None:
         raise ConformanceError("status-path", f"{where}: the path is not a finite (m, 3) array with m >= 2")
     if problem.task is not Task.REACH:
         if plan.mission is None or len(plan.mission.views) == 0:
-            raise ConformanceError("status-path", f"{where}: an inspect plan with a path carries no mission with "
-                                                  f"a view")
-        return
+            raise ConformanceError("status-path", f"{where}: an {problem.task} plan with a path carries no mission "
+                                                  f"with a view")
+        if problem.task is Task.INSPECT:
+            return
     gap = float(np.linalg.norm(path[0] - problem.start))
     if gap > ENTRANCE_TOLERANCE_MM:
         raise ConformanceError("entrance", f"{where}: the path starts {gap:.3g} mm from the entrance")
+    if problem.task is Task.SEARCH:
+        return
     if plan.status is Status.APPROXIMATE and plan.details.get("stopped") not in STOPPED:
         raise ConformanceError("status-path", f"{where}: an approximate plan has details['stopped'] = "
                                               f"{plan.details.get('stopped')!r}, not 'timeout' or 'no_progress'")
@@ -279,7 +302,7 @@ def _malformed(problem: Problem, needs_full_scene: bool) -> list[tuple[str, obje
     fields = {"scene": scene, "robot": problem.robot, "time_limit_s": problem.time_limit_s,
               "knowledge": problem.knowledge, "sensor_range_mm": problem.sensor_range_mm, "task": problem.task,
               "inspection": problem.inspection}
-    if problem.task is Task.REACH:
+    if problem.task is not Task.INSPECT:
         empty = dataclasses.replace(scene, targets=np.zeros((0, 3)))
     elif problem.inspection.tip_camera:
         empty = dataclasses.replace(scene, obstacles=(), discovered=(), inspect=None)
@@ -292,6 +315,8 @@ def _malformed(problem: Problem, needs_full_scene: bool) -> list[tuple[str, obje
         ("robot", problem.robot.name)]
     if needs_full_scene:
         cases.append(("knowledge", "sensed"))
+    if problem.task is Task.SEARCH:
+        cases.append(("knowledge", "full"))
     return [(name, value, lambda name=name, value=value: Problem(**{**fields, name: value}))
             for name, value in cases]
 

@@ -36,10 +36,10 @@ def in_sight(obstacles: ObstacleSet, targets: ArrayLike, model: CameraModel, pos
     t = np.asarray(targets, dtype=float).reshape(-1, 3)
     c = np.asarray(positions, dtype=float).reshape(-1, 3)
     v = np.asarray(directions, dtype=float).reshape(-1, 3)
-    v = v / np.linalg.norm(v, axis=1, keepdims=True)
     out = np.zeros((len(c), len(t)), dtype=bool)
     if out.size == 0:
         return out
+    v = v / np.linalg.norm(v, axis=1, keepdims=True)
     rel = t[None] - c[:, None]
     d = np.linalg.norm(rel, axis=2)
     cand = (d >= model.d_min) & (d <= model.d_max) & (
@@ -56,6 +56,8 @@ def first_sightings(obstacles: ObstacleSet, targets: ArrayLike, model: CameraMod
                     directions: ArrayLike) -> np.ndarray:
     """For each target (T,), the index of the first view that sees it, -1 for none (:func:`in_sight`)."""
     seen = in_sight(obstacles, targets, model, positions, directions)
+    if seen.shape[0] == 0:
+        return np.full(seen.shape[1], -1)
     return np.where(seen.any(axis=0), np.argmax(seen, axis=0), -1)
 
 
