@@ -38,7 +38,6 @@ def add_parser(bsub) -> None:
 
 
 def cmd_bench_table2(args: argparse.Namespace) -> int:
-    from snakeplan.bench.runner import run_sweep
     from snakeplan.bench.table2 import DEFAULT_PLANNERS, SCENES, Table2Config, summary_markdown, table2_outputs
     from snakeplan.planners import planner_names
 
@@ -55,21 +54,27 @@ def cmd_bench_table2(args: argparse.Namespace) -> int:
     config = Table2Config(planners=planners, scenes=scenes, seeds=seeds,
                           time_limit_s=10.0 if args.time_limit is None else args.time_limit)
     config.check("--planners")
-    out = args.out or "bench-table2"
+    return _run(args, config, args.out or "bench-table2", table2_outputs, summary_markdown,
+                "table2.md, table2.csv, runs.jsonl, fig7_*.png")
+
+
+def _run(args: argparse.Namespace, config, out: str, outputs, markdown, written: str) -> int:
+    """Run ``config``'s sweep into ``out`` (resuming), write its ``outputs`` and print its ``markdown`` summary (or
+    the summary and the runner's account as JSON)."""
+    from snakeplan.bench.runner import run_sweep
+
     outcome = run_sweep(config.sweep(), out, backend(args), fresh=args.fresh, progress=not args.json)
-    summary = table2_outputs(config, outcome.rows, Path(out))
+    summary = outputs(config, outcome.rows, Path(out))
     if args.json:
         print_json({"summary": summary, "runner": outcome.to_dict()})
     else:
-        sys.stdout.write(summary_markdown(summary, config) + f"\n\n{outcome_line(outcome)}\nwrote {out}/"
-                         f"table2.md, table2.csv, runs.jsonl, fig7_*.png\n")
+        sys.stdout.write(markdown(summary, config) + f"\n\n{outcome_line(outcome)}\nwrote {out}/{written}\n")
     return EXIT_OK
 
 
 def _search(args: argparse.Namespace, planners: tuple[str, ...], scenes: tuple[str, ...], seeds: tuple[int, ...]
             ) -> int:
     """Table 2 in the search setting (:mod:`snakeplan.bench.search`)."""
-    from snakeplan.bench.runner import run_sweep
     from snakeplan.bench.search import DEFAULT_OUT_DIR, EXPLORERS, TIME_LIMIT_S, SearchConfig, search_outputs
     from snakeplan.bench.search import summary_markdown
     from snakeplan.planners import planner_names
@@ -81,12 +86,5 @@ def _search(args: argparse.Namespace, planners: tuple[str, ...], scenes: tuple[s
     if not any(config.entries_in(s) for s in scenes):
         raise UsageError("--planners: none is compared in these scenes (a learned planner only where its policy "
                          "ships)")
-    out = args.out or DEFAULT_OUT_DIR
-    outcome = run_sweep(config.sweep(), out, backend(args), fresh=args.fresh, progress=not args.json)
-    summary = search_outputs(config, outcome.rows, Path(out))
-    if args.json:
-        print_json({"summary": summary, "runner": outcome.to_dict()})
-    else:
-        sys.stdout.write(summary_markdown(summary, config) + f"\n\n{outcome_line(outcome)}\nwrote {out}/search.md, "
-                         "search.json, runs.jsonl, search-*.png\n")
-    return EXIT_OK
+    return _run(args, config, args.out or DEFAULT_OUT_DIR, search_outputs, summary_markdown,
+                "search.md, search.json, runs.jsonl, search-*.png")

@@ -60,9 +60,11 @@ class MissionFailure:
     link: int | None = None
 
 
-@dataclass(frozen=True)
-class MissionReport:
-    """The judge's verdict on a mission and the map its views make (see the module)."""
+@dataclass(frozen=True, kw_only=True)
+class Replayed:
+    """What the judge's replay of a mission decides whatever the task (:func:`replay`): the verdict and the first
+    failure, the motions, the mission's length (s), the least clearance (mm), the views and those on the arm, the
+    feed's travel (mm), the retractions, whether the arm came back out, and whether views are a tip camera's."""
 
     success: bool
     reason: str
@@ -72,17 +74,23 @@ class MissionReport:
     min_clearance_mm: float
     views: int
     views_on_arm: int
+    motion_mm: float = 0.0
+    retractions: int = 0
+    returned: bool = False
+    tip_camera: bool = False
+
+
+@dataclass(frozen=True, kw_only=True)
+class MissionReport(Replayed):
+    """The judge's verdict on an inspect mission and the map its views make (see the module)."""
+
     coverage: float
     times_s: np.ndarray
     rmse_k: np.ndarray
     trace_k2: np.ndarray
     final_mean_k: np.ndarray
     final_variance_k2: np.ndarray
-    motion_mm: float = 0.0
-    retractions: int = 0
-    returned: bool = False
     seen: np.ndarray | None = None
-    tip_camera: bool = False
 
     def metrics(self) -> dict:
         """The metrics block of an inspect plan's ``snakeplan.plan/1`` document and runner rows."""
@@ -297,8 +305,7 @@ def _evaluate_mission(scene: Scene, robot: Chain, mission: Mission, settings: In
 def replay(scene: Scene, robot: Chain, mission: Mission, settings: InspectionSettings) -> dict:
     """The judge's replay of a mission's motions and views, whatever the task: the mission as a whole, every motion
     through the checker under ``JUDGE`` in order and joined to the one before, every view on the tip. Returns the
-    :class:`MissionReport` fields it decides (verdict, failure, motions, clearance, views on the arm, feed travel,
-    retractions, whether the arm came back out)."""
+    fields of :class:`Replayed` it decides, as keywords."""
     for i, m in enumerate(mission.motions):
         if isinstance(m, JointMotion) and m.q.shape[1] != robot.dof:
             raise ValueError(f"mission.motions[{i}].q: {m.q.shape[1]} joints per sample; {robot.name} has "

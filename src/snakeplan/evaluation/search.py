@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from snakeplan.evaluation.mission import MissionFailure, replay
+from snakeplan.evaluation.mission import Replayed, replay
 from snakeplan.geometry.polyline import cumulative_length, point_at
 from snakeplan.robots import Chain
 from snakeplan.scenes import Scene
@@ -29,22 +29,11 @@ SEARCH_REASONS = ("reached", "not_found", "not_reached")
 REACH_STEP_MM = 1.0
 
 
-@dataclass(frozen=True)
-class SearchReport:
-    """The judge's verdict on a search mission: the replay's (see :func:`snakeplan.evaluation.mission.replay`), and
-    per target the mission time it was first seen and first reached after that (s; inf: never)."""
+@dataclass(frozen=True, kw_only=True)
+class SearchReport(Replayed):
+    """The judge's verdict on a search mission: the replay's (:func:`snakeplan.evaluation.mission.replay`), and per
+    target the mission time it was first seen and first reached after that (s; inf: never)."""
 
-    success: bool
-    reason: str
-    failure: MissionFailure | None
-    motions: int
-    mission_time_s: float
-    min_clearance_mm: float
-    views: int
-    views_on_arm: int
-    motion_mm: float
-    retractions: int
-    returned: bool
     found_s: np.ndarray
     reached_s: np.ndarray
 
@@ -118,10 +107,7 @@ def evaluate_search(scene: Scene, robot: Chain, mission: Mission, settings: Insp
         reason = "not_found"
     else:
         reason = "reached" if np.isfinite(reached).all() else "not_reached"
-    return SearchReport(success=reason == "reached", reason=reason, failure=failure, motions=common["motions"],
-                        mission_time_s=common["mission_time_s"], min_clearance_mm=common["min_clearance_mm"],
-                        views=common["views"], views_on_arm=common["views_on_arm"], motion_mm=common["motion_mm"],
-                        retractions=common["retractions"], returned=common["returned"], found_s=found,
+    return SearchReport(**{**common, "success": reason == "reached", "reason": reason}, found_s=found,
                         reached_s=reached)
 
 
