@@ -254,10 +254,10 @@ def test_frontier_searches_the_oil_tank_and_a_scene_file_names_its_task(tmp_path
     assert len(err) == 1 and "task: must be one of reach, inspect, search" in err[0]
 
 
-def test_a_search_in_a_real_cad_file_end_to_end_with_its_video(tmp_path, capsys):
+def test_a_search_in_a_real_cad_file_end_to_end_with_its_video(tmp_path, capsys, browser):
     """gymnasium-robotics' kitchen base cabinets (an open STL in metres), a floor, two pieces of debris placed here:
     ``scene import``, a scene file that says search, planned, judged and drawn (picture, video, page) from the
-    command line; both found and reached."""
+    command line; both found and reached; the page in Chromium counts the targets seen at the start and the end."""
     import shutil
 
     from test_inspect_any_space import gymnasium_robotics_mesh
@@ -281,3 +281,9 @@ def test_a_search_in_a_real_cad_file_end_to_end_with_its_video(tmp_path, capsys)
     for name in ("s.png", "s.gif", "s.html"):
         assert (tmp_path / name).stat().st_size > 10_000
     assert re.search(r'"point_size":\s*12', Path(tmp_path / "s.html").read_text())  # the targets, drawn large
+    browser.events.clear()
+    browser.open(tmp_path / "s.html", "window.snakeplan && window.snakeplan.ready")
+    assert browser.evaluate("document.getElementById('readout').textContent").endswith("targets seen 2 of 2")
+    browser.evaluate("window.snakeplan.setFrame(0)")
+    assert browser.evaluate("document.getElementById('readout').textContent").endswith("targets seen 0 of 2")
+    assert browser.errors() == []
