@@ -287,3 +287,21 @@ def test_a_search_in_a_real_cad_file_end_to_end_with_its_video(tmp_path, capsys,
     browser.evaluate("window.snakeplan.setFrame(0)")
     assert browser.evaluate("document.getElementById('readout').textContent").endswith("targets seen 0 of 2")
     assert browser.errors() == []
+
+
+def test_table2_in_the_search_setting_tables_every_combination_from_its_judged_rows(tmp_path, capsys):
+    """``bench table2 --search`` on one oil-tank seed, two reaching planners under both explorers: four judged rows,
+    one table row per combination whose shares are the rows' own, and a second call resumes with nothing to run."""
+    args = ["bench", "table2", "--search", "--runs", "1", "--seed", "5", "--scenes", "oil-tank", "--planners",
+            "as-rrt,rrt-star", "--out", str(tmp_path), "--json"]
+    assert main(args) == 0
+    out = json.loads(capsys.readouterr().out)
+    rows = [json.loads(line) for line in (tmp_path / "runs.jsonl").read_text().splitlines()]
+    assert len(rows) == 4 and {r["task"] for r in rows} == {"search"} and {r["knowledge"] for r in rows} == {"sensed"}
+    for r in rows:
+        entry = out["summary"][f"oil-tank/{r['planner']} + {r['options']['reach']}"]
+        assert entry["runs"] == 1 and entry["valid"] == int(r["metrics"]["searched"])
+        assert entry["found"] == r["metrics"]["found"] and entry["reached"] == r["metrics"]["reached"]
+    assert "| oil-tank | frontier + as-rrt | 1 |" in (tmp_path / "search.md").read_text()
+    assert (tmp_path / "search-oil-tank.png").stat().st_size > 10_000
+    assert main(args) == 0 and json.loads(capsys.readouterr().out)["runner"]["ran"] == 0
