@@ -21,7 +21,7 @@ from snakeplan.evaluation.search import evaluate_search
 from snakeplan.geometry.distance import ObstacleSet
 from snakeplan.geometry.primitives import Sphere
 from snakeplan.mapping.models import TIP_CAMERA
-from snakeplan.planners import ConformanceError, Planner, Problem, Status, check_planner
+from snakeplan.planners import ConformanceError, Planner, Problem, Solution, Status, check_planner
 from snakeplan.robots import Chain, Section, get_robot
 from snakeplan.scenes import Entrance, Scene, make_scene
 from snakeplan.world.mission import Crawl, InspectionSettings, Mission, Views
@@ -141,7 +141,7 @@ def test_driving_to_a_target_before_seeing_it_does_not_score():
     assert evaluate_search(hidden, robot, mission).reason == "not_found"
 
 
-# --- honesty ------------------------------------------------------------------------------------------------------------
+# --- honesty --------------------------------------------------------------------------------------------------------
 class _Peeker(Planner):
     """Reads the targets from the problem, as a reaching planner would: a search must not."""
 
@@ -162,6 +162,23 @@ class _AsksEarly(_Peeker):
         return Status.FOUND, np.vstack([problem.start, problem.sight.position(0)]), {}
 
 
+class _LooksAround(_Peeker):
+    """Looks for the targets from the port, a view its mission never flies (it flies none)."""
+
+    name = "looks-around"
+
+    def _solve(self, problem, rng, deadline):
+        e = problem.scene.entrance
+        problem.sight.look(e.position[None], e.direction[None])
+        return Solution(Status.NO_PROGRESS, None, {}, "it only looked")
+
+
+def test_a_search_planner_that_looks_from_a_view_its_mission_never_flies_fails_the_honesty_rule():
+    problem = Problem(make_scene("oil-tank", 1), get_robot("sjtu-snake-iii"), 2.0, knowledge="sensed", task="search")
+    with pytest.raises(ConformanceError, match=r"\[honesty\].*1 poses its mission never flies"):
+        check_planner(_LooksAround(), [problem])
+
+
 @pytest.mark.parametrize("cheat", [_Peeker, _AsksEarly])
 def test_a_search_planner_that_reads_a_target_before_any_view_has_seen_it_fails_the_honesty_rule(cheat):
     problem = Problem(make_scene("oil-tank", 1), get_robot("sjtu-snake-iii"), 2.0, knowledge="sensed", task="search")
@@ -177,9 +194,12 @@ def test_a_search_knows_the_scene_only_through_its_views_and_sensor():
     with pytest.raises(ValueError, match=r"^knowledge\b"):
         Problem(scene, robot, task="search")
     hidden = Problem(scene, robot, knowledge="sensed", task="search").hidden()
-    for read in ("targets", "obstacles"):
-        with pytest.raises(RuntimeError):
-            getattr(hidden.scene, read)
+    for where in (hidden.scene, hidden.world.scene):
+        for read in ("targets", "obstacles"):
+            with pytest.raises(RuntimeError):
+                getattr(where, read)
+    with pytest.raises(RuntimeError):
+        hidden.goals
     assert not any("target" in k for k in hidden.scene.metadata)  # the generator's facts do not give it away
 
 

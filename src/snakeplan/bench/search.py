@@ -75,17 +75,21 @@ def _finite(values) -> np.ndarray:
 
 
 def summarise(rows: list[dict], config: SearchConfig) -> dict:
-    """Per scene and combination, from the logged rows (see the module); times of targets never found or reached
-    are left out of the time medians and counted in the shares."""
+    """Per scene and combination, from the logged rows (see the module): found and reached are shares of every
+    run's targets (a run with no mission counts its family's), seen or reached in missions the judge found valid;
+    times of targets never found or reached are left out of the time medians."""
     out = {}
     for scene in config.scenes:
+        per_run = max((int((r["metrics"] or {}).get("targets") or 0) for r in rows if r["scene"] == scene),
+                      default=0)  # a family's count; a run with no mission judged has no metrics
         for explorer, reach, label in config.entries_in(scene):
             group = [r for r in rows if r["scene"] == scene and r["planner"] == explorer
                      and r.get("options", {}).get("reach") == reach]
             m = [r["metrics"] or {} for r in group]
-            found_s = _finite(t for x in m for t in x.get("found_s") or [])
-            reached_s = _finite(t for x in m for t in x.get("reached_s") or [])
-            targets = sum(int(x.get("targets") or 0) for x in m)
+            valid = [x for x in m if x.get("searched")]
+            found_s = _finite(t for x in valid for t in x.get("found_s") or [])
+            reached_s = _finite(t for x in valid for t in x.get("reached_s") or [])
+            targets = sum(int(x.get("targets") or per_run) for x in m)
             compute = np.array([r["compute_time_s"] for r in group], dtype=float)
             out[f"{scene}/{label}"] = {
                 "scene": scene, "explorer": explorer, "reach": reach, "runs": len(group),

@@ -3,9 +3,8 @@
 
 from __future__ import annotations
 
-import inspect
-
 import argparse
+import inspect
 import sys
 from pathlib import Path
 

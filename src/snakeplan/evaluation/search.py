@@ -1,6 +1,7 @@
 """The judge of search missions: the mission replayed as an inspection's (every motion through the one checker
 under ``JUDGE``, every view on the tip), then, from the views and the motions alone, when each target was first seen
-and when the tip first came within the reach tolerance of it after that (mm, s).
+and when the tip first came within the reach tolerance of it after that (mm, s); from the replay's first failure on,
+nothing is counted.
 
 A planner's own account (which targets it says it found, when) is not read: the first sightings come from the
 mission's views through the camera rules of :mod:`snakeplan.world.search`, against the whole scene; a target counts
@@ -23,8 +24,6 @@ from snakeplan.world import REACH_TOLERANCE_MM
 from snakeplan.world.mission import Crawl, InspectionSettings, Mission
 from snakeplan.world.search import first_sightings
 
-#: The verdicts of a valid search mission.
-SEARCH_REASONS = ("reached", "not_found", "not_reached")
 #: Arc-length step (mm) at which a crawl's path is compared with a target.
 REACH_STEP_MM = 1.0
 
@@ -101,6 +100,9 @@ def evaluate_search(scene: Scene, robot: Chain, mission: Mission, settings: Insp
         crawls = [m for m in mission.motions if isinstance(m, Crawl)]
         reached = np.array([_first_reach(crawls, t, f) for t, f in zip(scene.targets, found)])
     failure = common["failure"]
+    if failure is not None:  # nothing counts from the first failure on
+        found = np.where(found <= failure.time_s, found, np.inf)
+        reached = np.where(reached <= failure.time_s, reached, np.inf)
     if failure is not None:
         reason = failure.kind
     elif not np.isfinite(found).all():
@@ -113,33 +115,39 @@ def evaluate_search(scene: Scene, robot: Chain, mission: Mission, settings: Insp
 
 def _first_reach(crawls: list[Crawl], target: np.ndarray, after: float) -> float:
     """The first mission time at or after ``after`` (s) at which a crawl's tip is within the reach tolerance of
-    ``target``: each crawl's path compared with it every :data:`REACH_STEP_MM`, its depth profile followed segment by
-    segment (the depth moves linearly between samples)."""
+    ``target``. Each crawl's depth moves linearly between its samples; over each stretch from ``after`` on, the
+    depths swept are tested at the stretch's ends and every :data:`REACH_STEP_MM` of the path between them, the tip
+    at each the path's point (a hold is its one depth, from ``after`` or its start)."""
     if not math.isfinite(after):
         return math.inf
     for m in crawls:
         if m.end_s < after:
             continue
-        length = float(cumulative_length(m.path)[-1])
-        s = np.r_[np.arange(0.0, length, REACH_STEP_MM), length]
-        near = s[np.linalg.norm(point_at(m.path, s) - target, axis=1) <= REACH_TOLERANCE_MM]
-        if near.size == 0:
-            continue
         t, d = m.times_s, m.depths_mm
+        if len(t) == 1:
+            if _near(m.path, np.array([d[0]]), target).any():
+                return float(max(t[0], after))
+            continue
+        length = float(cumulative_length(m.path)[-1])
         for k in range(len(t) - 1):
             if t[k + 1] < after:
                 continue
-            lo, hi = min(d[k], d[k + 1]), max(d[k], d[k + 1])
-            inside = near[(near >= lo) & (near <= hi)]
-            if inside.size == 0:
+            t0 = max(float(t[k]), after)
+            d0 = float(np.interp(t0, t[k:k + 2], d[k:k + 2])) if t[k + 1] > t[k] else float(d[k])
+            d1 = float(d[k + 1])
+            lo, hi = min(d0, d1), max(d0, d1)
+            grid = np.arange(0.0, length + REACH_STEP_MM, REACH_STEP_MM)
+            depths = np.unique(np.r_[d0, grid[(grid > lo) & (grid < hi)], d1])
+            near = depths[_near(m.path, depths, target)]
+            if near.size == 0:
                 continue
-            if d[k + 1] == d[k]:
-                times = np.full(inside.size, t[k])
-            else:
-                times = t[k] + (inside - d[k]) / (d[k + 1] - d[k]) * (t[k + 1] - t[k])
-            times = times[times >= after]
-            if times.size:
-                return float(times.min())
-        if len(t) == 1 and after <= t[0] and np.any(np.abs(near - d[0]) <= REACH_STEP_MM):
-            return float(t[0])
+            if d1 == d0:
+                return t0
+            times = t0 + (near - d0) / (d1 - d0) * (float(t[k + 1]) - t0)
+            return float(times.min())
     return math.inf
+
+
+def _near(path: np.ndarray, depths: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """Whether the tip at each of ``depths`` along ``path`` is within the reach tolerance of ``target``."""
+    return np.linalg.norm(point_at(path, depths) - target, axis=1) <= REACH_TOLERANCE_MM

@@ -173,7 +173,8 @@ class Problem:
         its targets hidden (:func:`snakeplan.world.search.hide_targets`) and a fresh sight of them."""
         if self.task is not Task.SEARCH:
             return replace(self, world=self.world.fresh())
-        return replace(self, scene=hide_targets(self.scene), world=self.world.fresh(), sight=self.sight.fresh())
+        scene = hide_targets(self.scene)
+        return replace(self, scene=scene, world=self.world.over(scene), sight=self.sight.fresh())
 
 
 def _positive(value) -> bool:
@@ -279,10 +280,11 @@ class Planner(ABC):
         self.check_task(problem.task)
         if self.needs_full_scene and problem.knowledge is not Knowledge.FULL:
             raise ValueError(f"knowledge: planner {self.name} needs the whole scene ('full')")
-        problem = problem.hidden()  # every plan starts knowing only the prior
+        fresh = problem.hidden  # every plan starts knowing only the prior, and nothing a warm-up saw
+        problem = fresh()
         with single_threaded():
             if type(self) not in _WARM:
-                self.warm_up(replace(problem, world=problem.world.fresh()))
+                self.warm_up(fresh())
                 _WARM.add(type(self))
             t0 = time.perf_counter()
             refusal = input_refusal(problem)

@@ -32,13 +32,14 @@ A planner that does not reach (an inspection planner) is checked on inspect prob
 short mission): ``runs``, ``status-path`` (a plan with a path carries its mission, with at least one view),
 ``determinism`` (the same path and views), ``malformed`` (the fields above, a ``scene`` with nothing to inspect),
 and ``deadline`` on the planner's own calls (``details["planning_time_s"]``), which ``time_limit_s`` bounds for
-an inspect task. ``entrance`` and the walled-in target are reaching's and are listed as skipped.
+an inspect task. The walled-in target is reaching's and is listed as skipped; ``entrance`` is not checked.
 
 A search planner is checked on search problems (:data:`SEARCH_SCENES`, sensed knowledge): ``runs``, ``entrance``,
 ``status-path`` (its mission, with at least one view), ``deadline``, ``determinism``, ``malformed`` (the fields
 above, ``knowledge="full"`` too) and ``honesty``: a search planner is handed the scene with its targets hidden and
 its obstacles guarded (:meth:`Problem.hidden`), so a planner that reads a target before one of its views has seen
-it, or an obstacle it has not sensed, raises, and the rule names it.
+it, or an obstacle it has not sensed, raises, and the rule names it; and every pose it looked through for targets
+(``problem.sight.looks``) must be a view of its mission.
 """
 
 from __future__ import annotations
@@ -66,7 +67,7 @@ from snakeplan.world import (
     targets_reached,
 )
 from snakeplan.world.mission import InspectionSettings, default_settings
-from snakeplan.world.search import UnseenTargetError
+from snakeplan.world.search import UnseenTargetError, looked_off_mission
 
 #: The problems used when none are given: these scene families (seed ``scene_seed``) with this robot.
 DEFAULT_SCENES = ("fuel-tank", "oil-tank")
@@ -203,6 +204,8 @@ def _describe(problem: Problem) -> str:
 
 def _plan(planner: Planner, problem: Problem, seed: int, where: str, timed: bool) -> Plan:
     """Plan once and check the rules every plan must meet (runs, entrance, status-path; deadline when ``timed``)."""
+    if problem.sight is not None:
+        problem.sight.looks.clear()
     t0 = time.perf_counter()
     try:
         plan = planner.plan(problem, seed=seed)
@@ -222,6 +225,12 @@ def _plan(planner: Planner, problem: Problem, seed: int, where: str, timed: bool
         raise ConformanceError("deadline", f"{planner.name} on {where} took {wall:.3f} s, more than the time limit "
                                            f"{limit:g} s + {deadline_slack_s(limit):g} s slack")
     _check_status_path(plan, problem, f"{planner.name} on {where}")
+    if problem.sight is not None:
+        off = looked_off_mission(problem.sight.looks, plan.mission.views) if plan.mission is not None else sum(
+            len(p) for p, _ in problem.sight.looks)
+        if off:
+            raise ConformanceError("honesty", f"{planner.name} on {where} looked for targets from {off} poses its "
+                                              f"mission never flies")
     return plan
 
 

@@ -50,7 +50,7 @@ class SceneSpec:
     """What goes with a scene family.
 
     ``robot``: the robot preset it is sized for (used when none is named). ``planner``: the planner used when
-    none is named (an inspection planner for ``task="inspect"``). ``task``: one of :data:`TASKS`.
+    none is named (an inspection planner for ``task="inspect"``). ``task``: one of :data:`snakeplan.scenes.task.TASKS`.
     ``policies``: planner name -> the trained policy file that ships for this family, as ``"package:path"``
     (a path inside an installed package, e.g. ``"snakeplan:rl/data/fuel-tank-sac-her.npz"``).
     ``generator`` is None for a scene read from a file whose family is not registered.

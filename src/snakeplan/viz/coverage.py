@@ -260,8 +260,9 @@ def coverage_page(scene: Scene, robot, line: Timeline, title: str, metrics: dict
         "title": title, "times": _round(line.times[keep], 2), "joints": _round(line.joints[keep], 1),
         "radii": _round(robot.radii), "points": _round(line.points, 1), "first_seen": _round(first, 2),
         "coverage": _round(line.coverage[keep], 4), "branches": [_round(p, 1) for p in line.branches],
-        "point_size": 12.0 if line.search else 2.5, "search": line.search, "metrics": metrics, "colors": scene_data(scene)["colors"] | {"seen": SEEN_HEX, "unseen": UNSEEN_HEX,
-                                                                      "branch": BRANCH_HEX, "body": BODY_HEX},
+        "point_size": 12.0 if line.search else 2.5, "search": line.search, "metrics": metrics,
+        "colors": scene_data(scene)["colors"] | {"seen": SEEN_HEX, "unseen": UNSEEN_HEX, "branch": BRANCH_HEX,
+                                                 "body": BODY_HEX},
         "mean": None if means is None else _round(means, 2), "truth": None if truth is None else _round(truth, 2),
         "range": None if means is None else [float(min(truth.min(), means.min())),
                                              float(max(truth.max(), means.max()))]}

@@ -138,6 +138,11 @@ class KnowledgeView(ABC):
         """The same view before anything was sensed (every plan starts from one)."""
 
     @abstractmethod
+    def over(self, scene: Scene) -> KnowledgeView:
+        """This view, fresh, over another structure of the same obstacles (a search's scene with its targets
+        hidden)."""
+
+    @abstractmethod
     def for_targets(self, targets) -> KnowledgeView:
         """A view of the same structure with other ``targets`` (k, 3) mm that knows, before anything is sensed, what
         this view knows now: a sub-problem's (a branch of a mission, a reach to a target found), which starts from
@@ -164,6 +169,9 @@ class FullView(KnowledgeView):
     def fresh(self) -> FullView:
         return self
 
+    def over(self, scene: Scene) -> FullView:
+        return FullView(scene, self._set)
+
     def for_targets(self, targets) -> FullView:
         return FullView(self.scene.with_targets(targets), self._set)
 
@@ -179,7 +187,7 @@ class SensedView(KnowledgeView):
 
     def __init__(self, scene: Scene, truth: Sequence[Obstacle], sensor_range_mm: float = DEFAULT_SENSOR_RANGE_MM,
                  prior: Sequence[bool] | None = None, truth_set: ObstacleSet | None = None):
-        super().__init__(scene if isinstance(scene, _GuardedScene) else guarded(scene))  # structure only
+        super().__init__(scene if isinstance(scene, GuardedScene) else guarded(scene))  # structure only
         self._truth_set = ObstacleSet(truth) if truth_set is None else truth_set
         self.sensor_range_mm = float(sensor_range_mm)
         count = len(self._truth_set)
@@ -219,6 +227,9 @@ class SensedView(KnowledgeView):
     def fresh(self) -> SensedView:
         return SensedView(self.scene, self._truth_set.obstacles, self.sensor_range_mm, self._prior, self._truth_set)
 
+    def over(self, scene: Scene) -> SensedView:
+        return SensedView(scene, self._truth_set.obstacles, self.sensor_range_mm, self._prior, self._truth_set)
+
     def for_targets(self, targets) -> SensedView:
         return SensedView(self.scene.with_targets(targets), self._truth_set.obstacles, self.sensor_range_mm,
                           self.known.copy(), self._truth_set)
@@ -233,7 +244,7 @@ def view_for(scene: Scene, knowledge: Knowledge | str, sensor_range_mm: float = 
 
 
 @dataclass(frozen=True, eq=False)
-class _GuardedScene(Scene):
+class GuardedScene(Scene):
     """A scene whose obstacles cannot be read (see :func:`guarded`)."""
 
     def __getattribute__(self, name: str):
@@ -244,7 +255,7 @@ class _GuardedScene(Scene):
 
     def with_targets(self, targets) -> Scene:
         """The structure with other ``targets`` (k, 3) mm, its obstacles still unreadable."""
-        return guarded(self, _GuardedScene, targets=np.asarray(targets, dtype=float).reshape(-1, 3))
+        return guarded(self, GuardedScene, targets=np.asarray(targets, dtype=float).reshape(-1, 3))
 
 
 _OBSTACLE_READS = frozenset({"obstacles", "obstacle_set", "signed_distance", "chain_clearance", "chain_collides",
@@ -259,7 +270,7 @@ STRUCTURE = ("name", "seed", "bounds_min", "bounds_max", "entrance", "targets", 
 def guarded(scene: Scene, kind: type[Scene] | None = None, **fields) -> Scene:
     """``scene`` with its structure (bounds, entrance, targets, metadata, what to inspect) but obstacles that raise
     when read; ``fields`` replace parts of the structure (``targets=``); ``kind``: a subclass of the guarded scene."""
-    g = object.__new__(kind or _GuardedScene)
+    g = object.__new__(kind or GuardedScene)
     for f in STRUCTURE:
         object.__setattr__(g, f, fields[f] if f in fields else object.__getattribute__(scene, f))
     object.__setattr__(g, "obstacles", ())

@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike
 from snakeplan.geometry.distance import ObstacleSet
 from snakeplan.mapping.models import CameraModel
 from snakeplan.scenes import Scene
-from snakeplan.world.knowledge import _GuardedScene, guarded
+from snakeplan.world.knowledge import GuardedScene, guarded
 
 #: Half the size (mm) of a piece of debris: a ray that stops this short of a target's centre still sees it.
 TARGET_RADIUS_MM = 10.0
@@ -64,40 +64,65 @@ def first_sightings(obstacles: ObstacleSet, targets: ArrayLike, model: CameraMod
 class TargetSight:
     """What a search planner may know of the targets: how many there are, and where each is once one of its views
     has seen it (:meth:`look`). The truth stays here; :meth:`position` of a target not yet seen raises
-    :class:`UnseenTargetError`."""
+    :class:`UnseenTargetError`. Every view looked through is logged in :attr:`looks`, one log shared by this sight
+    and every fresh one made from it, so whoever made the problem can check that the planner looked only from
+    views its mission flies (the conformance suite's honesty rule does)."""
 
-    def __init__(self, targets: ArrayLike, obstacles: ObstacleSet, model: CameraModel) -> None:
+    def __init__(self, targets: ArrayLike, obstacles: ObstacleSet, model: CameraModel,
+                 looks: list[tuple[np.ndarray, np.ndarray]] | None = None) -> None:
         self._targets = np.array(targets, dtype=float).reshape(-1, 3)
         self._targets.flags.writeable = False
         self._obstacles = obstacles
         self.model = model
-        self.found = np.zeros(len(self._targets), dtype=bool)
+        self._found = np.zeros(len(self._targets), dtype=bool)
+        self.looks = [] if looks is None else looks
 
     @property
     def count(self) -> int:
         """How many targets the search is for (known: what was lost, not where)."""
         return len(self._targets)
 
+    @property
+    def found(self) -> np.ndarray:
+        """Which targets a view has seen (a copy)."""
+        return self._found.copy()
+
     def look(self, positions: ArrayLike, directions: ArrayLike) -> list[int]:
         """The targets the views (positions (k, 3) mm, directions (k, 3)) see for the first time, in the order the
         views first see them."""
+        positions = np.array(positions, dtype=float).reshape(-1, 3)
+        directions = np.array(directions, dtype=float).reshape(-1, 3)
+        self.looks.append((positions, directions))
         first = first_sightings(self._obstacles, self._targets, self.model, positions, directions)
-        new = np.flatnonzero((first >= 0) & ~self.found)
-        self.found[new] = True
+        new = np.flatnonzero((first >= 0) & ~self._found)
+        self._found[new] = True
         return [int(i) for i in new[np.argsort(first[new], kind="stable")]]
 
     def position(self, k: int) -> np.ndarray:
         """Where target ``k`` is (mm), once a view has seen it."""
-        if not self.found[k]:
+        if not self._found[k]:
             raise UnseenTargetError(f"target {k}: read before any view had seen it")
         return self._targets[k].copy()
 
     def fresh(self) -> TargetSight:
-        """The same targets, none seen yet (every plan starts so)."""
-        return TargetSight(self._targets, self._obstacles, self.model)
+        """The same targets, none seen yet (every plan starts so), logging into the same :attr:`looks`."""
+        return TargetSight(self._targets, self._obstacles, self.model, self.looks)
 
 
-class _HiddenTargetsScene(_GuardedScene):
+def looked_off_mission(looks: list[tuple[np.ndarray, np.ndarray]], views, tol_mm: float = 1e-6,
+                       tol_rad: float = 1e-6) -> int:
+    """How many of the poses in ``looks`` (a :attr:`TargetSight.looks` log) are none of a mission's ``views``
+    (:class:`snakeplan.world.mission.Views`; position within ``tol_mm`` and direction within ``tol_rad``)."""
+    off = 0
+    for positions, directions in looks:
+        for p, d in zip(positions, directions / np.linalg.norm(directions, axis=1, keepdims=True)):
+            near = np.linalg.norm(views.positions - p, axis=1) <= tol_mm
+            if not np.any(views.directions[near] @ d >= np.cos(tol_rad)):
+                off += 1
+    return off
+
+
+class _HiddenTargetsScene(GuardedScene):
     """A guarded scene whose targets cannot be read either (see :func:`hide_targets`)."""
 
     def __getattribute__(self, name: str):

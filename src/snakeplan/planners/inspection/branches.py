@@ -21,13 +21,13 @@ import numpy as np
 
 from snakeplan import ftl
 from snakeplan.geometry.polyline import cumulative_length
+from snakeplan.geometry.surface_points import SurfacePoints
 from snakeplan.mapping.camera import Sightings
 from snakeplan.planners.base import Problem
 from snakeplan.robots import Chain
-from snakeplan.world import PLANNING, Knowledge, ValidityChecker
+from snakeplan.world import PLANNING, Knowledge, KnowledgeView, ValidityChecker
 from snakeplan.world.mission import Crawl, InspectionSettings, Mission, Views, tip_poses
 from snakeplan.world.sight import PoiCamera
-from snakeplan.geometry.surface_points import SurfacePoints
 
 #: Insertion (mm) between two views along a branch.
 VIEW_STEP_MM = 50.0
@@ -142,7 +142,8 @@ class BranchSource:
         if self.sensed and self.reach.needs_full_scene:
             path = self._in_known(goal, until)
             return None if path is None else self.branch(path)
-        plan = self.reach.plan(reach_problem(self.problem, goal, until - time.perf_counter(), False),
+        view = self.problem.world.for_targets(goal[None])
+        plan = self.reach.plan(reach_problem(self.problem, view, until - time.perf_counter(), False),
                                seed=self.seed + self.calls)
         self.calls += 1
         if plan.status != "found":
@@ -151,23 +152,27 @@ class BranchSource:
 
     def _in_known(self, goal: np.ndarray, until: float) -> np.ndarray | None:
         """A path to ``goal`` by a reaching planner that needs the whole scene, in a sensed problem: planned in a
-        scene of the obstacles known now, then checked against what the tip senses along it (every
+        scene of the obstacles known, then checked against what the tip senses along it (every
         :data:`SENSE_STEP_MM`) under ``PLANNING``, and planned again in what is known then, at most
-        :data:`KNOWN_REPLANS` times (the classic plan, sense, replan); None when none holds by ``until``."""
+        :data:`KNOWN_REPLANS` times (the classic plan, sense, replan); None when none holds by ``until``. It senses
+        in a view of its own that starts from what the problem's knows (as a sensing reaching planner's plan does):
+        only a branch flown tells the mission (:meth:`fly`)."""
         import time
 
         from snakeplan.geometry.polyline import densify
 
+        view = self.problem.world.for_targets(goal[None])
+        arm = ValidityChecker(view, self.robot, PLANNING)
         for _ in range(KNOWN_REPLANS):
             left = until - time.perf_counter()
             if left <= 0.05:
                 return None
-            plan = self.reach.plan(reach_problem(self.problem, goal, left, True), seed=self.seed + self.calls)
+            plan = self.reach.plan(reach_problem(self.problem, view, left, True), seed=self.seed + self.calls)
             self.calls += 1
             if plan.status != "found":
                 return None
-            self.problem.world.sense(densify(plan.path, SENSE_STEP_MM))
-            if self._checker().first_failure(plan.path) is None:
+            view.sense(densify(plan.path, SENSE_STEP_MM))
+            if arm.first_failure(plan.path) is None:
                 return plan.path
         return None
 
@@ -245,18 +250,17 @@ class BranchSource:
         return Branch(np.asarray(path, dtype=float), depths, pos, axes, np.unique(sight.node), sight)
 
 
-def reach_problem(problem: Problem, goal: np.ndarray, time_s: float, whole_scene: bool) -> Problem:
-    """The reach problem of a branch to ``goal`` (mm) within ``time_s`` in ``problem``: its view retargeted, knowing
-    what the problem's view knows now (:meth:`snakeplan.world.KnowledgeView.for_targets`); ``whole_scene``: a
-    scene of the obstacles known now, with full knowledge of it, for a reaching planner that needs the whole scene."""
-    world = problem.world.for_targets(np.reshape(goal, (1, 3)))
+def reach_problem(problem: Problem, view: KnowledgeView, time_s: float, whole_scene: bool) -> Problem:
+    """The reach problem, within ``time_s``, of a branch of ``problem`` to the target of ``view`` (the problem's view
+    retargeted, :meth:`snakeplan.world.KnowledgeView.for_targets`); ``whole_scene``: a scene of the obstacles
+    ``view`` knows, with full knowledge of it, for a reaching planner that needs the whole scene."""
     if not whole_scene:
-        return Problem(world.scene, problem.robot, time_limit_s=time_s, knowledge=problem.knowledge,
-                       sensor_range_mm=problem.sensor_range_mm, world=world, task="reach")
+        return Problem(view.scene, problem.robot, time_limit_s=time_s, knowledge=problem.knowledge,
+                       sensor_range_mm=problem.sensor_range_mm, world=view.fresh(), task="reach")
     from snakeplan.scenes import Scene
 
-    s = world.scene
-    known = Scene(s.name, s.seed, s.bounds_min, s.bounds_max, s.entrance, s.targets, problem.world.obstacle_set.obstacles,
+    s = view.scene
+    known = Scene(s.name, s.seed, s.bounds_min, s.bounds_max, s.entrance, s.targets, view.obstacle_set.obstacles,
                   s.metadata)
     return Problem(known, problem.robot, time_limit_s=time_s, task="reach")
 

@@ -2,9 +2,10 @@
 
 The explorer is the inspection planner `coverage`'s greedy tree (:func:`snakeplan.planners.coverage.greedy_branches`)
 on points of interest where debris can lie: the scene's ``inspect`` block when it has one (the user says where to
-look), else the floor of every chamber: the points of the prior structure's surfaces that face up (normal within
-:data:`FLOOR_TILT_RAD` of the z axis) in the lowest :data:`FLOOR_BAND` of the bounds' height. Its branches look all
-along the way in, so the space above the floor is looked through as it goes.
+look; the points on the prior structure's surfaces it names), else the floor of every chamber: the points of the
+prior structure's near-horizontal surfaces (normal line within :data:`FLOOR_TILT_RAD` of the z axis) in the lowest
+:data:`FLOOR_BAND` of the bounds' height. Its branches look all along the way in, so the space above the floor is
+looked through as it goes.
 """
 
 from __future__ import annotations
@@ -34,7 +35,11 @@ def floor_points(problem: Problem):
     scene = problem.scene
     known = list(problem.world.obstacle_set.obstacles)
     spec = scene.inspect or InspectSpec()
-    which = [k for k in spec.obstacles(len(known)) if k < len(known)] if scene.inspect else list(range(len(known)))
+    which = list(range(len(known)))
+    if scene.inspect is not None:  # the block names the scene's obstacles; the known ones are its prior ones
+        prior = [k for k in range(len(known) + len(scene.discovered)) if k not in set(scene.discovered)]
+        named = set(spec.obstacles(len(prior) + len(scene.discovered)))
+        which = [i for i, k in enumerate(prior) if k in named]
     region = spec.region or (scene.bounds_min, scene.bounds_max)
     points = sample_surfaces(known, which, spec.spacing(known, which), region)
     if scene.inspect is not None:

@@ -1,11 +1,11 @@
 """`frontier`: search by going to the boundary between seen and unseen space (Yamauchi's frontier-based exploration,
 the classic approach for unknown environments), for a fed arm.
 
-The bounds are cut into cells of :data:`CELL_MM` (larger where the bounds would hold more than :data:`MAX_CELLS`).
-A cell is seen once a view of the tip camera has it within its field of view and range with nothing known between
-(a ray cast through the obstacles the planner knows). A frontier cell is a cell not seen, free of what is known by
-the goal clearance, next to a seen cell (6-neighbours); before any view, what the camera sees from the port is seen. The next
-branch goes from the entrance to the frontier cell nearest the tip where the last branch ended (the arm retracts
+The bounds are cut into cells of :data:`CELL_MM` (larger where the bounds would hold more than :data:`MAX_CELLS`). A
+cell is seen once a view of the tip camera has it within its field of view and range with nothing known between (a
+ray cast through the obstacles the planner knows). A frontier cell is a cell not seen, free of what is known by the
+goal clearance, next to a seen cell (6-neighbours); before any view, what the camera sees from the port is seen. The
+next branch goes from the entrance to the frontier cell nearest the tip where the last branch ended (the arm retracts
 the least), trying the :data:`CANDIDATES` nearest in turn; a cell whose branch fails or sees nothing new
 :data:`CELL_TRIES` times is no longer a goal.
 """

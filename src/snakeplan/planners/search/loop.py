@@ -37,6 +37,7 @@ from snakeplan.planners.inspection.branches import (
 )
 from snakeplan.planners.inspection.planner import ASSEMBLY_RESERVE_S, ASSEMBLY_RESERVE_SHARE
 from snakeplan.scenes import Task
+from snakeplan.threads import single_threaded
 
 #: Time (s) the reaching planner may take for one try at a target seen, and tries per target.
 REACH_TIME_S = 2.0
@@ -60,9 +61,11 @@ class SearchPlanner(Planner):
     needs_full_scene: ClassVar[bool] = False
 
     def __init__(self, reach: str = SENSED_REACH_PLANNER) -> None:
-        from snakeplan.planners.registry import get_planner
+        from snakeplan.planners.registry import PLANNERS, planner_names
 
-        self.reach = get_planner(reach, task="reach").name
+        if reach not in PLANNERS or Task.REACH not in PLANNERS.get(reach).tasks:
+            raise KeyError(f"reach: {reach!r} is not a reaching planner (known: {', '.join(planner_names('reach'))})")
+        self.reach = reach
 
     @abstractmethod
     def explorer(self, source: BranchSource, flown: list[Branch], rng: np.random.Generator, deadline: float
@@ -74,27 +77,30 @@ class SearchPlanner(Planner):
         """The points of interest the source's branches are scored on (None: what the problem knows of)."""
         return None
 
-    def warm_up(self, problem: Problem) -> None:
-        """The reaching planner's kernels and weights, once, before the first plan's clock starts."""
-        super().warm_up(problem)
+    def plan(self, problem: Problem, seed: int = 0):
+        """Plan, the reaching planner's kernels and weights loaded first, outside the clock (once per process and
+        reaching planner: a search planner's own warm-up runs once per class, whatever planner it reaches with)."""
         from snakeplan.planners.base import _WARM
         from snakeplan.planners.registry import get_planner
 
         reach = get_planner(self.reach)
-        if type(reach) in _WARM:
-            return
-        e = problem.scene.entrance
-        reach.warm_up(reach_problem(problem, e.position + 300.0 * e.direction, 1.0, reach.needs_full_scene))
-        _WARM.add(type(reach))
+        if type(reach) not in _WARM and problem.task is Task.SEARCH:
+            sub = problem.hidden()
+            e = sub.scene.entrance
+            view = sub.world.for_targets((e.position + 300.0 * e.direction)[None])
+            with single_threaded():
+                reach.warm_up(reach_problem(sub, view, 1.0, reach.needs_full_scene))
+            _WARM.add(type(reach))
+        return super().plan(problem, seed)
 
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float) -> Solution:
         seed = int(rng.integers(2**31))
         source = BranchSource(problem, seed, self.reach, self.points(problem))
         sight = problem.sight
         flown: list[Branch] = []
-        explorer = self.explorer(source, flown, rng, deadline)
         reserve = min(ASSEMBLY_RESERVE_S, ASSEMBLY_RESERVE_SHARE * problem.time_limit_s)
         until = deadline - reserve
+        explorer = self.explorer(source, flown, rng, until)
         budget, direction = problem.inspection.budget_s, problem.scene.entrance.direction
         seen: list[int] = []
         reached: dict[int, int] = {}
@@ -137,15 +143,15 @@ class SearchPlanner(Planner):
         details = {"reach_planner": self.reach, "branches": len(flown), "reach_calls": source.calls,
                    "seen_order": seen, "reached": sorted(reached), "reach_tries": dict(tries),
                    "mission_time_s": max((m.end_s for m in mission.motions), default=0.0)}
+        why = {"timeout": f"the time limit of {problem.time_limit_s:g} s ran out",
+               "budget": f"the next branch would not fit the mission's {budget:g} s",
+               "explored": "the explorer had nothing left to look at"}.get(ended, "")
         if not flown:
-            return Solution(Status.NO_PROGRESS, None, details, "no branch left the entrance: the reaching planner "
-                                                               f"found none in {source.calls} tries")
+            return Solution(Status.TIMEOUT if ended == "timeout" else Status.NO_PROGRESS, None, details,
+                            f"{why} before any branch was flown ({source.calls} calls of the reaching planner)")
         last = flown[max(reached.values())] if reached else flown[-1]
         if len(reached) == sight.count:
             return Solution(Status.FOUND, last.path, details, mission=mission)
-        why = {"timeout": f"the time limit of {problem.time_limit_s:g} s ran out",
-               "budget": f"the next branch would not fit the mission's {budget:g} s",
-               "explored": "the explorer had nothing left to look at"}[ended]
         details["stopped"] = str(Status.TIMEOUT if ended == "timeout" else Status.NO_PROGRESS)
         return Solution(Status.APPROXIMATE, last.path, details,
                         f"{why} with {len(seen)} of {sight.count} targets seen and {len(reached)} reached; the mission "
