@@ -17,7 +17,10 @@ node found (most points seen, then least time) is flown in its order.
 
 Differences from IRIS, each because the arm is fed: the roadmap is a tree of insertions (every configuration is
 reached from the entrance along its own branch, as follow-the-leader demands), so an edge's cost is the feed's
-travel back to where two branches part and in again, not a straight-line motion; and the search ends at the time limit, not at a proven bound.
+travel back to where two branches part and in again, not a straight-line motion; and the search ends at the time
+limit, not at a proven bound. The roadmap grows until the clock stops it, so what iris flies depends on how far the
+machine got: its plan always says it stopped on the clock (``approximate``, ``stopped: timeout``), and the same seed
+gives the same plan only on the same machine under the same load.
 """
 
 from __future__ import annotations
@@ -75,7 +78,7 @@ class IrisPlanner(InspectionPlanner):
         start = time.perf_counter()
         roads = self.roadmap(source, rng, start + ROADMAP_SHARE * (deadline - start))
         if not roads:
-            return [], True
+            return [], False
         direction = source.scene.entrance.direction
         robot, budget = source.robot, source.problem.inspection.budget_s
         v = robot.limits.feed_speed_mm_s
@@ -91,10 +94,8 @@ class IrisPlanner(InspectionPlanner):
         kept: dict[int, list[tuple[int, float]]] = {}
         best: tuple[int, float, tuple[int, ...]] = (0, 0.0, ())
         heap = [(0, 0.0, 0, (), m)]  # (-points seen, time, seen mask, branches, last)
-        finished = True
         while heap:
             if time.perf_counter() >= deadline:
-                finished = False
                 break
             neg, cost, mask, chosen, last = heapq.heappop(heap)
             if -neg > best[0] or (-neg == best[0] and cost < best[1]):
@@ -116,4 +117,4 @@ class IrisPlanner(InspectionPlanner):
         tree = [roads[j] for j in best[2]]
         while tree and mission_time(tree, robot, direction) > budget:
             tree.pop()
-        return tree, finished
+        return tree, False
