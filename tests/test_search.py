@@ -272,6 +272,9 @@ def test_frontier_searches_the_oil_tank_and_a_scene_file_names_its_task(tmp_path
     assert main(["plan", "--scene-file", str(f)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "task: must be one of reach, inspect, search" in err[0]
+    assert main(["plan", "--scene", "station", "--task", "search"]) == 2  # its arm is not fed: no tip camera to search
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("snakeplan: error: --task: a search looks with a fed arm's tip camera")
 
 
 def test_a_search_in_a_real_cad_file_end_to_end_with_its_video(tmp_path, capsys, browser):

@@ -85,8 +85,8 @@ def cmd_plan(args: argparse.Namespace) -> int:
     try:
         problem = Problem(scene, robot, time_limit_s=args.time_limit, knowledge=knowledge, task=task)
     except ValueError as exc:
-        if args.task and str(exc).startswith("scene:"):
-            raise UsageError(f"--task: {str(exc).removeprefix('scene: ')}") from None
+        if args.task and str(exc).startswith(("scene:", "task:")):
+            raise UsageError(f"--task: {str(exc).split(': ', 1)[1]}") from None
         if str(exc).startswith("knowledge:"):
             raise UsageError(f"--{exc}") from None
         raise

@@ -139,7 +139,8 @@ class Problem:
         if not isinstance(self.inspection, InspectionSettings):
             raise ValueError(f"inspection: must be InspectionSettings, got {type(self.inspection).__name__}")
         if self.task is Task.SEARCH and not self.inspection.tip_camera:
-            raise ValueError("inspection: a search task looks with a fed arm's tip camera (measurement_hz None)")
+            raise ValueError(f"task: a search looks with a fed arm's tip camera; scene {self.scene.name} maps a surface "
+                             f"field from a camera path")
         if self.task is Task.INSPECT:
             if self.inspection.tip_camera:
                 if not self.scene.obstacles:
