@@ -252,20 +252,28 @@ def measure_views(scene: Scene, mission: Mission, on_measure: Callable[[float, n
     simulated measurements drawn from the mission's measurement seed, fused into the map from its prior. Returns
     (the final map, a ``GaussianMap``; which surface nodes were seen; the RMSE (K) and covariance trace (K^2) after
     each view); ``on_measure(t, position, map)`` sees the map after each. The camera is aimed as its pan-tilt aims
-    it, at the closest point of the surface (the judge's own distance field), whatever the views' directions say. The mapping machinery loads here, for a
-    mission only."""
+    it, at the closest point of the surface (the judge's own distance field), whatever the views' directions say. The
+    mapping machinery loads here, for a mission only."""
     from snakeplan.mapping import GaussianMap, surface_prior
 
     surface, truth = inspected_surface(scene)
     s, views = mission.settings, mission.views
     prior = surface_prior(surface.vertices, surface.faces, s.prior_mean(scene.metadata), s.sigma_f, s.length_scale)
-    camera = _camera(surface, s.camera)
-    gmap = GaussianMap(prior.mean, prior.covariance)
+    aims = _field(surface).look_direction(views.positions) if len(views) else views.directions
+    return _fuse(GaussianMap(prior.mean, prior.covariance), _camera(surface, s.camera), truth, mission, aims,
+                 on_measure)
+
+
+def _fuse(gmap, camera, truth: np.ndarray, mission: Mission, aims: np.ndarray,
+          on_measure: Callable[[float, np.ndarray, object], None] | None):
+    """Each view's simulated measurement by ``camera`` (its ``measure(position, direction, truth, rng)``) from the
+    view's position along its aim, noise from the mission's measurement seed, fused into ``gmap`` in view order:
+    (the map, which nodes were seen, the RMSE (K) and covariance trace (K^2) after each view)."""
     noise = mission_rngs(mission.measurement_seed)[1]
     seen = np.zeros(len(truth), dtype=bool)
     rmse, trace = [], []
-    aims = _field(surface).look_direction(views.positions) if len(views) else views.directions
-    for t, p, d in zip(views.times_s, views.positions, aims):
+    v = mission.views
+    for t, p, d in zip(v.times_s, v.positions, aims):
         nodes, y, r = camera.measure(p, d, truth, noise)
         gmap.update(nodes, y, r)
         seen[nodes] = True
@@ -280,8 +288,8 @@ def evaluate_mission(scene: Scene, robot: Chain, mission: Mission, settings: Ins
                      ) -> MissionReport:
     """Judge ``mission`` of ``robot`` in ``scene`` under the task's ``settings`` (default: the mission's own; a
     mission flown under others is refused); ValueError for a scene with no surface to inspect, or motions of
-    another arm (their joint count). BLAS runs on one thread (:mod:`snakeplan.threads`), as the mission did: the map's small updates are
-    faster so, and the same bits in any process."""
+    another arm (their joint count). BLAS runs on one thread (:mod:`snakeplan.threads`), as the mission did: the
+    map's small updates are faster so, and the same bits in any process."""
     with single_threaded():
         return _evaluate_mission(scene, robot, mission, mission.settings if settings is None else settings)
 
@@ -378,21 +386,9 @@ def measure_points(scene: Scene, mission: Mission, on_measure: Callable[[float, 
 
     truth = points_field(scene)
     prior = points_prior(scene, mission.settings)
-    gmap = GaussianMap(prior.mean, prior.covariance)
     camera = PoiCamera(scene.obstacle_set, scene.points_of_interest, mission.settings.camera)
-    noise = mission_rngs(mission.measurement_seed)[1]
-    seen = np.zeros(len(truth), dtype=bool)
-    rmse, trace = [], []
-    v = mission.views
-    for t, p, d in zip(v.times_s, v.positions, v.directions):
-        nodes, y, r = camera.measure(p, d, truth, noise)
-        gmap.update(nodes, y, r)
-        seen[nodes] = True
-        rmse.append(gmap.rmse(truth))
-        trace.append(gmap.trace)
-        if on_measure is not None:
-            on_measure(float(t), p, gmap)
-    return gmap, seen, rmse, trace
+    return _fuse(GaussianMap(prior.mean, prior.covariance), camera, truth, mission, mission.views.directions,
+                 on_measure)
 
 
 def points_seen(scene: Scene, camera: CameraModel, positions: np.ndarray, directions: np.ndarray) -> np.ndarray:

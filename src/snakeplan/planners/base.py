@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 import time
 from abc import ABC, abstractmethod
+from collections.abc import Hashable
 from dataclasses import dataclass, field, replace
 from enum import StrEnum
 from typing import ClassVar, NamedTuple
@@ -253,8 +254,8 @@ def input_refusal(problem: Problem) -> Solution | None:
     return None
 
 
-#: Planner classes whose :meth:`Planner.warm_up` has run in this process.
-_WARM: set[type] = set()
+#: The :meth:`Planner.warm_key` of every planner whose :meth:`Planner.warm_up` has run in this process.
+_WARM: set[Hashable] = set()
 
 
 class Planner(ABC):
@@ -284,9 +285,9 @@ class Planner(ABC):
         fresh = problem.hidden  # every plan starts knowing only the prior, and nothing a warm-up saw
         problem = fresh()
         with single_threaded():
-            if type(self) not in _WARM:
+            if self.warm_key() not in _WARM:
                 self.warm_up(fresh())
-                _WARM.add(type(self))
+                _WARM.add(self.warm_key())
             t0 = time.perf_counter()
             refusal = input_refusal(problem)
             if refusal is not None:
@@ -306,6 +307,11 @@ class Planner(ABC):
         if as_task(task) not in self.tasks:
             raise ValueError(f"task: planner {self.name} does not {as_task(task)} (it does: "
                              f"{', '.join(sorted(t.value for t in self.tasks))})")
+
+    def warm_key(self) -> Hashable:
+        """What a warm-up loads is the same for every planner with this key: by default the class (a planner whose
+        warm-up depends on an option, a search planner's reaching planner, adds it)."""
+        return type(self)
 
     def warm_up(self, problem: Problem) -> None:
         """Load, before a process's first plan of this class is timed, what that plan would otherwise load

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from snakeplan import ftl
+from snakeplan.evaluation import MissionReport, SearchReport
 from snakeplan.files import atomic_write
 from snakeplan.scenes import Scene
 
@@ -41,15 +42,13 @@ class Timeline:
     search: bool = False
 
     @classmethod
-    def of(cls, scene: Scene, robot, mission, frames: int, search: bool = False) -> Timeline:
-        """The timeline of ``mission`` in ``scene`` at ``frames`` times evenly over its span; ``search``: its points
-        are the scene's targets, seen as the judge finds them (:func:`snakeplan.world.search.first_sightings`)."""
+    def of(cls, scene: Scene, robot, mission, frames: int, found_s: np.ndarray | None = None) -> Timeline:
+        """The timeline of ``mission`` in ``scene`` at ``frames`` times evenly over its span; ``found_s``: a search's,
+        whose points are the scene's targets, each first seen at the time the judge found (s; inf: never)."""
         from snakeplan.world.mission import Crawl
-        from snakeplan.world.search import first_sightings
         from snakeplan.world.sight import PoiCamera
 
         crawls = [m for m in mission.motions if isinstance(m, Crawl)]
-        pois = None if search else scene.points_of_interest
         end = max((m.end_s for m in crawls), default=0.0)
         times = np.linspace(0.0, end, max(2, frames))
         joints = np.full((len(times), robot.n_sections + 1, 3), np.nan)
@@ -59,18 +58,17 @@ class Timeline:
             if sel.any():
                 joints[sel] = ftl.fit_batch(m.path, robot.lengths, m.depth_at(times[sel]), scene.entrance.direction)
         views = mission.views
-        if search:
-            k = first_sightings(scene.obstacle_set, scene.targets, mission.settings.camera, views.positions,
-                                views.directions)
-            points, first = scene.targets, np.where(k >= 0, views.times_s[np.maximum(k, 0)], np.inf)
+        if found_s is not None:
+            points, first = scene.targets, np.asarray(found_s, dtype=float)
         else:
+            pois = scene.points_of_interest
             points, first = pois.points, np.full(len(pois), np.inf)
             sight = PoiCamera(scene.obstacle_set, pois, mission.settings.camera).visible(views.positions,
                                                                                          views.directions)
             np.minimum.at(first, sight.node, views.times_s[sight.pose])
         seen = first[None, :] <= times[:, None]
         return cls(times, joints, seen, [m.path for m in crawls], points, first,
-                   np.array([m.start_s for m in crawls]), search)
+                   np.array([m.start_s for m in crawls]), found_s is not None)
 
     @property
     def coverage(self) -> np.ndarray:
@@ -113,14 +111,13 @@ def coverage_figure(scene: Scene, line: Timeline, title: str, never: np.ndarray 
     import matplotlib.pyplot as plt
     from matplotlib.lines import Line2D
 
-    mapped = report is not None and getattr(report, "rmse_k", np.zeros(0)).size > 0
+    mapped = isinstance(report, MissionReport) and report.rmse_k.size > 0
     fig = plt.figure(figsize=(19 if mapped else 13, 6))
     ax = fig.add_subplot(1, 3 if mapped else 2, 1, projection="3d")
     _draw(ax, scene, line, len(line.times) - 1, never)
-    what = "target" if line.search else "o"
-    handles = [Line2D([], [], ls="", marker="*" if line.search else "o", color=c, label=lab) for c, lab in
-               ((SEEN_HEX, "seen" if what == "o" else "target seen"),
-                (UNSEEN_HEX, "not seen" if what == "o" else "target not yet seen"))] + (
+    what = "target " if line.search else ""
+    handles = [Line2D([], [], ls="", marker="*" if line.search else "o", color=c, label=what + lab) for c, lab in
+               ((SEEN_HEX, "seen"), (UNSEEN_HEX, "not yet seen" if line.search else "not seen"))] + (
         [Line2D([], [], ls="", marker="o", color=NEVER_HEX, label="never visible (oracle)")] if never is not None
         else []) + [Line2D([], [], color=BRANCH_HEX, label="branches (tip paths)")]
     ax.legend(handles=handles, loc="upper left", fontsize=8)
@@ -185,7 +182,7 @@ def coverage_map_figure(scene: Scene, seen: np.ndarray, never: np.ndarray | None
 
 
 def coverage_title(scene: Scene, robot_name: str, planner: str, report) -> str:
-    if hasattr(report, "found_s"):  # a search
+    if isinstance(report, SearchReport):
         n = report.found_s.size
         return (f"{scene.label}, {robot_name}, {planner}: found {int(np.isfinite(report.found_s).sum())} of {n} "
                 f"targets, reached {int(np.isfinite(report.reached_s).sum())} of {n}, in {report.mission_time_s:.0f} s,"

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from snakeplan.scenes import Task
 from snakeplan.viz.mission import JudgedMission, MissionRecord, mission_title
 
 
@@ -14,11 +15,11 @@ def _fed(episode) -> bool:
 
 
 def _timeline(episode, frames: int):
-    from snakeplan.scenes import Task
     from snakeplan.viz.coverage import Timeline, coverage_title
 
     p = episode.problem
-    return (Timeline.of(p.scene, p.robot, episode.plan.mission, frames, search=p.task is Task.SEARCH),
+    found = episode.report.found_s if p.task is Task.SEARCH else None
+    return (Timeline.of(p.scene, p.robot, episode.plan.mission, frames, found),
             coverage_title(p.scene, p.robot.name, episode.plan.planner, episode.report))
 
 
@@ -80,8 +81,8 @@ def save_episode_page(filename: str | Path, episode, crawl_frames_count: int) ->
         line, title = _timeline(episode, 4 * crawl_frames_count)
         r = episode.report
         verdict = "inspected" if r.success else f"refused ({r.reason})"
-        if hasattr(r, "found_s"):  # a search
-            verdict = f"{r.reason}: found {r.found:.0%}, reached {r.reached:.0%}" if r.failure is None else verdict
+        if problem.task is Task.SEARCH and r.failure is None:
+            verdict = f"{r.reason}: found {r.found:.0%}, reached {r.reached:.0%}"
         metrics = {"verdict": verdict, "views": r.views,
                    "mission (s)": round(r.mission_time_s), "feed travel (m)": round(r.motion_mm / 1000, 1),
                    "retractions": r.retractions}

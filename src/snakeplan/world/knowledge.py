@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from enum import StrEnum
 from typing import NamedTuple
 
@@ -225,7 +225,7 @@ class SensedView(KnowledgeView):
         return super().raycast(origins, directions, min(float(max_distance), self.sensor_range_mm), eps)
 
     def fresh(self) -> SensedView:
-        return SensedView(self.scene, self._truth_set.obstacles, self.sensor_range_mm, self._prior, self._truth_set)
+        return self.over(self.scene)
 
     def over(self, scene: Scene) -> SensedView:
         return SensedView(scene, self._truth_set.obstacles, self.sensor_range_mm, self._prior, self._truth_set)
@@ -262,16 +262,16 @@ _OBSTACLE_READS = frozenset({"obstacles", "obstacle_set", "signed_distance", "ch
                              "line_of_sight"})
 
 
-#: The fields of a scene's structure: what a guarded scene keeps.
-STRUCTURE = ("name", "seed", "bounds_min", "bounds_max", "entrance", "targets", "metadata", "discovered", "inspect",
-             "task")
+#: The fields of a scene's structure: what a guarded scene keeps (every field but its obstacles).
+STRUCTURE = tuple(f.name for f in fields(Scene) if f.name != "obstacles")
 
 
-def guarded(scene: Scene, kind: type[Scene] | None = None, **fields) -> Scene:
+def guarded(scene: Scene, kind: type[Scene] | None = None, **replaced) -> Scene:
     """``scene`` with its structure (bounds, entrance, targets, metadata, what to inspect) but obstacles that raise
-    when read; ``fields`` replace parts of the structure (``targets=``); ``kind``: a subclass of the guarded scene."""
+    when read; ``replaced`` replaces parts of the structure (``targets=``); ``kind``: a subclass of the guarded
+    scene."""
     g = object.__new__(kind or GuardedScene)
     for f in STRUCTURE:
-        object.__setattr__(g, f, fields[f] if f in fields else object.__getattribute__(scene, f))
+        object.__setattr__(g, f, replaced[f] if f in replaced else object.__getattribute__(scene, f))
     object.__setattr__(g, "obstacles", ())
     return g

@@ -42,7 +42,8 @@ def _positive(name: str, value) -> float:
 class InspectionSettings:
     """How an inspect task is flown and measured: the mission's flight budget (s), the camera's speed (mm/s), the
     measurement frequency (Hz; None: a tip camera that views when the planner stops to look), the camera model, and
-    the surface map's prior (Matérn 3/2 amplitude K and length scale mm, constant mean K; None takes the scene's nominal temperature, what an operator knows beforehand)."""
+    the surface map's prior (Matérn 3/2 amplitude K and length scale mm, constant mean K; None takes the scene's
+    nominal temperature, what an operator knows beforehand)."""
 
     budget_s: float = BUDGET_S
     speed_mm_s: float = CAMERA_SPEED_MM_S

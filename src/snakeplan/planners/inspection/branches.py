@@ -97,7 +97,7 @@ class BranchSource:
         self.robot: Chain = problem.robot
         self.sensed = problem.knowledge is not Knowledge.FULL
         if pois is None:
-            pois = _known_points(problem) if self.sensed else problem.scene.points_of_interest
+            pois = known_points(problem) if self.sensed else problem.scene.points_of_interest
         self.pois = pois
         self.camera = PoiCamera(problem.world.obstacle_set, self.pois, problem.inspection.camera)
         self.reach = get_planner(reach or (SENSED_REACH_PLANNER if self.sensed else REACH_PLANNER))
@@ -265,18 +265,22 @@ def reach_problem(problem: Problem, view: KnowledgeView, time_s: float, whole_sc
     return Problem(known, problem.robot, time_limit_s=time_s, task="reach")
 
 
-def _known_points(problem: Problem):
-    """Points of interest on the surfaces a sensed planner knows before the job (the prior structure), in the task's
+def known_points(problem: Problem):
+    """Points of interest on the surfaces a sensed planner knows before the job (the prior structure): those of the
+    task's ``inspect`` block (its indices are the scene's; the known obstacles are its prior ones, in order), in its
     region, at its spacing (or about as many per area as the task's default)."""
     from snakeplan.geometry.surface_points import sample_surfaces
     from snakeplan.scenes.inspect import InspectSpec
 
+    scene = problem.scene
     known = list(problem.world.obstacle_set.obstacles)
-    spec = problem.scene.inspect or InspectSpec()
-    which = list(range(len(known)))
-    spacing = spec.spacing(known, which)
-    region = spec.region or (problem.scene.bounds_min, problem.scene.bounds_max)
-    return sample_surfaces(known, which, spacing, region)
+    spec = scene.inspect or InspectSpec()
+    discovered = set(scene.discovered)
+    prior = [k for k in range(len(known) + len(discovered)) if k not in discovered]
+    named = set(spec.obstacles(len(prior) + len(discovered)))
+    which = [i for i, k in enumerate(prior) if k in named]
+    return sample_surfaces(known, which, spec.spacing(known, which),
+                           spec.region or (scene.bounds_min, scene.bounds_max))
 
 
 def _timed(path: np.ndarray, depths: np.ndarray, robot: Chain, entrance_direction: np.ndarray) -> np.ndarray:

@@ -16,7 +16,7 @@ import numpy as np
 
 from snakeplan.planners.base import Problem
 from snakeplan.planners.coverage import greedy_branches
-from snakeplan.planners.inspection.branches import Branch, BranchSource
+from snakeplan.planners.inspection.branches import Branch, BranchSource, known_points
 from snakeplan.planners.registry import register_planner
 from snakeplan.planners.search.loop import SearchPlanner
 
@@ -29,19 +29,8 @@ FLOOR_BAND = 0.25
 def floor_points(problem: Problem):
     """Where debris can lie, as points of interest on what the problem knows before the job (see the module); all
     the known surfaces when no floor is found."""
-    from snakeplan.geometry.surface_points import sample_surfaces
-    from snakeplan.scenes.inspect import InspectSpec
-
+    points = known_points(problem)
     scene = problem.scene
-    known = list(problem.world.obstacle_set.obstacles)
-    spec = scene.inspect or InspectSpec()
-    which = list(range(len(known)))
-    if scene.inspect is not None:  # the block names the scene's obstacles; the known ones are its prior ones
-        prior = [k for k in range(len(known) + len(scene.discovered)) if k not in set(scene.discovered)]
-        named = set(spec.obstacles(len(prior) + len(scene.discovered)))
-        which = [i for i, k in enumerate(prior) if k in named]
-    region = spec.region or (scene.bounds_min, scene.bounds_max)
-    points = sample_surfaces(known, which, spec.spacing(known, which), region)
     if scene.inspect is not None:
         return points
     low = scene.bounds_min[2] + FLOOR_BAND * (scene.bounds_max[2] - scene.bounds_min[2])

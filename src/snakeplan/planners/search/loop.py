@@ -37,11 +37,12 @@ from snakeplan.planners.inspection.branches import (
 )
 from snakeplan.planners.inspection.planner import ASSEMBLY_RESERVE_S, ASSEMBLY_RESERVE_SHARE
 from snakeplan.scenes import Task
-from snakeplan.threads import single_threaded
 
 #: Time (s) the reaching planner may take for one try at a target seen, and tries per target.
 REACH_TIME_S = 2.0
 REACH_TRIES = 3
+#: Time (s) of the reaching planner's warm-up plan.
+WARM_UP_TIME_S = 0.2
 
 
 class Explorer(Protocol):
@@ -77,21 +78,19 @@ class SearchPlanner(Planner):
         """The points of interest the source's branches are scored on (None: what the problem knows of)."""
         return None
 
-    def plan(self, problem: Problem, seed: int = 0):
-        """Plan, the reaching planner's kernels and weights loaded first, outside the clock (once per process and
-        reaching planner: a search planner's own warm-up runs once per class, whatever planner it reaches with)."""
-        from snakeplan.planners.base import _WARM
+    def warm_key(self):
+        return type(self), self.reach
+
+    def warm_up(self, problem: Problem) -> None:
+        """The reaching planner's kernels and weights, through a short plan of its own (which warms it up first)
+        towards a point ahead of the entrance."""
+        super().warm_up(problem)
         from snakeplan.planners.registry import get_planner
 
         reach = get_planner(self.reach)
-        if type(reach) not in _WARM and problem.task is Task.SEARCH:
-            sub = problem.hidden()
-            e = sub.scene.entrance
-            view = sub.world.for_targets((e.position + 300.0 * e.direction)[None])
-            with single_threaded():
-                reach.warm_up(reach_problem(sub, view, 1.0, reach.needs_full_scene))
-            _WARM.add(type(reach))
-        return super().plan(problem, seed)
+        e = problem.scene.entrance
+        view = problem.world.for_targets((e.position + 300.0 * e.direction)[None])
+        reach.plan(reach_problem(problem, view, WARM_UP_TIME_S, reach.needs_full_scene))
 
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float) -> Solution:
         seed = int(rng.integers(2**31))
