@@ -48,7 +48,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("scenes", ("snakeplan.scenes",)),
     ("world", ("snakeplan.world",)),
     ("evaluation", ("snakeplan.evaluation",)),
-    ("trajectory", ("snakeplan.trajectory",)),
+    ("trajectory", ("snakeplan.trajectory", "snakeplan.ros")),
     ("planners", ("snakeplan.planners",)),
     ("episode", ("snakeplan.episode",)),
     ("learning", ("snakeplan.rl",)),

@@ -16,7 +16,7 @@ import sys
 import warnings
 from collections.abc import Callable
 
-from snakeplan.commands import bench, check, demo, plan, robot, scene, show, train, trajectory
+from snakeplan.commands import bench, check, demo, export, plan, robot, scene, show, train, trajectory
 from snakeplan.commands import compile as compile_command
 from snakeplan.commands.common import EXIT_OK, EXIT_USAGE, Parser, UsageError, warning_line
 from snakeplan.extras import MissingExtra
@@ -34,7 +34,7 @@ def build_parser() -> argparse.ArgumentParser:
     for module in (scene, robot, check, show, demo, plan):
         module.add_parser(sub)
     compile_command.add_parser(sub, main)  # the recording runs the workload's commands through main
-    for module in (trajectory, bench, train):
+    for module in (trajectory, export, bench, train):
         module.add_parser(sub)
     return parser
 

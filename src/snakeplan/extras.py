@@ -4,7 +4,9 @@ Planning, judging and running the shipped policies need only the core dependenci
 in NumPy. Training needs PyTorch, Stable-Baselines3 and Gymnasium, which ``pip install "snakeplan[train]"``
 adds. Every command and module that trains calls :func:`require_training` before it imports them, so a missing
 extra reads as one line saying how to install it, not a traceback from deep inside an import. Running benchmarks
-on a Ray cluster needs Ray, which ``pip install "snakeplan[cluster]"`` adds (:func:`require_cluster`). This
+on a Ray cluster needs Ray, which ``pip install "snakeplan[cluster]"`` adds (:func:`require_cluster`); writing ROS 2
+bags, Foxglove files and the live view needs rosbags, mcap and foxglove-sdk, which ``pip install "snakeplan[ros]"``
+adds (:func:`require_ros`). This
 module imports nothing from snakeplan, so any layer may use it.
 """
 
@@ -16,6 +18,9 @@ import importlib
 TRAINING_MODULES = ("torch", "stable_baselines3", "gymnasium")
 TRAINING_INSTALL = 'pip install "snakeplan[train]"'
 CLUSTER_INSTALL = 'pip install "snakeplan[cluster]"'
+#: What writing needs of the ``ros`` extra, by import name (its readers serve the tests).
+ROS_MODULES = ("rosbags", "foxglove")
+ROS_INSTALL = 'pip install "snakeplan[ros]"'
 
 
 class MissingExtra(ImportError):
@@ -38,3 +43,13 @@ def require_cluster(what: str) -> None:
         importlib.import_module("ray")
     except ImportError:
         raise MissingExtra(f"{what}: needs the cluster extra: {CLUSTER_INSTALL}", name="ray") from None
+
+
+def require_ros(what: str) -> None:
+    """Import the ROS and Foxglove writers, or raise :class:`MissingExtra` saying that ``what`` (an option or
+    command) needs the ros extra."""
+    for name in ROS_MODULES:
+        try:
+            importlib.import_module(name)
+        except ImportError:
+            raise MissingExtra(f"{what}: needs the ros extra: {ROS_INSTALL}", name=name) from None

@@ -103,6 +103,14 @@ class Run:
         """The run's robot: its preset, or the robot its file described (carried as robot/1 JSON)."""
         return _arm(self.robot, self.robot_json)
 
+    def make_scene(self, seed: int | None = None):
+        """The run's scene: its file's, or its family's at its seed (or at ``seed``)."""
+        from snakeplan.scenes import Scene, make_scene
+
+        if self.scene_json:
+            return Scene.from_json(self.scene_json, "scenes")
+        return make_scene(self.scene, self.seed if seed is None else seed)
+
     @property
     def key(self) -> str:
         return hashlib.sha256(json.dumps(self.identity(), sort_keys=True).encode()).hexdigest()[:24]
@@ -264,14 +272,6 @@ def chunks(runs: Sequence[Run], slots: int) -> list[list[Run]]:
 _WARM: set[tuple] = set()
 
 
-def _scene_of(run: Run, seed: int | None = None):
-    from snakeplan.scenes import Scene, make_scene
-
-    if run.scene_json:
-        return Scene.from_json(run.scene_json, "scenes")
-    return make_scene(run.scene, run.seed if seed is None else seed)
-
-
 def run_chunk(task: list[Run], stamp: dict) -> list[dict]:
     """Plan and judge every run of ``task`` (in a worker); its rows, each stamped with ``stamp`` (provenance)
     and this host."""
@@ -288,7 +288,7 @@ def run_chunk(task: list[Run], stamp: dict) -> list[dict]:
         compiled = 0
         if warm not in _WARM:
             before = compilations()
-            run_episode(Problem(_scene_of(run, WARMUP_SEED), robot, min(run.time_limit_s, WARMUP_TIME_LIMIT_S),
+            run_episode(Problem(run.make_scene(WARMUP_SEED), robot, min(run.time_limit_s, WARMUP_TIME_LIMIT_S),
                                 knowledge=run.knowledge, task=run.task), get_planner(run.planner, **options),
                         seed=WARMUP_SEED)
             compiled = compilations() - before
@@ -297,7 +297,7 @@ def run_chunk(task: list[Run], stamp: dict) -> list[dict]:
             planner = shared.setdefault((run.planner, run.options, run.knowledge), get_planner(run.planner, **options))
         else:
             planner = get_planner(run.planner, **options)
-        problem = Problem(_scene_of(run), robot, run.time_limit_s, knowledge=run.knowledge, task=run.task)
+        problem = Problem(run.make_scene(), robot, run.time_limit_s, knowledge=run.knowledge, task=run.task)
         episode = run_episode(problem, planner, seed=run.seed)
         rows.append(make_row(run, episode, {**stamp, **host, "kernels_compiled": compiled}))
     return rows
@@ -467,9 +467,11 @@ class Outcome:
 
 
 def run_sweep(sweep: Sweep, out: str | Path, backend: Backend = Backend(), fresh: bool = False,
-              progress: bool = True, runs: Iterable[Run] | None = None) -> Outcome:
+              progress: bool = True, runs: Iterable[Run] | None = None,
+              on_row: Callable[[Run, dict], None] | None = None) -> Outcome:
     """Run every run of ``sweep`` (or ``runs``) that ``out`` does not hold yet on ``backend``, appending rows as
-    tasks finish; returns the sweep's rows in the sweep's order. SIGINT/SIGTERM stop at once (every row appended
+    tasks finish; returns the sweep's rows in the sweep's order. ``on_row(run, row)`` sees each new row once it is
+    logged (a live view). SIGINT/SIGTERM stop at once (every row appended
     so far is whole and kept; the workers are stopped; :class:`~snakeplan.interrupt.Interrupted`, exit 130);
     rerunning resumes."""
     all_runs = list(sweep.runs() if runs is None else runs)
@@ -478,6 +480,7 @@ def run_sweep(sweep: Sweep, out: str | Path, backend: Backend = Backend(), fresh
     with log.open(fresh) as log:
         done = log.done()
         todo = [r for r in all_runs if r.key not in done]
+        pending = {r.key: r for r in todo}
         stamp = provenance({"config": sweep.name, **backend.settings(), "argv": sys.argv[1:]})
         tasks = chunks(todo, backend.slots)
 
@@ -490,6 +493,8 @@ def run_sweep(sweep: Sweep, out: str | Path, backend: Backend = Backend(), fresh
                 for row in rows:
                     log.append(row)
                     tick(f"{row['scene']} seed {row['seed']} {row['planner']}")
+                    if on_row is not None:
+                        on_row(pending[row["key"]], row)
         by_key = {r["key"]: r for r in log.rows}
         outcome = Outcome([by_key[r.key] for r in all_runs if r.key in by_key], len(todo),
                           len(all_runs) - len(todo), time.perf_counter() - start, backend.settings())

@@ -7,6 +7,7 @@ import argparse
 import inspect
 import sys
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -76,10 +77,31 @@ def load_path_file(filename: str) -> np.ndarray:
     return load_plan_file(filename)[0]
 
 
-def load_plan_file(filename: str) -> tuple[np.ndarray, object | None, object | None, str | None]:
-    """(the path of a path or plan file, as :func:`load_path_file` reads it; the arm a plan document carries, its
-    ``arm``, a robot, or None; an inspect or search plan's ``mission``, or None; its ``task``, or None). A bad
-    ``arm``, ``mission`` or ``task`` is one line naming the field."""
+class PlanFile(NamedTuple):
+    """A path or plan file: its path (m, 3) mm; the arm a plan document carries (its ``arm``, a robot) or None; an
+    inspect or search plan's ``mission`` or None; its ``task`` or None; the generated scene it names, (name, seed),
+    or None."""
+
+    path: np.ndarray
+    arm: object | None
+    mission: object | None
+    task: str | None
+    scene: tuple[str, int] | None = None
+
+
+def _named_scene(data: dict) -> tuple[str, int] | None:
+    scene = data.get("scene")
+    if not isinstance(scene, dict):
+        return None
+    name, seed = scene.get("name"), scene.get("seed")
+    if isinstance(name, str) and isinstance(seed, int) and not isinstance(seed, bool) and seed >= 0:
+        return name, seed
+    return None
+
+
+def load_plan_file(filename: str) -> PlanFile:
+    """A path or plan file (the path as :func:`load_path_file` reads it). A bad ``arm``, ``mission`` or ``task`` is
+    one line naming the field."""
     from snakeplan.inputs import load_json, points, show
 
     data = load_json(read_text(filename, "PATH"), "PATH")
@@ -106,11 +128,9 @@ def load_plan_file(filename: str) -> tuple[np.ndarray, object | None, object | N
 
         task = str(as_task(task))
     arm = data.get("arm")
-    if arm is None:
-        return path, None, mission, task
-    if not isinstance(arm, dict):
+    if arm is not None and not isinstance(arm, dict):
         raise UsageError(f"arm: expected a snakeplan.robot/1 object, got {show(arm)}")
-    return path, load_robot(arm, "arm"), mission, task
+    return PlanFile(path, None if arm is None else load_robot(arm, "arm"), mission, task, _named_scene(data))
 
 
 def load_planner(name: str, **options):

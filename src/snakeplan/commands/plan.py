@@ -23,6 +23,7 @@ from snakeplan.commands.common import (
 )
 from snakeplan.commands.inputs import load_planner, load_scene, robot_for
 from snakeplan.commands.options import ROBOT_HELP, TRAJECTORY_HELP, scene_args, view_args
+from snakeplan.commands.ros import check_ros, live_view, ros_args, write_ros
 from snakeplan.commands.trajectory import check_trajectories, write_trajectories
 from snakeplan.commands.views import check_picture, check_views, write_episode_views
 
@@ -53,6 +54,8 @@ def add_parser(sub) -> None:
     p.add_argument("--plot", help="also write a PNG picture of the plan (an inspection mission: its maps)")
     view_args(p, "the plan (an inspection mission: the camera's flight and the map filling in)")
     p.add_argument("--trajectory", action="append", metavar="FILE", help=TRAJECTORY_HELP)
+    ros_args(p, "the judged plan (a mission: its motions, views and coverage)",
+             live="the plan: the scene at once, then the judged plan replayed at mission speed, again and again")
     p.set_defaults(func=cmd_plan)
 
 
@@ -65,6 +68,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
     check_picture(args.plot, "--plot")
     check_views(args)
     check_trajectories(args.trajectory, "--trajectory")
+    check_ros(args)
     scene = load_scene(args)
     robot = robot_for(args, scene)
     spec = spec_for(scene)
@@ -95,6 +99,9 @@ def cmd_plan(args: argparse.Namespace) -> int:
     if not kernels_ready():
         sys.stderr.write("snakeplan: compiling the planning kernels on first use (about a minute, once: numba keeps "
                          "them; 'snakeplan compile' builds them ahead of time)\n")
+    view = live_view(args)
+    if view is not None:
+        view.show_scene(scene)
     wall = time.perf_counter()
     with warnings.catch_warnings():
         warnings.showwarning = warning_line
@@ -113,12 +120,36 @@ def cmd_plan(args: argparse.Namespace) -> int:
                          f"{why_line(plan)}")
         if episode.report is not None:
             sys.stdout.write("\n".join(episode.report.lines()) + "\n")
+    code = EXIT_OK if episode.success else EXIT_INFEASIBLE
     if args.trajectory:
         if episode.report is None or plan.mission is not None:
             sys.stderr.write("snakeplan: no trajectory: the planner returned no tip path to time"
                              f"{' (a mission is its motions)' if plan.mission is not None else ''}\n")
-            return EXIT_INFEASIBLE
-        if write_trajectories(args.trajectory, scene, robot, plan.path, episode.report, plan.planner,
-                              planner_seed=args.planner_seed, status=str(plan.status)):
-            return EXIT_INFEASIBLE
-    return EXIT_OK if episode.success else EXIT_INFEASIBLE
+            code = EXIT_INFEASIBLE
+        elif write_trajectories(args.trajectory, scene, robot, plan.path, episode.report, plan.planner,
+                                planner_seed=args.planner_seed, status=str(plan.status)):
+            code = EXIT_INFEASIBLE
+    if episode.report is None:
+        if args.rosbag or args.mcap:
+            sys.stderr.write("snakeplan: no bag or MCAP: the planner returned no plan to record\n")
+            code = EXIT_INFEASIBLE
+    elif write_ros(args, scene, robot, plan.path, episode.report, plan.mission):
+        code = EXIT_INFEASIBLE
+    if view is not None:
+        hold_live(view, scene, robot, plan, episode.report)
+    return code
+
+
+def hold_live(view, scene, robot, plan, report) -> None:
+    """Replay the judged plan on the live view at mission speed until Ctrl-C (or SIGTERM) stops it."""
+    from snakeplan.commands.ros import recordings
+    from snakeplan.interrupt import interruptible
+
+    shown = None if report is None else recordings(scene, robot, plan.path, report, plan.mission)[1]
+    sys.stderr.write("live view: replaying the plan; Ctrl-C stops\n" if shown is not None else
+                     "live view: no plan to show; Ctrl-C stops\n")
+    with interruptible() as stop:
+        while not stop.requested:
+            if shown is None or not view.show(shown, speed=1.0, stopped=lambda: stop.requested):
+                time.sleep(0.1)
+    view.stop()

@@ -10,6 +10,7 @@ from pathlib import Path
 from snakeplan.commands.common import EXIT_INFEASIBLE, EXIT_OK, UsageError, seed
 from snakeplan.commands.inputs import load_robot, read_text, scene_dir
 from snakeplan.commands.options import TRAJECTORY_HELP
+from snakeplan.commands.ros import check_ros, ros_args, write_ros
 
 
 def add_parser(sub) -> None:
@@ -23,7 +24,8 @@ def add_parser(sub) -> None:
     p.add_argument("--scene", help="scene name (default: the plan's)")
     p.add_argument("--seed", type=seed, help="scene seed (default: the plan's)")
     p.add_argument("--scene-file", help="a scene JSON file (snakeplan.scene/1) instead of the plan's scene")
-    p.add_argument("-o", "--out", action="append", required=True, metavar="FILE", help=TRAJECTORY_HELP)
+    p.add_argument("-o", "--out", action="append", metavar="FILE", help=TRAJECTORY_HELP)
+    ros_args(p, "the trajectory")
     p.set_defaults(func=cmd_trajectory)
 
 
@@ -31,7 +33,10 @@ def cmd_trajectory(args: argparse.Namespace) -> int:
     from snakeplan.scenes import Scene, make_scene, spec_for
     from snakeplan.trajectory import read_plan
 
+    if not (args.out or args.rosbag or args.mcap):
+        raise UsageError("-o: give at least one output: -o FILE, --rosbag DIR or --mcap FILE")
     check_trajectories(args.out, "-o")
+    check_ros(args)
     plan = read_plan(read_text(args.plan_file, "PLAN"))
     if args.scene_file:
         scene = Scene.from_json(read_text(args.scene_file, "--scene-file"), "--scene-file",
@@ -46,8 +51,14 @@ def cmd_trajectory(args: argparse.Namespace) -> int:
         except KeyError as exc:
             raise UsageError(f"--scene: {exc.args[0]}") from None
     robot = load_robot(args.robot or plan["robot"] or spec_for(scene).robot)
-    return write_trajectories(args.out, scene, robot, plan["path"], None, plan["planner"],
-                              plan_file=Path(args.plan_file).name)
+    from snakeplan.evaluation import evaluate
+
+    report = evaluate(scene, robot, plan["path"])
+    code = EXIT_OK
+    if args.out:
+        code = write_trajectories(args.out, scene, robot, plan["path"], report, plan["planner"],
+                                  plan_file=Path(args.plan_file).name)
+    return write_ros(args, scene, robot, plan["path"], report) or code
 
 
 def check_trajectories(filenames: list[str] | None, field: str) -> None:

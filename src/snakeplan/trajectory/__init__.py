@@ -13,7 +13,14 @@ docs/TRAJECTORY.md.
 Layering: above :mod:`snakeplan.evaluation` (it judges the plan it is given); planners do not import it.
 """
 
-from snakeplan.trajectory.build import FEED_SLACK_MM, LIMIT_SLACK, InfeasiblePlan, Trajectory, build_trajectory
+from snakeplan.trajectory.build import (
+    FEED_SLACK_MM,
+    LIMIT_SLACK,
+    InfeasiblePlan,
+    Trajectory,
+    build_trajectory,
+    fed_joints,
+)
 from snakeplan.trajectory.documents import (
     SCHEMA,
     output_format,
@@ -27,5 +34,5 @@ from snakeplan.trajectory.replay import ReplayReport, replay
 from snakeplan.trajectory.timing import METHOD, Timing, time_scale
 
 __all__ = ["FEED_SLACK_MM", "LIMIT_SLACK", "METHOD", "SCHEMA", "InfeasiblePlan", "ReplayReport", "Timing",
-           "Trajectory", "build_trajectory", "output_format", "read_plan", "replay", "ros_message", "time_scale",
-           "to_csv", "to_dict", "write"]
+           "Trajectory", "build_trajectory", "fed_joints", "output_format", "read_plan", "replay", "ros_message",
+           "time_scale", "to_csv", "to_dict", "write"]

@@ -82,6 +82,20 @@ def _inserted_deviation(states: ftl.FTLBatch) -> np.ndarray:
     return np.max(np.where(inserted, states.deviation, 0.0), axis=1)
 
 
+def fed_joints(robot: Chain, entrance: np.ndarray, direction: np.ndarray, states: ftl.FTLBatch
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """(the arm's base pose (4x4, mm), its joint vectors (T, dof): feed mm, angles rad) for follow-the-leader
+    ``states`` of a fed arm entering at ``entrance`` along unit ``direction``: the base stands on the feed axis
+    behind the entrance where the feed is at its lower end at depth 0. Neither feed nor angles are held to their
+    limits here."""
+    lo, _ = robot.feed_range
+    behind = robot.total_length + lo
+    base_pose = pose(frame_from_z(direction), entrance - behind * direction)
+    q = robot.joint_angles_from_directions(ftl.directions(states.joints), base_rotation=base_pose[:3, :3],
+                                           feed=states.joint_arclength[:, 0] + behind)
+    return base_pose, q
+
+
 def build_trajectory(scene: Scene, robot: Chain, path: ArrayLike, provenance: dict | None = None,
                      report: Report | None = None) -> Trajectory:
     """The trajectory of ``robot`` crawling the tip ``path`` (mm) into ``scene``: every judged crawl state, timed
@@ -100,16 +114,12 @@ def build_trajectory(scene: Scene, robot: Chain, path: ArrayLike, provenance: di
     p = np.asarray(path, dtype=np.float64)
     entrance, u = scene.entrance.position, scene.entrance.direction
     states = ftl.crawl(p, robot.lengths, u, JUDGE.step_mm, entrance=entrance)
+    base_pose, q = fed_joints(robot, entrance, u, states)
     lo, hi = robot.feed_range
-    behind = robot.total_length + lo  # base on the feed axis this far behind the entrance: feed = lo at depth 0
-    base_pose = pose(frame_from_z(u), entrance - behind * u)
-    feed = states.joint_arclength[:, 0] + behind
-    if np.max(feed) > hi + FEED_SLACK_MM:
-        raise InfeasiblePlan(f"plan: needs {np.max(feed) - lo:.6g} mm of feed, the feed stage of {robot.name} "
+    if np.max(q[:, 0]) > hi + FEED_SLACK_MM:
+        raise InfeasiblePlan(f"plan: needs {np.max(q[:, 0]) - lo:.6g} mm of feed, the feed stage of {robot.name} "
                              f"strokes {hi - lo:g} mm")
-    feed = np.clip(feed, lo, hi)
-    q = robot.joint_angles_from_directions(ftl.directions(states.joints), base_rotation=base_pose[:3, :3],
-                                           feed=feed)
+    q[:, 0] = np.clip(q[:, 0], lo, hi)
     lower, upper = robot.joint_limits()
     outside = (q < lower - LIMIT_SLACK) | (q > upper + LIMIT_SLACK)
     if np.any(outside):

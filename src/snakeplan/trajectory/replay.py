@@ -52,37 +52,47 @@ def _rotation(axis: np.ndarray, angles: np.ndarray) -> np.ndarray:
     return np.eye(3) + s * K + (1.0 - c) * (K @ K)
 
 
-def urdf_link_poses(urdf: str, positions: np.ndarray, links: list[str]) -> np.ndarray:
-    """Poses ``(T, len(links), 4, 4)`` of ``links`` relative to the URDF's root link (mm) at joint positions
-    ``positions (T, dof)`` (prismatic joints in mm, revolute in rad) in the order of its movable joints: the
-    URDF parsed by yourdfpy, its joints' origins and motions multiplied from the root."""
+def urdf_joint_transforms(urdf: str, positions: np.ndarray) -> list[tuple[str, str, str, np.ndarray]]:
+    """Every joint of the URDF as (name, parent link, child link, transforms ``(T, 4, 4)`` of the child in the
+    parent, mm) at joint positions ``positions (T, dof)`` (prismatic joints in mm, revolute in rad) in the order of
+    its movable joints: the URDF parsed by yourdfpy, each joint's origin times its motion."""
     import yourdfpy
 
     model = yourdfpy.URDF.load(io.StringIO(urdf), build_scene_graph=False, load_meshes=False,
                                build_collision_scene_graph=False, load_collision_meshes=False)
     T = positions.shape[0]
-    by_child = {j.child: j for j in model.robot.joints}
     movable = [j.name for j in model.robot.joints if j.type != "fixed"]
+    out = []
+    for joint in model.robot.joints:
+        origin = np.eye(4) if joint.origin is None else np.array(joint.origin, dtype=np.float64)
+        origin[:3, 3] *= 1e3
+        M = np.broadcast_to(np.eye(4), (T, 4, 4)).copy()
+        if joint.type != "fixed":
+            axis = np.asarray(joint.axis, dtype=np.float64)
+            axis = axis / np.linalg.norm(axis)
+            q = positions[:, movable.index(joint.name)]
+            if joint.type == "prismatic":
+                M[:, :3, 3] = q[:, None] * axis
+            else:
+                M[:, :3, :3] = _rotation(axis, q)
+        out.append((joint.name, joint.parent, joint.child, origin @ M))
+    return out
+
+
+def urdf_link_poses(urdf: str, positions: np.ndarray, links: list[str]) -> np.ndarray:
+    """Poses ``(T, len(links), 4, 4)`` of ``links`` relative to the URDF's root link (mm) at joint positions
+    ``positions (T, dof)``: :func:`urdf_joint_transforms` multiplied from the root."""
+    T = positions.shape[0]
+    by_child = {child: (parent, M) for _, parent, child, M in urdf_joint_transforms(urdf, positions)}
     poses: dict[str, np.ndarray] = {}
 
     def pose_of(link: str) -> np.ndarray:
         if link not in poses:
-            joint = by_child.get(link)
-            if joint is None:
+            if link not in by_child:
                 poses[link] = np.broadcast_to(np.eye(4), (T, 4, 4))
             else:
-                origin = np.eye(4) if joint.origin is None else np.array(joint.origin, dtype=np.float64)
-                origin[:3, 3] *= 1e3
-                M = np.broadcast_to(np.eye(4), (T, 4, 4)).copy()
-                if joint.type != "fixed":
-                    axis = np.asarray(joint.axis, dtype=np.float64)
-                    axis = axis / np.linalg.norm(axis)
-                    q = positions[:, movable.index(joint.name)]
-                    if joint.type == "prismatic":
-                        M[:, :3, 3] = q[:, None] * axis
-                    else:
-                        M[:, :3, :3] = _rotation(axis, q)
-                poses[link] = pose_of(joint.parent) @ origin @ M
+                parent, M = by_child[link]
+                poses[link] = pose_of(parent) @ M
         return poses[link]
 
     return np.stack([pose_of(link) for link in links], axis=1)

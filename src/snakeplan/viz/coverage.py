@@ -62,10 +62,9 @@ class Timeline:
             points, first = scene.targets, np.asarray(found_s, dtype=float)
         else:
             pois = scene.points_of_interest
-            points, first = pois.points, np.full(len(pois), np.inf)
-            sight = PoiCamera(scene.obstacle_set, pois, mission.settings.camera).visible(views.positions,
-                                                                                         views.directions)
-            np.minimum.at(first, sight.node, views.times_s[sight.pose])
+            points = pois.points
+            first = PoiCamera(scene.obstacle_set, pois, mission.settings.camera).first_seen(
+                views.times_s, views.positions, views.directions)
         seen = first[None, :] <= times[:, None]
         return cls(times, joints, seen, [m.path for m in crawls], points, first,
                    np.array([m.start_s for m in crawls]), found_s is not None)

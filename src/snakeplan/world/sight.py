@@ -52,6 +52,14 @@ class PoiCamera:
         r = self.model.noise_variance(s.distance)
         return s.node, np.asarray(truth, dtype=float)[s.node] + rng.normal(0.0, np.sqrt(r)), r
 
+    def first_seen(self, times_s: ArrayLike, positions: ArrayLike, directions: ArrayLike) -> np.ndarray:
+        """The mission time (s) at which views at ``times_s`` (k,) first see each point of interest (n,); inf for a
+        point no view sees."""
+        sight = self.visible(positions, directions)
+        first = np.full(len(self.pois), np.inf)
+        np.minimum.at(first, sight.node, np.asarray(times_s, dtype=float)[sight.pose])
+        return first
+
     def seen(self, positions: ArrayLike, directions: ArrayLike) -> np.ndarray:
         """Which points of interest (n,) bool any of the views sees."""
         out = np.zeros(len(self.pois), dtype=bool)

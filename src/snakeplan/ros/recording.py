@@ -1,0 +1,160 @@
+"""What an export carries: a judged plan or mission as the arm's motion over time beside the scene and the verdict.
+
+A :class:`Recording` is made once (:func:`of_trajectory` for a reach plan the robot can execute, :func:`of_plan`
+for any reach plan, feasible or not, :func:`of_mission` for an inspect or search mission) and written by every
+exporter (:mod:`.bag`, :mod:`.foxglove`), so a ROS bag and a Foxglove file of one plan show the same motion.
+Lengths in mm and times in s here; the exporters convert to SI.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from snakeplan import ftl
+from snakeplan.robots import Chain
+from snakeplan.scenes import Scene
+from snakeplan.trajectory import Trajectory, fed_joints
+from snakeplan.world import JUDGE
+
+
+@dataclass(frozen=True)
+class Failure:
+    """The judge's first failure: its kind, the time (s) the arm reaches it and where the tip is then (mm)."""
+
+    reason: str
+    time_s: float
+    position: np.ndarray
+
+
+@dataclass(frozen=True)
+class Recording:
+    """The arm at samples in time: ``t (T,)`` s, nondecreasing; the base poses ``bases (T, 4, 4)`` (mm, scene
+    frame); ``q (T, dof)`` (feed mm, angles rad); ``robot`` with an identity base (its URDF is the one in the
+    bag). ``velocities`` and ``accelerations`` (T, dof) come with a timed trajectory (None for a mission, whose
+    samples are where its motions are piecewise linear). ``paths``: the tip paths flown (mm), with the time each
+    starts; ``views`` (times s, positions mm, unit directions) or None; ``points`` (P, 3) mm the points of interest
+    and ``first_seen`` (P,) s when a view first saw each (inf: never); ``targets`` (k, 3) mm and ``found_s`` (k,)
+    s (inf: never; None unless a search). ``success`` and ``verdict`` (one line) are the judge's."""
+
+    scene: Scene
+    robot: Chain
+    t: np.ndarray
+    bases: np.ndarray
+    q: np.ndarray
+    paths: list[np.ndarray]
+    path_starts_s: np.ndarray
+    success: bool
+    verdict: str
+    failure: Failure | None = None
+    velocities: np.ndarray | None = None
+    accelerations: np.ndarray | None = None
+    views: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+    points: np.ndarray | None = None
+    first_seen: np.ndarray | None = None
+    found_s: np.ndarray | None = None
+
+    @property
+    def duration_s(self) -> float:
+        return float(self.t[-1]) if len(self.t) else 0.0
+
+    def joint_positions(self) -> np.ndarray:
+        """The body's joints (T, n+1, 3) mm in the scene frame at every sample."""
+        return np.einsum("tij,tkj->tki", self.bases, _homogeneous(self.robot.joint_positions(self.q)))[..., :3]
+
+
+def _homogeneous(p: np.ndarray) -> np.ndarray:
+    return np.concatenate([p, np.ones(p.shape[:-1] + (1,))], axis=-1)
+
+
+def _verdict(report) -> str:
+    return "; ".join(report.lines()[:1])
+
+
+def of_trajectory(scene: Scene, traj: Trajectory) -> Recording:
+    """A judged, executable reach plan in ``scene``: every crawl state at its TOPP-RA time."""
+    report = traj.report
+    bases = np.broadcast_to(traj.base_pose, (len(traj.t), 4, 4))
+    return Recording(scene, traj.robot.with_base(np.eye(4)), traj.t, bases, traj.positions, [traj.path], np.zeros(1), report.success, _verdict(report), None,
+                     traj.velocities, traj.accelerations)
+
+
+def of_plan(scene: Scene, robot: Chain, path: np.ndarray, report) -> Recording:
+    """Any judged reach plan, feasible or not: the crawl states at the judge's steps, timed at the robot's feed
+    speed (no time scaling: a plan the judge refuses is shown, not executed), and the judge's first failure."""
+    p = np.asarray(path, dtype=np.float64)
+    entrance, u = scene.entrance.position, scene.entrance.direction
+    states = ftl.crawl(p, robot.lengths, u, JUDGE.step_mm, entrance=entrance)
+    base, q = fed_joints(robot, entrance, u, states)
+    t = states.s / robot.limits.feed_speed_mm_s
+    failure = None
+    if report.first_failure_depth_mm is not None:
+        depth = float(report.first_failure_depth_mm)
+        tip = ftl.fit_states(p, robot.lengths, [depth], u, entrance=entrance).joints[0, -1]
+        failure = Failure(report.reason, depth / robot.limits.feed_speed_mm_s, tip)
+    return Recording(scene, robot.with_base(np.eye(4)), t, np.broadcast_to(base, (len(t), 4, 4)), q, [p],
+                     np.zeros(1), report.success, _verdict(report), failure)
+
+
+def _crawl_samples(scene: Scene, robot: Chain, crawl) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(times, base poses, joint vectors) of a fed arm's crawl: its samples, and between two of them a sample every
+    judge's step (5 mm) of depth, where the body follows the leader."""
+    times, depths = [crawl.times_s[:1]], [crawl.depths_mm[:1]]
+    for k in range(1, len(crawl.times_s)):
+        steps = max(1, int(np.ceil(abs(crawl.depths_mm[k] - crawl.depths_mm[k - 1]) / JUDGE.step_mm)))
+        f = np.arange(1, steps + 1) / steps
+        times.append(crawl.times_s[k - 1] + f * (crawl.times_s[k] - crawl.times_s[k - 1]))
+        depths.append(crawl.depths_mm[k - 1] + f * (crawl.depths_mm[k] - crawl.depths_mm[k - 1]))
+    t, d = np.concatenate(times), np.concatenate(depths)
+    entrance, u = scene.entrance.position, scene.entrance.direction
+    states = ftl.fit_states(crawl.path, robot.lengths, d, u, entrance=entrance)
+    base, q = fed_joints(robot, entrance, u, states)
+    return t, np.broadcast_to(base, (len(t), 4, 4)), q
+
+
+def of_mission(scene: Scene, robot: Chain, mission, report) -> Recording:
+    """An inspect or search mission as the judge replayed it: every motion's samples in time order (a crawl's every
+    5 mm of depth, a joint motion's as given: its joints move linearly between them), the views, which points of
+    interest the views saw first when (the judge's camera), a search's targets and when each was found, and the
+    judge's first failure."""
+    from snakeplan.evaluation import SearchReport
+    from snakeplan.world.mission import Crawl
+    from snakeplan.world.sight import PoiCamera
+
+    ts, bases, qs, paths, starts = [], [], [], [], []
+    for motion in mission.motions:
+        if isinstance(motion, Crawl):
+            t, b, q = _crawl_samples(scene, robot, motion)
+            paths.append(motion.path)
+            starts.append(motion.start_s)
+        else:
+            t, b, q = motion.times_s, motion.bases, motion.q
+        if ts:  # a motion starts where the one before ended: keep one sample of the two
+            t, b, q = t[1:], b[1:], q[1:]
+        ts.append(t)
+        bases.append(b)
+        qs.append(q)
+    views = mission.views
+    failure = None
+    if report.failure is not None:
+        when = report.failure.time_s
+        i = int(np.clip(np.searchsorted(np.concatenate(ts), when), 0, sum(map(len, ts)) - 1))
+        joints = _at(robot, np.concatenate(bases)[i], np.concatenate(qs)[i])
+        failure = Failure(report.reason, when, joints[-1])
+    search = isinstance(report, SearchReport)
+    points = first = None
+    if not search and len(scene.points_of_interest):
+        pois = scene.points_of_interest
+        points = pois.points
+        first = PoiCamera(scene.obstacle_set, pois, mission.settings.camera).first_seen(
+            views.times_s, views.positions, views.directions)
+    return Recording(scene, robot.with_base(np.eye(4)), np.concatenate(ts), np.concatenate(bases), np.concatenate(qs),
+                     paths, np.array(starts), report.success, _verdict(report), failure,
+                     views=(views.times_s, views.positions, views.directions), points=points, first_seen=first,
+                     found_s=np.asarray(report.found_s, dtype=float) if search else None)
+
+
+def _at(robot: Chain, base: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """The body's joints (n+1, 3) mm for one base pose and joint vector."""
+    return (base @ _homogeneous(robot.with_base(np.eye(4)).joint_positions(q)).T).T[:, :3]
