@@ -76,8 +76,8 @@ def of_trajectory(scene: Scene, traj: Trajectory) -> Recording:
     """A judged, executable reach plan in ``scene``: every crawl state at its TOPP-RA time."""
     report = traj.report
     bases = np.broadcast_to(traj.base_pose, (len(traj.t), 4, 4))
-    return Recording(scene, traj.robot.with_base(np.eye(4)), traj.t, bases, traj.positions, [traj.path], np.zeros(1), report.success, _verdict(report), None,
-                     traj.velocities, traj.accelerations)
+    return Recording(scene, traj.robot.with_base(np.eye(4)), traj.t, bases, traj.positions, [traj.path],
+                     np.zeros(1), report.success, _verdict(report), None, traj.velocities, traj.accelerations)
 
 
 def of_plan(scene: Scene, robot: Chain, path: np.ndarray, report) -> Recording:
