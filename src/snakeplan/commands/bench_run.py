@@ -9,6 +9,7 @@ import sys
 
 from snakeplan.commands.common import EXIT_OK, UsageError, finite, name_list, print_json, seed_list
 from snakeplan.commands.options import backend, backend_args
+from snakeplan.commands.ros import check_ros, live_args, live_rows, live_view
 from snakeplan.files import check_output
 
 
@@ -35,6 +36,7 @@ def add_parsers(bsub) -> None:
     p.add_argument("--out", default="bench-run", help="results folder (default bench-run)")
     p.add_argument("--fresh", action="store_true", help="discard earlier runs instead of resuming")
     p.add_argument("--json", action="store_true", help="print the runner's outcome and the summary as JSON")
+    live_args(p, "the benchmark: each plan shown in its scene as it is judged")
     backend_args(p)
     p.set_defaults(func=cmd_bench_run)
 
@@ -88,7 +90,14 @@ def cmd_bench_run(args: argparse.Namespace) -> int:
         runs = sweep.runs()
     except KeyError as exc:
         raise UsageError(f"--scenes: {exc.args[0]}") from None
-    outcome = run_sweep(sweep, args.out, backend(args), fresh=args.fresh, progress=not args.json, runs=runs)
+    check_ros(args)
+    view = live_view(args)
+    try:
+        outcome = run_sweep(sweep, args.out, backend(args), fresh=args.fresh, progress=not args.json, runs=runs,
+                            on_row=live_rows(view))
+    finally:
+        if view is not None:
+            view.stop()
     result = write_report(args.out)
     if args.json:
         print_json({"runner": outcome.to_dict(), "summary": result["entries"]})

@@ -10,6 +10,7 @@ from pathlib import Path
 from snakeplan.commands.bench_run import outcome_line
 from snakeplan.commands.common import EXIT_OK, UsageError, finite, name_list, print_json, seed
 from snakeplan.commands.options import backend, backend_args
+from snakeplan.commands.ros import check_ros, live_args, live_rows, live_view
 
 
 def add_parser(bsub) -> None:
@@ -33,6 +34,7 @@ def add_parser(bsub) -> None:
                                        "frontier)")
     p.add_argument("--fresh", action="store_true", help="discard earlier runs instead of resuming")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    live_args(p, "the benchmark: each plan shown in its scene as it is judged")
     backend_args(p)
     p.set_defaults(func=cmd_bench_table2)
 
@@ -63,7 +65,14 @@ def _run(args: argparse.Namespace, config, out: str, outputs, markdown, written:
     the summary and the runner's account as JSON)."""
     from snakeplan.bench.runner import run_sweep
 
-    outcome = run_sweep(config.sweep(), out, backend(args), fresh=args.fresh, progress=not args.json)
+    check_ros(args)
+    view = live_view(args)
+    try:
+        outcome = run_sweep(config.sweep(), out, backend(args), fresh=args.fresh, progress=not args.json,
+                            on_row=live_rows(view))
+    finally:
+        if view is not None:
+            view.stop()
     summary = outputs(config, outcome.rows, Path(out))
     if args.json:
         print_json({"summary": summary, "runner": outcome.to_dict()})

@@ -25,15 +25,20 @@ def ros_args(p: argparse.ArgumentParser, what: str, live: str | None = None) -> 
     g.add_argument("--mcap", metavar="FILE", help=f"also write {what} as a Foxglove MCAP file (.mcap): the scene, "
                                                   "the arm moving, the judge's first failure marked")
     if live is not None:
-        g.add_argument("--live", action="store_true", help=LIVE_HELP.format(what=live))
-        g.add_argument("--live-port", type=int, default=8765, help="the live view's port (default 8765; 0: any)")
-        g.add_argument("--live-host", metavar="ADDRESS",
-                       help="bind the live view to ADDRESS instead of 127.0.0.1: other machines can then connect, "
-                            "and the view has no authentication")
+        live_args(g, live)
+
+
+def live_args(g, what: str) -> None:
+    """--live, --live-port and --live-host, for a live view of ``what``."""
+    g.add_argument("--live", action="store_true", help=LIVE_HELP.format(what=what))
+    g.add_argument("--live-port", type=int, default=8765, help="the live view's port (default 8765; 0: any free one)")
+    g.add_argument("--live-host", metavar="ADDRESS",
+                   help="bind the live view to ADDRESS instead of 127.0.0.1: other machines can then connect, and the "
+                        "view has no authentication")
 
 
 def wants_ros(args: argparse.Namespace) -> bool:
-    return bool(args.rosbag or args.mcap or getattr(args, "live", False))
+    return bool(getattr(args, "rosbag", None) or getattr(args, "mcap", None) or getattr(args, "live", False))
 
 
 def check_ros(args: argparse.Namespace) -> None:
@@ -46,13 +51,14 @@ def check_ros(args: argparse.Namespace) -> None:
     from snakeplan.files import check_output
     from snakeplan.ros.bag import check_bag
 
-    require_ros("--rosbag" if args.rosbag else "--mcap" if args.mcap else "--live")
-    if args.rosbag:
-        check_bag(args.rosbag)
-    if args.mcap:
-        if not args.mcap.lower().endswith(".mcap"):
-            raise UsageError(f"--mcap: {args.mcap!r} must end in .mcap")
-        check_output(args.mcap, "--mcap")
+    rosbag, mcap = getattr(args, "rosbag", None), getattr(args, "mcap", None)
+    require_ros("--rosbag" if rosbag else "--mcap" if mcap else "--live")
+    if rosbag:
+        check_bag(rosbag)
+    if mcap:
+        if not mcap.lower().endswith(".mcap"):
+            raise UsageError(f"--mcap: {mcap!r} must end in .mcap")
+        check_output(mcap, "--mcap")
     if getattr(args, "live", False) and not 0 <= args.live_port <= 65535:
         raise UsageError(f"--live-port: {args.live_port} is not a port (0-65535)")
 
@@ -122,3 +128,26 @@ def live_view(args: argparse.Namespace):
         raise UsageError(f"--live: cannot serve on {host}:{args.live_port}: {exc}") from None
     sys.stderr.write(f"live view: {view.url} (Foxglove: Open connection, Foxglove WebSocket)\n")
     return view
+
+
+def live_rows(view):
+    """The runner's ``on_row`` for a live view of a benchmark: each reach plan, judged again in its scene, shown
+    as it is logged (its first failure marked); any other row as a line on ``/log``."""
+    if view is None:
+        return None
+    import numpy as np
+
+    from snakeplan.evaluation import evaluate
+    from snakeplan.ros import of_plan
+
+    def on_row(run, row) -> None:
+        line = f"{run.label}: {row['status']}, {'success' if row['success'] else row['reason']}"
+        if row.get("task", "reach") != "reach" or row.get("path") is None:
+            view.note(line)
+            return
+        scene, robot = run.make_scene(), run.arm()
+        path = np.asarray(row["path"], dtype=float)
+        view.note(line)
+        view.show(of_plan(scene, robot, path, evaluate(scene, robot, path)))
+
+    return on_row

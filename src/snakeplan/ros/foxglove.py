@@ -303,6 +303,14 @@ class LiveView:
         now = time.time()
         self.channels.log("/scene", obstacles(scene, now), int(round(now * 1e9)))
 
+    def note(self, text: str) -> None:
+        """A line on ``/log`` now."""
+        import time
+
+        now = time.time()
+        self.channels.log("/log", _fg().Log(timestamp=_ts(now), level=_fg().LogLevel.Info, message=text,
+                                            name="snakeplan"), int(round(now * 1e9)))
+
     def show(self, rec: Recording, speed: float = 0.0, stopped=None) -> bool:
         """Send ``rec``'s messages now: with ``speed`` > 0 paced at that multiple of mission time, else all at once;
         stamped when due. ``stopped()`` is asked while waiting; returns False when it said stop."""

@@ -34,8 +34,9 @@ class Recording:
     frame); ``q (T, dof)`` (feed mm, angles rad); ``robot`` with an identity base (its URDF is the one in the
     bag). ``velocities`` and ``accelerations`` (T, dof) come with a timed trajectory (None for a mission, whose
     samples are where its motions are piecewise linear). ``paths``: the tip paths flown (mm), with the time each
-    starts; ``views`` (times s, positions mm, unit directions) or None; ``points`` (P, 3) mm the points of interest
-    and ``first_seen`` (P,) s when a view first saw each (inf: never); ``targets`` (k, 3) mm and ``found_s`` (k,)
+    starts; ``views`` (times s, positions mm, unit directions) or None; ``points`` (P, 3) mm the points the judge counts
+    (a fed arm's points of interest, the station's mesh nodes) and ``first_seen`` (P,) s when a view first saw each
+    (inf: never; the station's: the mission's end, the judge's map saying which, not when); ``targets`` (k, 3) mm and ``found_s`` (k,)
     s (inf: never; None unless a search). ``success`` and ``verdict`` (one line) are the judge's."""
 
     scene: Scene
@@ -119,7 +120,7 @@ def of_mission(scene: Scene, robot: Chain, mission, report) -> Recording:
     interest the views saw first when (the judge's camera), a search's targets and when each was found, and the
     judge's first failure."""
     from snakeplan.evaluation import SearchReport
-    from snakeplan.world.mission import Crawl
+    from snakeplan.world.mission import Crawl, inspected_surface
     from snakeplan.world.sight import PoiCamera
 
     ts, bases, qs, paths, starts = [], [], [], [], []
@@ -144,11 +145,14 @@ def of_mission(scene: Scene, robot: Chain, mission, report) -> Recording:
         failure = Failure(report.reason, when, joints[-1])
     search = isinstance(report, SearchReport)
     points = first = None
-    if not search and len(scene.points_of_interest):
+    if not search and report.tip_camera:  # a fed arm's points of interest, each when a view first saw it
         pois = scene.points_of_interest
         points = pois.points
         first = PoiCamera(scene.obstacle_set, pois, mission.settings.camera).first_seen(
             views.times_s, views.positions, views.directions)
+    elif not search and report.seen is not None:  # the station's mesh nodes: the judge's map says which, not when
+        points = inspected_surface(scene)[0].vertices
+        first = np.where(report.seen, float(views.times_s[-1]) if len(views) else 0.0, np.inf)
     return Recording(scene, robot.with_base(np.eye(4)), np.concatenate(ts), np.concatenate(bases), np.concatenate(qs),
                      paths, np.array(starts), report.success, _verdict(report), failure,
                      views=(views.times_s, views.positions, views.directions), points=points, first_seen=first,
