@@ -370,3 +370,20 @@ def test_an_interrupted_bag_leaves_nothing(tmp_path, monkeypatch):
         bag.write_bag(rec, str(tmp_path / "bag"))
     assert len(calls) == 40
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_benchmark_shows_each_plan_live_as_its_row_is_logged(tmp_path, capsys, monkeypatch):
+    from snakeplan.ros.foxglove import LiveView
+
+    shown, notes = [], []
+    show, note = LiveView.show, LiveView.note
+    monkeypatch.setattr(LiveView, "show", lambda self, rec, *a, **k: (shown.append(rec), show(self, rec, *a, **k)))
+    monkeypatch.setattr(LiveView, "note", lambda self, text: (notes.append(text), note(self, text)))
+    code, _, err = run(capsys, "bench", "run", "--scenes", "fuel-tank", "--planners", "as-rrt,rrt-star", "--seeds",
+                       "0", "--time-limit", "2", "--workers", "1", "--out", tmp_path / "runs", "--live",
+                       "--live-port", "0")
+    assert code == 0 and "live view: ws://127.0.0.1:" in err
+    rows = [json.loads(line) for line in (tmp_path / "runs" / "runs.jsonl").read_text().splitlines()]
+    assert len(shown) == len(notes) == len(rows) == 2
+    assert [r.success for r in shown] == [row["success"] for row in rows]
+    assert all(np.array_equal(r.paths[0], row["path"]) for r, row in zip(shown, rows))
