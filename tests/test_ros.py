@@ -65,20 +65,28 @@ def rosbags_messages(bag: Path) -> dict[str, list]:
     return out
 
 
-def mcap_ros2_messages(bag: Path) -> tuple[dict[str, list], dict]:
-    """Every message of a bag's MCAP file by topic, read by mcap and decoded by mcap-ros2-support (not rosbags),
-    and the file's channels with their schemas."""
-    from mcap.reader import make_reader
-    from mcap_ros2.decoder import DecoderFactory
+def mcap_messages(file: Path, decoder: str) -> tuple[dict[str, list], dict]:
+    """Every message of an MCAP file by topic, read by mcap and decoded by ``decoder`` (``ros2``: mcap-ros2-support,
+    ``protobuf``: mcap-protobuf-support, from the schemas the file carries; neither is what wrote it), and the file's
+    channels with their schemas."""
+    from importlib import import_module
 
+    from mcap.reader import make_reader
+
+    factory = import_module(f"mcap_{decoder}.decoder").DecoderFactory()
     out: dict[str, list] = {}
-    (file,) = bag.glob("*.mcap")
     with open(file, "rb") as f:
-        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        reader = make_reader(f, decoder_factories=[factory])
         summary = reader.get_summary()
         for _, channel, message, decoded in reader.iter_decoded_messages():
             out.setdefault(channel.topic, []).append((message.log_time, decoded))
     return out, {c.topic: summary.schemas.get(c.schema_id) for c in summary.channels.values()}
+
+
+def mcap_ros2_messages(bag: Path) -> tuple[dict[str, list], dict]:
+    """A bag's messages and schemas, read from its MCAP file by mcap and mcap-ros2-support (not rosbags)."""
+    (file,) = bag.glob("*.mcap")
+    return mcap_messages(file, "ros2")
 
 
 def _seconds(d) -> float:
@@ -153,18 +161,8 @@ def test_the_robot_description_puts_the_tip_on_the_planned_path_as_yourdfpy_comp
 
 
 def foxglove_messages(file: Path) -> tuple[dict[str, list], dict]:
-    """Every message of a Foxglove MCAP file by topic, decoded by mcap-protobuf-support from the schemas the file
-    carries, and its channels' schemas."""
-    from mcap.reader import make_reader
-    from mcap_protobuf.decoder import DecoderFactory
-
-    out: dict[str, list] = {}
-    with open(file, "rb") as f:
-        reader = make_reader(f, decoder_factories=[DecoderFactory()])
-        summary = reader.get_summary()
-        for _, channel, message, decoded in reader.iter_decoded_messages():
-            out.setdefault(channel.topic, []).append((message.log_time, decoded))
-    return out, {c.topic: summary.schemas.get(c.schema_id) for c in summary.channels.values()}
+    """A Foxglove file's messages and schemas, decoded by mcap-protobuf-support."""
+    return mcap_messages(file, "protobuf")
 
 
 def test_the_foxglove_file_has_a_schema_on_every_channel_and_shows_the_plan(reach):

@@ -26,6 +26,23 @@ def load_scene(args: argparse.Namespace):
         raise UsageError(f"--scene: {exc.args[0]}") from None
 
 
+def plan_scene(args: argparse.Namespace, named: tuple[str | None, int | None]):
+    """A plan file's scene: --scene-file's, else --scene and --seed, each defaulting to the scene the plan names
+    (``named``: name, seed)."""
+    from snakeplan.scenes import Scene, make_scene
+
+    if args.scene_file:
+        return Scene.from_json(read_text(args.scene_file, "--scene-file"), "--scene-file", scene_dir(args.scene_file))
+    name = args.scene or named[0]
+    scene_seed = args.seed if args.seed is not None else named[1]
+    if name is None or scene_seed is None:
+        raise UsageError("--scene: the plan names no generated scene; give --scene and --seed, or --scene-file")
+    try:
+        return make_scene(name, scene_seed)
+    except KeyError as exc:
+        raise UsageError(f"--scene: {exc.args[0]}") from None
+
+
 def scene_dir(filename: str) -> Path:
     """The folder a scene file's mesh files are read relative to (the working directory for standard input)."""
     return Path(".") if filename == "-" else Path(filename).parent

@@ -23,6 +23,13 @@ def scene_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scene-file", help="a scene JSON file (snakeplan.scene/1) instead of --scene/--seed")
 
 
+def plan_scene_args(p: argparse.ArgumentParser) -> None:
+    """--scene, --seed and --scene-file for a command that reads a plan file: each defaults to the plan's scene."""
+    p.add_argument("--scene", help="scene name (default: the plan's)")
+    p.add_argument("--seed", type=seed, help="scene seed (default: the plan's)")
+    p.add_argument("--scene-file", help="a scene JSON file (snakeplan.scene/1) instead of the plan's scene")
+
+
 def view_args(p: argparse.ArgumentParser, what: str) -> None:
     """--animate, --html and the video's options, on the commands that show a crawl."""
     p.add_argument("--animate", metavar="FILE", help=f"also write a video of {what}: .mp4 (H.264) or .gif")

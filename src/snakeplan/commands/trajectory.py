@@ -7,9 +7,9 @@ import argparse
 import sys
 from pathlib import Path
 
-from snakeplan.commands.common import EXIT_INFEASIBLE, EXIT_OK, UsageError, seed
-from snakeplan.commands.inputs import load_robot, read_text, scene_dir
-from snakeplan.commands.options import TRAJECTORY_HELP
+from snakeplan.commands.common import EXIT_INFEASIBLE, EXIT_OK, UsageError
+from snakeplan.commands.inputs import load_robot, plan_scene, read_text
+from snakeplan.commands.options import TRAJECTORY_HELP, plan_scene_args
 from snakeplan.commands.ros import check_ros, ros_args, write_ros
 
 
@@ -21,16 +21,15 @@ def add_parser(sub) -> None:
                                    "execute it, 2 bad input.")
     p.add_argument("plan_file", metavar="PLAN.json", help="the plan file ('-' reads standard input)")
     p.add_argument("--robot", help="robot preset or robot file (default: the plan's robot)")
-    p.add_argument("--scene", help="scene name (default: the plan's)")
-    p.add_argument("--seed", type=seed, help="scene seed (default: the plan's)")
-    p.add_argument("--scene-file", help="a scene JSON file (snakeplan.scene/1) instead of the plan's scene")
+    plan_scene_args(p)
     p.add_argument("-o", "--out", action="append", metavar="FILE", help=TRAJECTORY_HELP)
     ros_args(p, "the trajectory")
     p.set_defaults(func=cmd_trajectory)
 
 
 def cmd_trajectory(args: argparse.Namespace) -> int:
-    from snakeplan.scenes import Scene, make_scene, spec_for
+    from snakeplan.evaluation import evaluate
+    from snakeplan.scenes import spec_for
     from snakeplan.trajectory import read_plan
 
     if not (args.out or args.rosbag or args.mcap):
@@ -38,21 +37,8 @@ def cmd_trajectory(args: argparse.Namespace) -> int:
     check_trajectories(args.out, "-o")
     check_ros(args)
     plan = read_plan(read_text(args.plan_file, "PLAN"))
-    if args.scene_file:
-        scene = Scene.from_json(read_text(args.scene_file, "--scene-file"), "--scene-file",
-                                scene_dir(args.scene_file))
-    else:
-        name = args.scene or plan["scene"]["name"]
-        scene_seed = args.seed if args.seed is not None else plan["scene"]["seed"]
-        if name is None or scene_seed is None:
-            raise UsageError("--scene: the plan names no generated scene; give --scene and --seed, or --scene-file")
-        try:
-            scene = make_scene(name, scene_seed)
-        except KeyError as exc:
-            raise UsageError(f"--scene: {exc.args[0]}") from None
+    scene = plan_scene(args, (plan["scene"]["name"], plan["scene"]["seed"]))
     robot = load_robot(args.robot or plan["robot"] or spec_for(scene).robot)
-    from snakeplan.evaluation import evaluate
-
     report = evaluate(scene, robot, plan["path"])
     code = EXIT_OK
     if args.out:
