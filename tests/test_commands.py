@@ -74,7 +74,8 @@ def _guarded(module: str) -> bool:
 
 def test_the_package_has_the_commands():
     names = {m.rsplit(".", 1)[1] for m in MODULES}
-    assert {"scene", "robot", "plan", "check", "show", "demo", "compile", "trajectory", "train", "bench"} <= names
+    assert {"scene", "robot", "plan", "check", "show", "demo", "compile", "trajectory", "export", "train",
+            "bench"} <= names
 
 
 @pytest.mark.parametrize("module", MODULES)

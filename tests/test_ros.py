@@ -65,10 +65,10 @@ def rosbags_messages(bag: Path) -> dict[str, list]:
     return out
 
 
-def mcap_messages(file: Path, decoder: str) -> tuple[dict[str, list], dict]:
+def mcap_messages(file: Path, decoder: str, topics: list[str] | None = None) -> tuple[dict[str, list], dict]:
     """Every message of an MCAP file by topic, read by mcap and decoded by ``decoder`` (``ros2``: mcap-ros2-support,
     ``protobuf``: mcap-protobuf-support, from the schemas the file carries; neither is what wrote it), and the file's
-    channels with their schemas."""
+    channels with their schemas; only ``topics`` when given."""
     from importlib import import_module
 
     from mcap.reader import make_reader
@@ -78,15 +78,15 @@ def mcap_messages(file: Path, decoder: str) -> tuple[dict[str, list], dict]:
     with open(file, "rb") as f:
         reader = make_reader(f, decoder_factories=[factory])
         summary = reader.get_summary()
-        for _, channel, message, decoded in reader.iter_decoded_messages():
+        for _, channel, message, decoded in reader.iter_decoded_messages(topics=topics):
             out.setdefault(channel.topic, []).append((message.log_time, decoded))
     return out, {c.topic: summary.schemas.get(c.schema_id) for c in summary.channels.values()}
 
 
-def mcap_ros2_messages(bag: Path) -> tuple[dict[str, list], dict]:
+def mcap_ros2_messages(bag: Path, topics: list[str] | None = None) -> tuple[dict[str, list], dict]:
     """A bag's messages and schemas, read from its MCAP file by mcap and mcap-ros2-support (not rosbags)."""
     (file,) = bag.glob("*.mcap")
-    return mcap_messages(file, "ros2")
+    return mcap_messages(file, "ros2", topics)
 
 
 def _seconds(d) -> float:
@@ -106,8 +106,9 @@ def test_the_bag_round_trips_through_rosbags_and_independently_through_mcap(reac
         got_q = np.array([p.positions for p in jt.points])
         got_t = np.array([_seconds(p.time_from_start) for p in jt.points])
         assert np.max(np.abs(got_q / feed - q)) <= 1e-9 and np.max(np.abs(got_t - t)) <= 1e-9, name
-        got_v = np.array([p.velocities for p in jt.points]) / feed
-        assert np.max(np.abs(got_v - [p["velocities"] for p in doc["points"]])) <= 1e-9, name
+        for field in ("velocities", "accelerations"):
+            got = np.array([getattr(p, field) for p in jt.points]) / feed
+            assert np.max(np.abs(got - [p[field] for p in doc["points"]])) <= 1e-9, (name, field)
         (_, markers), = messages["/scene"]
         assert len(markers.markers) == len(scene.obstacles), name
         assert len(messages["/joint_states"]) == len(messages["/tf"]) == len(t), name
@@ -178,11 +179,20 @@ def test_the_foxglove_file_has_a_schema_on_every_channel_and_shows_the_plan(reac
     _, last = messages["/arm"][-1]
     cylinders = last.entities[0].cylinders
     assert len(cylinders) == len(doc["body_links"]) - 1  # one per section
+    ends = []  # each cylinder's two end centres: its centre -/+ half its height along its z axis
+    for c in cylinders:
+        q, p = c.pose.orientation, c.pose.position
+        z = Rotation.from_quat([q.x, q.y, q.z, q.w]).as_matrix()[:, 2]
+        ends.append([np.array([p.x, p.y, p.z]) + sign * c.size.z / 2 * z for sign in (-1, 1)])
+    ends = np.array(ends) * 1e3
+    assert np.max(np.linalg.norm(ends[1:, 0] - ends[:-1, 1], axis=1)) <= 1e-6  # section to section, end to end
+    assert np.linalg.norm(ends[-1, 1] - doc["points"][-1]["tip"]) <= 1e-6  # the last ends at the tip
+    assert np.allclose([c.size.x * 1e3 / 2 for c in cylinders], get_robot("sjtu-snake-iii").radii)
     tip = np.array([[m.translation.x, m.translation.y, m.translation.z] for _, tf in messages["/tf"]
                     for m in tf.transforms])[-1] * 1e3
     assert np.linalg.norm(tip - doc["points"][-1]["tip"]) <= 1e-3  # float64 m to mm
     (_, log), = messages["/log"]
-    assert "feasible" in log.message
+    assert log.message == "verdict: feasible (reached)" and log.level == 2  # INFO
 
 
 def test_a_refused_plan_gets_no_bag_but_a_foxglove_file_with_its_first_failure_marked(tmp_path, capsys):
@@ -209,12 +219,12 @@ def test_a_refused_plan_gets_no_bag_but_a_foxglove_file_with_its_first_failure_m
 
 
 def test_a_mission_bag_carries_its_views_and_the_coverage_the_judge_counts(tmp_path, capsys):
-    code, out, _ = run(capsys, "plan", "--scene", "fuel-tank", "--task", "inspect", "--time-limit", "3", "--json",
+    code, out, _ = run(capsys, "plan", "--scene", "fuel-tank", "--task", "inspect", "--time-limit", "1", "--json",
                        "--rosbag", tmp_path / "bag")
     assert code == 0
     doc = json.loads(out)
     views = len(doc["mission"]["views"]["times_s"])
-    messages, _ = mcap_ros2_messages(tmp_path / "bag")
+    messages, _ = mcap_ros2_messages(tmp_path / "bag", ["/views", "/coverage", "/tip_path", "/joint_trajectory"])
     assert len(messages["/views"]) == views
     _, cloud = messages["/coverage"][-1]
     rec = np.frombuffer(bytes(cloud.data), dtype=[("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("rgb", "<u4")])
@@ -287,7 +297,7 @@ def test_the_live_view_listens_on_loopback_only_and_serves_schemas(tmp_path):
     from snakeplan.ros import of_plan
     from snakeplan.ros.foxglove import LiveView
 
-    view = LiveView(port=0)
+    view = LiveView("127.0.0.1", 0)
     try:
         assert _listeners(view.port) == {"0100007F"}  # 127.0.0.1, and nothing on IPv6
         others = {a[4][0] for a in socket.getaddrinfo(socket.gethostname(), None, socket.AF_INET)} - {"127.0.0.1"}
@@ -328,14 +338,62 @@ def test_live_host_needs_live_and_a_taken_port_is_one_line(capsys, tmp_path):
     assert code == 2 and err.startswith("snakeplan: error: --live: cannot serve on 127.0.0.1:") and err.count("\n") == 1
 
 
+def test_a_live_view_off_loopback_is_asked_for_and_said(capsys, monkeypatch):
+    from snakeplan.commands import ros
+
+    bound = []
+
+    class Recorded:  # stands in for the server: nothing is bound off loopback in a test
+        def __init__(self, host, port):
+            bound.append((host, port))
+            self.url = f"ws://{host}:{port}"
+
+    monkeypatch.setattr("snakeplan.ros.foxglove.LiveView", Recorded)
+    args = __import__("argparse").Namespace(live=True, live_host="0.0.0.0", live_port=None)
+    ros.live_view(args)
+    err = capsys.readouterr().err
+    assert bound == [("0.0.0.0", 8765)]
+    assert "warning: the live view listens on 0.0.0.0, not loopback: other machines can connect" in err
+    for host in ("127.0.0.2", "::1", "localhost"):
+        ros.live_view(__import__("argparse").Namespace(live=True, live_host=host, live_port=0))
+        assert "warning" not in capsys.readouterr().err
+
+
+def test_a_search_bag_turns_each_target_green_when_the_judge_found_it(tmp_path, capsys):
+    code, out, _ = run(capsys, "plan", "--scene", "fuel-tank", "--seed", "1", "--task", "search", "--json",
+                       "--rosbag", tmp_path / "bag")
+    doc = json.loads(out)
+    found = doc["metrics"]["found_s"]
+    assert code == 0 and all(f is not None for f in found)
+    messages, _ = mcap_ros2_messages(tmp_path / "bag")
+    first, *later = messages["/targets"]
+    assert [m.color.g > m.color.r for m in first[1].markers] == [False] * len(found)
+    assert len(later) == len(found)
+    for stamp, update in later:
+        (marker,) = update.markers
+        assert marker.color.g > marker.color.r and stamp == round(found[marker.id] * 1e9)
+
+
 def test_bad_outputs_are_one_line_and_write_nothing(tmp_path, capsys, monkeypatch):
     (tmp_path / "bag").mkdir()
     plan = _plan_json(tmp_path, capsys)
+    from snakeplan.robots import Chain
+
+    no_feed = tmp_path / "no-feed.json"
+    no_feed.write_text(json.dumps(Chain(get_robot("sjtu-snake-iii").sections, name="no-feed").to_dict()))
+    (tmp_path / "p.json").write_text(json.dumps({"path": json.loads(plan.read_text())["path"]}))
+    plan = tmp_path / "p.json"  # a bare path: --robot may name another arm
     cases = [(("export", plan, "--rosbag", tmp_path / "bag"), "--rosbag: "),
              (("export", plan, "--mcap", tmp_path / "f.txt"), "--mcap: "),
              (("export", plan), "--rosbag: give --rosbag DIR, --mcap FILE or both"),
              (("plan", "--mcap", tmp_path / "no" / "f.mcap"), "--mcap: folder"),
-             (("trajectory", plan), "-o: give at least one output")]
+             (("trajectory", plan), "-o: give at least one output"),
+             (("export", plan, "--mcap", tmp_path / "f.mcap", "--storage", "sqlite3"), "--storage: only with --rosbag"),
+             (("plan", "--live-port", "9000"), "--live-port: only with --live"),
+             (("export", plan, "--rosbag", ""), "--rosbag: empty"),
+             (("export", plan, "--scene", "fuel-tank", "--seed", "3", "--robot", no_feed, "--mcap",
+               tmp_path / "f.mcap"),
+              "--mcap: robot no-feed has no feed joint")]
     for argv, expected in cases:
         before = sorted(p.name for p in tmp_path.iterdir())
         code, _, err = run(capsys, *argv)

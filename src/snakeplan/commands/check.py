@@ -8,7 +8,7 @@ import sys
 from snakeplan.commands.common import EXIT_INFEASIBLE, EXIT_OK, UsageError, print_json
 from snakeplan.commands.inputs import PlanFile, load_plan_file, load_scene, robot_for
 from snakeplan.commands.options import ROBOT_HELP, scene_args, view_args
-from snakeplan.commands.ros import check_ros, ros_args, write_ros
+from snakeplan.commands.ros import check_ros, check_ros_robot, ros_args, write_ros
 from snakeplan.commands.views import check_picture, check_views, write_episode_views, write_plot, write_views
 
 
@@ -33,6 +33,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     scene = load_scene(args)
     plan = load_plan_file(args.path_file)
     robot, source = plan_robot(args, scene, plan)
+    check_ros_robot(args, robot)
     problem, report = judge_plan(scene, robot, plan)
     if plan.mission is not None:
         from snakeplan.episode import Episode

@@ -10,7 +10,7 @@ from snakeplan.commands.check import judge_plan, plan_robot
 from snakeplan.commands.common import UsageError
 from snakeplan.commands.inputs import load_plan_file, plan_scene
 from snakeplan.commands.options import ROBOT_HELP, plan_scene_args
-from snakeplan.commands.ros import check_ros, ros_args, write_ros
+from snakeplan.commands.ros import check_ros, check_ros_robot, ros_args, write_ros
 
 
 def add_parser(sub) -> None:
@@ -27,12 +27,13 @@ def add_parser(sub) -> None:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    if not (args.rosbag or args.mcap):
+    if args.rosbag is None and args.mcap is None:
         raise UsageError("--rosbag: give --rosbag DIR, --mcap FILE or both")
     check_ros(args)
     plan = load_plan_file(args.plan_file)
     scene = plan_scene(args, plan.scene or (None, None))
     robot, source = plan_robot(args, scene, plan)
+    check_ros_robot(args, robot)
     _, report = judge_plan(scene, robot, plan)
     sys.stderr.write(f"arm: {robot.name} ({source}); {report.lines()[0]}\n")
     return write_ros(args, scene, robot, plan.path, report, plan.mission)

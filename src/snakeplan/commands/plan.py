@@ -23,7 +23,7 @@ from snakeplan.commands.common import (
 )
 from snakeplan.commands.inputs import load_planner, load_scene, robot_for
 from snakeplan.commands.options import ROBOT_HELP, TRAJECTORY_HELP, scene_args, view_args
-from snakeplan.commands.ros import check_ros, live_view, ros_args, write_ros
+from snakeplan.commands.ros import check_ros, check_ros_robot, live_view, ros_args, write_ros
 from snakeplan.commands.trajectory import check_trajectories, write_trajectories
 from snakeplan.commands.views import check_picture, check_views, write_episode_views
 
@@ -71,6 +71,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
     check_ros(args)
     scene = load_scene(args)
     robot = robot_for(args, scene)
+    check_ros_robot(args, robot)
     spec = spec_for(scene)
     task = as_task(args.task or spec.task)
     options = {} if args.policy is None else {"policy": args.policy}
@@ -100,56 +101,62 @@ def cmd_plan(args: argparse.Namespace) -> int:
         sys.stderr.write("snakeplan: compiling the planning kernels on first use (about a minute, once: numba keeps "
                          "them; 'snakeplan compile' builds them ahead of time)\n")
     view = live_view(args)
-    if view is not None:
-        view.show_scene(scene)
-    wall = time.perf_counter()
-    with warnings.catch_warnings():
-        warnings.showwarning = warning_line
-        try:
-            episode = run_episode(problem, planner, seed=args.planner_seed)
-        except ValueError as exc:
-            raise ValueError(as_option(str(exc))) from None
-    wall = time.perf_counter() - wall
-    plan = episode.plan
-    write_episode_views(args, episode, args.plot)
-    if args.json:
-        print_json(episode.to_dict())
-    else:
-        sys.stdout.write(f"{plan.planner} on {where(scene)} with {robot.name}: {status(plan)} "
-                         f"in {plan.compute_time_s:.3f} s ({wall:.2f} s wall, judging and loading included)\n"
-                         f"{why_line(plan)}")
-        if episode.report is not None:
-            sys.stdout.write("\n".join(episode.report.lines()) + "\n")
-    code = EXIT_OK if episode.success else EXIT_INFEASIBLE
-    if args.trajectory:
-        if episode.report is None or plan.mission is not None:
-            sys.stderr.write("snakeplan: no trajectory: the planner returned no tip path to time"
-                             f"{' (a mission is its motions)' if plan.mission is not None else ''}\n")
+    try:
+        if view is not None:
+            view.show_scene(scene)
+        wall = time.perf_counter()
+        with warnings.catch_warnings():
+            warnings.showwarning = warning_line
+            try:
+                episode = run_episode(problem, planner, seed=args.planner_seed)
+            except ValueError as exc:
+                raise ValueError(as_option(str(exc))) from None
+        wall = time.perf_counter() - wall
+        plan = episode.plan
+        write_episode_views(args, episode, args.plot)
+        if args.json:
+            print_json(episode.to_dict())
+        else:
+            sys.stdout.write(f"{plan.planner} on {where(scene)} with {robot.name}: {status(plan)} "
+                             f"in {plan.compute_time_s:.3f} s ({wall:.2f} s wall, judging and loading included)\n"
+                             f"{why_line(plan)}")
+            if episode.report is not None:
+                sys.stdout.write("\n".join(episode.report.lines()) + "\n")
+        code = EXIT_OK if episode.success else EXIT_INFEASIBLE
+        traj = None
+        if args.trajectory:
+            if episode.report is None or plan.mission is not None:
+                sys.stderr.write("snakeplan: no trajectory: the planner returned no tip path to time"
+                                 f"{' (a mission is its motions)' if plan.mission is not None else ''}\n")
+                code = EXIT_INFEASIBLE
+            else:
+                written, traj = write_trajectories(args.trajectory, scene, robot, plan.path, episode.report,
+                                                   plan.planner, planner_seed=args.planner_seed,
+                                                   status=str(plan.status))
+                code = written or code
+        if episode.report is None:
+            if args.rosbag is not None or args.mcap is not None:
+                sys.stderr.write("snakeplan: no bag or MCAP: the planner returned no plan to record\n")
+                code = EXIT_INFEASIBLE
+        elif write_ros(args, scene, robot, plan.path, episode.report, plan.mission, traj):
             code = EXIT_INFEASIBLE
-        elif write_trajectories(args.trajectory, scene, robot, plan.path, episode.report, plan.planner,
-                                planner_seed=args.planner_seed, status=str(plan.status)):
-            code = EXIT_INFEASIBLE
-    if episode.report is None:
-        if args.rosbag or args.mcap:
-            sys.stderr.write("snakeplan: no bag or MCAP: the planner returned no plan to record\n")
-            code = EXIT_INFEASIBLE
-    elif write_ros(args, scene, robot, plan.path, episode.report, plan.mission):
-        code = EXIT_INFEASIBLE
-    if view is not None:
-        hold_live(view, scene, robot, plan, episode.report)
+        if view is not None:
+            hold_live(view, scene, robot, plan, episode.report, traj)
+    finally:
+        if view is not None:
+            view.stop()
     return code
 
 
-def hold_live(view, scene, robot, plan, report) -> None:
+def hold_live(view, scene, robot, plan, report, trajectory) -> None:
     """Replay the judged plan on the live view at mission speed until Ctrl-C (or SIGTERM) stops it."""
     from snakeplan.commands.ros import recordings
     from snakeplan.interrupt import interruptible
 
-    shown = None if report is None else recordings(scene, robot, plan.path, report, plan.mission)[1]
+    shown = None if report is None else recordings(scene, robot, plan.path, report, plan.mission, trajectory)[1]
     sys.stderr.write("live view: replaying the plan; Ctrl-C stops\n" if shown is not None else
                      "live view: no plan to show; Ctrl-C stops\n")
     with interruptible() as stop:
         while not stop.requested:
             if shown is None or not view.show(shown, speed=1.0, stopped=lambda: stop.requested):
                 time.sleep(0.1)
-    view.stop()

@@ -5,10 +5,13 @@ runs); the ``ros`` extra. Every output is checked before any work and written wh
 from __future__ import annotations
 
 import argparse
+import ipaddress
 import sys
 
 from snakeplan.commands.common import EXIT_INFEASIBLE, EXIT_OK, UsageError
 
+#: The live view's default port (Foxglove's), and where it listens unless --live-host says otherwise.
+LIVE_PORT, LOOPBACK = 8765, "127.0.0.1"
 LIVE_HELP = ("serve a live Foxglove view (WebSocket, ws://127.0.0.1:PORT; open it in Foxglove with 'Open connection') "
              "of {what} while it runs; Ctrl-C stops it")
 
@@ -20,8 +23,7 @@ def ros_args(p: argparse.ArgumentParser, what: str, live: str | None = None) -> 
     g.add_argument("--rosbag", metavar="DIR", help=f"also write {what} as a ROS 2 bag in the new folder DIR: joint "
                                                    "trajectory, /robot_description, /tf, the scene's markers, the "
                                                    "tip path (only a plan the judge accepts)")
-    g.add_argument("--storage", choices=("mcap", "sqlite3"), default="mcap",
-                   help="the bag's storage format (default mcap)")
+    g.add_argument("--storage", choices=("mcap", "sqlite3"), help="the bag's storage format (default mcap)")
     g.add_argument("--mcap", metavar="FILE", help=f"also write {what} as a Foxglove MCAP file (.mcap): the scene, "
                                                   "the arm moving, the judge's first failure marked")
     if live is not None:
@@ -31,47 +33,73 @@ def ros_args(p: argparse.ArgumentParser, what: str, live: str | None = None) -> 
 def live_args(g, what: str) -> None:
     """--live, --live-port and --live-host, for a live view of ``what``."""
     g.add_argument("--live", action="store_true", help=LIVE_HELP.format(what=what))
-    g.add_argument("--live-port", type=int, default=8765, help="the live view's port (default 8765; 0: any free one)")
+    g.add_argument("--live-port", type=int, help=f"the live view's port (default {LIVE_PORT}; 0: any free one)")
     g.add_argument("--live-host", metavar="ADDRESS",
                    help="bind the live view to ADDRESS instead of 127.0.0.1: other machines can then connect, and the "
                         "view has no authentication")
 
 
+def _given(args: argparse.Namespace, name: str):
+    return getattr(args, name, None)
+
+
 def wants_ros(args: argparse.Namespace) -> bool:
-    return bool(getattr(args, "rosbag", None) or getattr(args, "mcap", None) or getattr(args, "live", False))
+    return _given(args, "rosbag") is not None or _given(args, "mcap") is not None or bool(_given(args, "live"))
+
+
+def _first_option(args: argparse.Namespace) -> str:
+    return "--rosbag" if _given(args, "rosbag") is not None else "--mcap" if _given(args, "mcap") is not None else (
+        "--live")
 
 
 def check_ros(args: argparse.Namespace) -> None:
-    """Refuse, before any work, ROS outputs that could not be written, or a missing ``ros`` extra."""
-    if getattr(args, "live_host", None) and not args.live:
-        raise UsageError("--live-host: only with --live")
+    """Refuse, before any work, ROS outputs that could not be written, options that belong to one not asked for, or
+    a missing ``ros`` extra."""
+    for option, needs in (("live_host", "live"), ("live_port", "live"), ("storage", "rosbag")):
+        if _given(args, option) is not None and not _given(args, needs):
+            raise UsageError(f"--{option.replace('_', '-')}: only with --{needs}")
     if not wants_ros(args):
         return
     from snakeplan.extras import require_ros
     from snakeplan.files import check_output
     from snakeplan.ros.bag import check_bag
 
-    rosbag, mcap = getattr(args, "rosbag", None), getattr(args, "mcap", None)
-    require_ros("--rosbag" if rosbag else "--mcap" if mcap else "--live")
-    if rosbag:
-        check_bag(rosbag)
-    if mcap:
-        if not mcap.lower().endswith(".mcap"):
-            raise UsageError(f"--mcap: {mcap!r} must end in .mcap")
-        check_output(mcap, "--mcap")
-    if getattr(args, "live", False) and not 0 <= args.live_port <= 65535:
-        raise UsageError(f"--live-port: {args.live_port} is not a port (0-65535)")
+    require_ros(_first_option(args))
+    if _given(args, "rosbag") is not None:
+        check_bag(args.rosbag)
+    if _given(args, "mcap") is not None:
+        check_output(args.mcap, "--mcap", (".mcap",))
+    port = _given(args, "live_port")
+    if port is not None and not 0 <= port <= 65535:
+        raise UsageError(f"--live-port: {port} is not a port (0-65535)")
+
+
+def check_ros_robot(args: argparse.Namespace, robot) -> None:
+    """Refuse, before any work, ROS outputs for an arm they cannot show: the exports replay a fed arm's crawl, its
+    sections two-angle joints."""
+    if not wants_ros(args):
+        return
+    field = _first_option(args)
+    if not robot.has_feed:
+        raise UsageError(f"{field}: robot {robot.name} has no feed joint; the exports replay a fed arm's crawl")
+    try:
+        robot.universal_joints()
+    except ValueError as exc:
+        raise UsageError(f"{field}: {str(exc).removeprefix('robot: ')}") from None
 
 
 def recordings(scene, robot, path, report, mission=None, trajectory=None):
     """(the recording a bag may carry: None when the judge refuses the plan or the robot cannot execute it, with
-    why; the recording a Foxglove file shows: any judged plan, its first failure marked)."""
+    why; the recording a Foxglove file shows: any judged plan, its first failure marked). ``trajectory``: the
+    plan's, when one was built already."""
     from snakeplan.ros import of_mission, of_plan, of_trajectory
 
     if mission is not None:
         shown = of_mission(scene, robot, mission, report)
         if report.failure is not None:
             return (None, f"the judge refuses the mission ({report.reason} at {report.failure.time_s:.2f} s)"), shown
+        if not mission.motions:
+            return (None, "the mission has no motion"), shown
         return (shown, ""), shown
     if trajectory is None and report.success:
         from snakeplan.trajectory import InfeasiblePlan, build_trajectory
@@ -89,43 +117,53 @@ def recordings(scene, robot, path, report, mission=None, trajectory=None):
 def write_ros(args: argparse.Namespace, scene, robot, path, report, mission=None, trajectory=None) -> int:
     """Write the judged plan (``path`` and ``report``, or ``mission``) to --rosbag and --mcap as asked; exit status
     1 (one line) when a bag was asked for a plan that cannot be one."""
-    if not (args.rosbag or args.mcap):
+    rosbag, mcap = _given(args, "rosbag"), _given(args, "mcap")
+    if rosbag is None and mcap is None:
         return EXIT_OK
     (for_bag, why), shown = recordings(scene, robot, path, report, mission, trajectory)
     status = EXIT_OK
-    if args.mcap:
+    if mcap is not None:
         from snakeplan.ros.foxglove import write_mcap
 
-        counts = write_mcap(shown, args.mcap)
-        sys.stderr.write(f"wrote {args.mcap} (Foxglove MCAP: {sum(counts.values())} messages on {len(counts)} "
+        counts = write_mcap(shown, mcap)
+        sys.stderr.write(f"wrote {mcap} (Foxglove MCAP: {sum(counts.values())} messages on {len(counts)} "
                          f"topics, {shown.duration_s:.2f} s)\n")
-    if args.rosbag:
+    if rosbag is not None:
         if for_bag is None:
             sys.stderr.write(f"snakeplan: no bag: {why}; only a plan the judge accepts goes to the controllers\n")
             status = EXIT_INFEASIBLE
         else:
             from snakeplan.ros.bag import write_bag
 
-            counts = write_bag(for_bag, args.rosbag, args.storage)
-            sys.stderr.write(f"wrote {args.rosbag} (ROS 2 bag, {args.storage}: {sum(counts.values())} messages on "
+            storage = args.storage or "mcap"
+            counts = write_bag(for_bag, rosbag, storage)
+            sys.stderr.write(f"wrote {rosbag} (ROS 2 bag, {storage}: {sum(counts.values())} messages on "
                              f"{len(counts)} topics, {for_bag.duration_s:.2f} s)\n")
     return status
 
 
+def _is_loopback(host: str) -> bool:
+    try:
+        return host == "localhost" or ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
 def live_view(args: argparse.Namespace):
     """The live view --live asks for, started (its address on stderr), or None."""
-    if not getattr(args, "live", False):
+    if not _given(args, "live"):
         return None
-    from snakeplan.ros.foxglove import LOOPBACK, LiveView
+    from snakeplan.ros.foxglove import LiveView
 
     host = args.live_host or LOOPBACK
-    if host != LOOPBACK:
+    port = LIVE_PORT if args.live_port is None else args.live_port
+    if not _is_loopback(host):
         sys.stderr.write(f"snakeplan: warning: the live view listens on {host}, not loopback: other machines can "
                          "connect to it, without authentication\n")
     try:
-        view = LiveView(host, args.live_port)
+        view = LiveView(host, port)
     except Exception as exc:  # the port is taken, the address is not this machine's
-        raise UsageError(f"--live: cannot serve on {host}:{args.live_port}: {exc}") from None
+        raise UsageError(f"--live: cannot serve on {host}:{port}: {exc}") from None
     sys.stderr.write(f"live view: {view.url} (Foxglove: Open connection, Foxglove WebSocket)\n")
     return view
 
@@ -141,13 +179,14 @@ def live_rows(view):
     from snakeplan.ros import of_plan
 
     def on_row(run, row) -> None:
-        line = f"{run.label}: {row['status']}, {'success' if row['success'] else row['reason']}"
+        view.note(f"{run.label}: {row['status']}, {'success' if row['success'] else row['reason']}")
         if row.get("task", "reach") != "reach" or row.get("path") is None:
-            view.note(line)
             return
-        scene, robot = run.make_scene(), run.arm()
-        path = np.asarray(row["path"], dtype=float)
-        view.note(line)
-        view.show(of_plan(scene, robot, path, evaluate(scene, robot, path)))
+        try:
+            scene, robot = run.make_scene(), run.arm()
+            path = np.asarray(row["path"], dtype=float)
+            view.show(of_plan(scene, robot, path, evaluate(scene, robot, path)))
+        except (ValueError, TypeError) as exc:  # an arm the exports cannot show: the benchmark goes on
+            view.note(f"{run.label}: not shown: {exc}")
 
     return on_row

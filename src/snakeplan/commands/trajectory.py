@@ -10,7 +10,7 @@ from pathlib import Path
 from snakeplan.commands.common import EXIT_INFEASIBLE, EXIT_OK, UsageError
 from snakeplan.commands.inputs import load_robot, plan_scene, read_text
 from snakeplan.commands.options import TRAJECTORY_HELP, plan_scene_args
-from snakeplan.commands.ros import check_ros, ros_args, write_ros
+from snakeplan.commands.ros import check_ros, check_ros_robot, ros_args, write_ros
 
 
 def add_parser(sub) -> None:
@@ -32,19 +32,20 @@ def cmd_trajectory(args: argparse.Namespace) -> int:
     from snakeplan.scenes import spec_for
     from snakeplan.trajectory import read_plan
 
-    if not (args.out or args.rosbag or args.mcap):
+    if not args.out and args.rosbag is None and args.mcap is None:
         raise UsageError("-o: give at least one output: -o FILE, --rosbag DIR or --mcap FILE")
     check_trajectories(args.out, "-o")
     check_ros(args)
     plan = read_plan(read_text(args.plan_file, "PLAN"))
     scene = plan_scene(args, (plan["scene"]["name"], plan["scene"]["seed"]))
     robot = load_robot(args.robot or plan["robot"] or spec_for(scene).robot)
+    check_ros_robot(args, robot)
     report = evaluate(scene, robot, plan["path"])
-    code = EXIT_OK
+    code, traj = EXIT_OK, None
     if args.out:
-        code = write_trajectories(args.out, scene, robot, plan["path"], report, plan["planner"],
-                                  plan_file=Path(args.plan_file).name)
-    return write_ros(args, scene, robot, plan["path"], report) or code
+        code, traj = write_trajectories(args.out, scene, robot, plan["path"], report, plan["planner"],
+                                        plan_file=Path(args.plan_file).name)
+    return write_ros(args, scene, robot, plan["path"], report, trajectory=traj) or code
 
 
 def check_trajectories(filenames: list[str] | None, field: str) -> None:
@@ -57,10 +58,10 @@ def check_trajectories(filenames: list[str] | None, field: str) -> None:
         output_format(filename, field)
 
 
-def write_trajectories(filenames: list[str], scene, robot, path, report, planner: str, **source) -> int:
-    """Build the trajectory of a judged path and write it to every file; exit status 1 (one line on stderr) when
-    the plan cannot become one. Its provenance: the scene, the planner and ``source`` (where the path came
-    from: the planner's seed and status, or the plan file)."""
+def write_trajectories(filenames: list[str], scene, robot, path, report, planner: str, **source):
+    """Build the trajectory of a judged path and write it to every file: (exit status, the trajectory); status 1
+    (one line on stderr) and None when the plan cannot become one. Its provenance: the scene, the planner and
+    ``source`` (where the path came from: the planner's seed and status, or the plan file)."""
     from snakeplan.trajectory import InfeasiblePlan, build_trajectory, write
 
     provenance = {"scene": {"name": scene.name, "seed": scene.seed}, "planner": planner, **source}
@@ -68,9 +69,9 @@ def write_trajectories(filenames: list[str], scene, robot, path, report, planner
         traj = build_trajectory(scene, robot, path, provenance, report)
     except InfeasiblePlan as exc:
         sys.stderr.write(f"snakeplan: no trajectory: {exc}\n")
-        return EXIT_INFEASIBLE
+        return EXIT_INFEASIBLE, None
     for filename in filenames:
         kind = write(traj, filename)
         sys.stderr.write(f"wrote {filename} ({kind}: {len(traj.t)} points, {traj.timing.duration_s:.2f} s, "
                          f"{traj.method})\n")
-    return EXIT_OK
+    return EXIT_OK, traj

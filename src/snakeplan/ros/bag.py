@@ -7,6 +7,7 @@ export leaves nothing half-written; an existing ``DIR`` is refused before any wo
 
 from __future__ import annotations
 
+import os
 import shutil
 import tempfile
 from pathlib import Path
@@ -14,8 +15,9 @@ from typing import Any
 
 import numpy as np
 
+from snakeplan.checkpoints import fsync_dir
 from snakeplan.extras import require_ros
-from snakeplan.ros.messages import LATCHED, Message, messages
+from snakeplan.ros.messages import LATCHED, messages
 from snakeplan.ros.recording import Recording
 
 #: Storage formats by name: what ``--storage`` takes.
@@ -25,13 +27,17 @@ DISTRO = "ros2_jazzy"
 
 
 def check_bag(directory: str, field: str = "--rosbag") -> Path:
-    """The bag folder to write, refused in one line naming ``field`` when it exists already or its parent folder
-    does not."""
+    """The bag folder to write, refused in one line naming ``field`` when it exists already, or its parent folder
+    does not or cannot be written."""
     path = Path(directory)
+    if not str(directory):
+        raise ValueError(f"{field}: empty; name the new folder to write the bag in")
     if path.exists():
         raise ValueError(f"{field}: {directory} exists; a bag is a new folder (rosbag2 does not write into one)")
     if not path.parent.is_dir():
         raise ValueError(f"{field}: folder {path.parent} does not exist")
+    if not os.access(path.parent, os.W_OK | os.X_OK):
+        raise ValueError(f"{field}: folder {path.parent} is not writable")
     return path
 
 
@@ -78,9 +84,9 @@ class MessageFactory:
         return lambda v: [] if v is None else [item(x) for x in v]
 
 
-def write_bag(rec: Recording, directory: str, storage: str = "mcap", start_ns: int = 0) -> dict[str, int]:
-    """Write ``rec`` as a ROS 2 bag in the new folder ``directory`` (``storage`` mcap or sqlite3); a message at
-    recording time t is stamped ``start_ns`` + t. Returns the message count per topic."""
+def write_bag(rec: Recording, directory: str, storage: str = "mcap") -> dict[str, int]:
+    """Write ``rec`` as a ROS 2 bag in the new folder ``directory`` (``storage`` mcap or sqlite3), every message
+    stamped with its recording time. Returns the message count per topic."""
     require_ros("--rosbag")
     from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
     from rosbags.rosbag2 import StoragePlugin, Writer
@@ -110,14 +116,16 @@ def write_bag(rec: Recording, directory: str, storage: str = "mcap", start_ns: i
                 if m.topic not in connections:
                     connections[m.topic] = writer.add_connection(m.topic, m.msgtype, typestore=typestore,
                                                                  offered_qos_profiles=[qos(m.topic in LATCHED)])
-                writer.write(connections[m.topic], start_ns + _ns(m),
+                writer.write(connections[m.topic], int(round(m.t * 1e9)),
                              typestore.serialize_cdr(factory.build(m.msgtype, m.data), m.msgtype))
                 counts[m.topic] = counts.get(m.topic, 0) + 1
+        for file in inside.iterdir():
+            with open(file, "rb+") as fh:
+                os.fsync(fh.fileno())
+        fsync_dir(inside)
         inside.rename(target)
+        fsync_dir(target.parent)
     finally:
         shutil.rmtree(work, ignore_errors=True)
     return counts
 
-
-def _ns(m: Message) -> int:
-    return int(round(m.t * 1e9))

@@ -12,14 +12,10 @@ section at every sample, ``/tip_path`` each path flown as a line from when it st
 
 from __future__ import annotations
 
-import os
-import tempfile
-from pathlib import Path
-
 import numpy as np
 
 from snakeplan.extras import require_ros
-from snakeplan.files import check_output
+from snakeplan.files import atomic_path, check_output
 from snakeplan.ros.messages import (
     DISCOVERED,
     FAILURE,
@@ -35,15 +31,12 @@ from snakeplan.ros.messages import (
     UNSEEN,
     quaternion,
     si_scale,
+    view_rotation,
 )
 from snakeplan.ros.recording import Recording
 
-#: The default port of the live view (Foxglove's).
-LIVE_PORT = 8765
-#: The host the live view binds unless told otherwise: this machine only.
-LOOPBACK = "127.0.0.1"
-#: Radius (m) of the tip path's line, and the length of a view's arrow.
-LINE_M, ARROW_M = 0.004, 0.08
+#: Width (m) of the tip path's line.
+LINE_M = 0.004
 
 
 def _fg():
@@ -160,8 +153,6 @@ def _coverage(t: float, points: np.ndarray, seen: np.ndarray):
 def messages(rec: Recording, start_s: float = 0.0, speed: float = 1.0):
     """Every message of the recording as (topic, time s, Foxglove message), sorted by time; a message at recording
     time t is stamped ``start_s`` + t / ``speed``."""
-    from snakeplan.geometry.transforms import frame_from_z
-
     fm = _fg()
     out = []
 
@@ -203,8 +194,8 @@ def messages(rec: Recording, start_s: float = 0.0, speed: float = 1.0):
     if rec.views is not None:
         times, positions, directions = rec.views
         for t, p, d in zip(times.tolist(), positions, directions):
-            R = frame_from_z(np.asarray(d))[:, [2, 0, 1]]
-            add("/views", t, fm.PoseInFrame(timestamp=_ts(stamp(t)), frame_id=SCENE_FRAME, pose=_pose(p, R)))
+            add("/views", t, fm.PoseInFrame(timestamp=_ts(stamp(t)), frame_id=SCENE_FRAME,
+                                            pose=_pose(p, view_rotation(d))))
     if rec.points is not None:
         first = rec.first_seen
         add("/coverage", 0.0, _coverage(stamp(0.0), rec.points, first <= 0.0))
@@ -249,37 +240,32 @@ class _Channels:
 
 
 def write_mcap(rec: Recording, filename: str) -> dict[str, int]:
-    """Write ``rec`` as a Foxglove MCAP file (atomically: a temporary file beside it, renamed over it). Returns
-    the message count per topic."""
+    """Write ``rec`` as a Foxglove MCAP file (atomically: a temporary file beside it, fsync'ed and renamed over
+    it). Returns the message count per topic."""
     require_ros("--mcap")
     import foxglove
 
-    check_output(filename, "--mcap")
-    target = Path(filename)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".mcap", dir=target.parent or ".")
-    os.close(fd)
+    check_output(filename, "--mcap", (".mcap",))
     counts: dict[str, int] = {}
-    try:
+    with atomic_path(filename) as tmp:
         context = foxglove.Context()
         writer = foxglove.open_mcap(tmp, allow_overwrite=True, context=context)
-        channels = _Channels(context)
-        for topic, t, msg in messages(rec):
-            channels.log(topic, msg, int(round(t * 1e9)))
-            counts[topic] = counts.get(topic, 0) + 1
-        writer.close()
-        os.replace(tmp, target)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+        try:
+            channels = _Channels(context)
+            for topic, t, msg in messages(rec):
+                channels.log(topic, msg, int(round(t * 1e9)))
+                counts[topic] = counts.get(topic, 0) + 1
+        finally:
+            writer.close()
     return counts
 
 
 class LiveView:
     """A Foxglove WebSocket server that shows each recording handed to :meth:`show` as it comes (plans and
-    missions of a run as they are judged). Bound to ``host`` (loopback by default; any other address is the
-    caller's explicit choice) on ``port`` (0: any free one)."""
+    missions of a run as they are judged). Bound to ``host`` (the command line's is loopback unless told
+    otherwise) on ``port`` (0: any free one)."""
 
-    def __init__(self, host: str = LOOPBACK, port: int = LIVE_PORT, name: str = "snakeplan") -> None:
+    def __init__(self, host: str, port: int, name: str = "snakeplan") -> None:
         require_ros("--live")
         import foxglove
 
@@ -294,7 +280,7 @@ class LiveView:
 
     @property
     def url(self) -> str:
-        return f"ws://{self.host}:{self.port}"
+        return f"ws://{f'[{self.host}]' if ':' in self.host else self.host}:{self.port}"
 
     def show_scene(self, scene) -> None:
         """Send the scene's obstacles now (before a plan of it is ready)."""

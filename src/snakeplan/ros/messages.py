@@ -108,8 +108,9 @@ def _colour(rgba) -> dict[str, float]:
     return dict(zip("rgba", map(float, rgba)))
 
 
-def _along(direction: np.ndarray) -> np.ndarray:
-    """A rotation whose x axis is ``direction`` (how RViz draws a pose: an arrow along x)."""
+def view_rotation(direction: np.ndarray) -> np.ndarray:
+    """A camera's rotation, its x axis along the view ``direction`` (how RViz and Foxglove draw a pose: an arrow
+    along x)."""
     from snakeplan.geometry.transforms import frame_from_z
 
     R = frame_from_z(direction)
@@ -187,18 +188,18 @@ def messages(rec: Recording) -> Iterator[Message]:
     urdf = to_urdf(robot)
     yield Message("/robot_description", 0.0, {"data": urdf})
     scale = si_scale(robot)
-    joints = urdf_joint_transforms(urdf, rec.q)
-    still = bool(np.all(rec.bases == rec.bases[0]))
     movable = set(robot.joint_names)
-    static = [transform(0.0, parent, child, transforms(T[:1])[0]) for name, parent, child, T in joints
-              if name not in movable]
+    static = [transform(0.0, parent, child, transforms(T)[0]) for name, parent, child, T in
+              urdf_joint_transforms(urdf, np.zeros((1, robot.dof))) if name not in movable]
+    still = len(rec.t) > 0 and bool(np.all(rec.bases == rec.bases[0]))
     if still:
         static.append(transform(0.0, SCENE_FRAME, ROOT_LINK, transforms(rec.bases[:1])[0]))
     yield Message("/tf_static", 0.0, {"transforms": static})
     yield Message("/scene", 0.0, markers(scene))
     yield Message("/joint_trajectory", 0.0, joint_trajectory(rec))
-    moving = [(parent, child, transforms(T)) for name, parent, child, T in joints if name in movable]
-    if not still:
+    moving = [(parent, child, transforms(T)) for name, parent, child, T in urdf_joint_transforms(urdf, rec.q)
+              if name in movable]
+    if not still and len(rec.t):
         moving.append((SCENE_FRAME, ROOT_LINK, transforms(rec.bases)))
     for k, t in enumerate(rec.t.tolist()):
         yield Message("/tf", t, {"transforms": [transform(t, parent, child, poses[k]) for parent, child, poses in
@@ -234,7 +235,7 @@ def _views(rec: Recording) -> Iterator[Message]:
     times, positions, directions = rec.views
     for t, p, d in zip(times.tolist(), positions, directions):
         T = np.eye(4)
-        T[:3, :3], T[:3, 3] = _along(d), p
+        T[:3, :3], T[:3, 3] = view_rotation(d), p
         yield Message("/views", t, {"header": header(t), "pose": pose(T)})
     if rec.points is not None:
         first = rec.first_seen

@@ -34,10 +34,11 @@ class Recording:
     frame); ``q (T, dof)`` (feed mm, angles rad); ``robot`` with an identity base (its URDF is the one in the
     bag). ``velocities`` and ``accelerations`` (T, dof) come with a timed trajectory (None for a mission, whose
     samples are where its motions are piecewise linear). ``paths``: the tip paths flown (mm), with the time each
-    starts; ``views`` (times s, positions mm, unit directions) or None; ``points`` (P, 3) mm the points the judge counts
-    (a fed arm's points of interest, the station's mesh nodes) and ``first_seen`` (P,) s when a view first saw each
-    (inf: never; the station's: the mission's end, the judge's map saying which, not when); ``targets`` (k, 3) mm and ``found_s`` (k,)
-    s (inf: never; None unless a search). ``success`` and ``verdict`` (one line) are the judge's."""
+    starts; ``views`` (times s, positions mm, unit directions) or None; ``points`` (P, 3) mm the points the judge
+    counts (a fed arm's points of interest, the station's mesh nodes) and ``first_seen`` (P,) s when a view first
+    saw each (inf: never; the station's: the mission's end, as the judge's map says which, not when); ``found_s``
+    (k,) s when a search's targets were found (inf: never; None unless a search). ``success`` and ``verdict`` (one
+    line) are the judge's, ``failure`` its first failure."""
 
     scene: Scene
     robot: Chain
@@ -70,7 +71,7 @@ def _homogeneous(p: np.ndarray) -> np.ndarray:
 
 
 def _verdict(report) -> str:
-    return "; ".join(report.lines()[:1])
+    return report.lines()[0]
 
 
 def of_trajectory(scene: Scene, traj: Trajectory) -> Recording:
@@ -123,7 +124,7 @@ def of_mission(scene: Scene, robot: Chain, mission, report) -> Recording:
     from snakeplan.world.mission import Crawl, inspected_surface
     from snakeplan.world.sight import PoiCamera
 
-    ts, bases, qs, paths, starts = [], [], [], [], []
+    ts, bases, qs, paths, starts = [np.zeros(0)], [np.zeros((0, 4, 4))], [np.zeros((0, robot.dof))], [], []
     for motion in mission.motions:
         if isinstance(motion, Crawl):
             t, b, q = _crawl_samples(scene, robot, motion)
@@ -131,18 +132,18 @@ def of_mission(scene: Scene, robot: Chain, mission, report) -> Recording:
             starts.append(motion.start_s)
         else:
             t, b, q = motion.times_s, motion.bases, motion.q
-        if ts:  # a motion starts where the one before ended: keep one sample of the two
+        if len(ts[-1]) and t[0] == ts[-1][-1] and np.array_equal(q[0], qs[-1][-1]) and np.array_equal(
+                b[0], bases[-1][-1]):  # a motion starts where the one before ended: one sample of the two
             t, b, q = t[1:], b[1:], q[1:]
         ts.append(t)
         bases.append(b)
         qs.append(q)
+    t, b, q = np.concatenate(ts), np.concatenate(bases), np.concatenate(qs)
     views = mission.views
     failure = None
-    if report.failure is not None:
+    if report.failure is not None and len(t):
         when = report.failure.time_s
-        i = int(np.clip(np.searchsorted(np.concatenate(ts), when), 0, sum(map(len, ts)) - 1))
-        joints = _at(robot, np.concatenate(bases)[i], np.concatenate(qs)[i])
-        failure = Failure(report.reason, when, joints[-1])
+        failure = Failure(report.reason, when, _tip_at(robot, t, b, q, when))
     search = isinstance(report, SearchReport)
     points = first = None
     if not search and report.tip_camera:  # a fed arm's points of interest, each when a view first saw it
@@ -153,12 +154,19 @@ def of_mission(scene: Scene, robot: Chain, mission, report) -> Recording:
     elif not search and report.seen is not None:  # the station's mesh nodes: the judge's map says which, not when
         points = inspected_surface(scene)[0].vertices
         first = np.where(report.seen, float(views.times_s[-1]) if len(views) else 0.0, np.inf)
-    return Recording(scene, robot.with_base(np.eye(4)), np.concatenate(ts), np.concatenate(bases), np.concatenate(qs),
-                     paths, np.array(starts), report.success, _verdict(report), failure,
+    return Recording(scene, robot.with_base(np.eye(4)), t, b, q, paths, np.array(starts), report.success,
+                     _verdict(report), failure,
                      views=(views.times_s, views.positions, views.directions), points=points, first_seen=first,
                      found_s=np.asarray(report.found_s, dtype=float) if search else None)
 
 
-def _at(robot: Chain, base: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """The body's joints (n+1, 3) mm for one base pose and joint vector."""
-    return (base @ _homogeneous(robot.with_base(np.eye(4)).joint_positions(q)).T).T[:, :3]
+def _tip_at(robot: Chain, t: np.ndarray, bases: np.ndarray, q: np.ndarray, when: float) -> np.ndarray:
+    """The tip (3,) mm at time ``when`` between samples: the joints and the base's translation linear between them,
+    its rotation the earlier sample's (the samples are the motions' own, or 5 mm of depth apart)."""
+    k = int(np.clip(np.searchsorted(t, when, side="right") - 1, 0, len(t) - 1))
+    j = min(k + 1, len(t) - 1)
+    f = 0.0 if j == k or t[j] == t[k] else float(np.clip((when - t[k]) / (t[j] - t[k]), 0.0, 1.0))
+    base = bases[k].copy()
+    base[:3, 3] += f * (bases[j][:3, 3] - bases[k][:3, 3])
+    tip = robot.with_base(np.eye(4)).joint_positions(q[k] + f * (q[j] - q[k]))[-1]
+    return base[:3, :3] @ tip + base[:3, 3]
