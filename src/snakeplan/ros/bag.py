@@ -109,10 +109,9 @@ def write_bag(rec: Recording, directory: str, storage: str = "mcap") -> dict[str
     work = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=target.parent))
     try:
         inside = work / target.name
-        ordered = sorted(messages(rec), key=lambda m: m.t)
         with Writer(inside, version=8, storage_plugin=plugin) as writer:
             connections = {}
-            for m in ordered:
+            for m in messages(rec):
                 if m.topic not in connections:
                     connections[m.topic] = writer.add_connection(m.topic, m.msgtype, typestore=typestore,
                                                                  offered_qos_profiles=[qos(m.topic in LATCHED)])

@@ -12,6 +12,8 @@ section at every sample, ``/tip_path`` each path flown as a line from when it st
 
 from __future__ import annotations
 
+import heapq
+
 import numpy as np
 
 from snakeplan.extras import require_ros
@@ -110,20 +112,18 @@ def z_to(d: np.ndarray) -> np.ndarray:
     return q / n
 
 
-def bodies(joints: np.ndarray, radii: np.ndarray) -> list:
-    """``SceneUpdate`` contents of the arm at every sample: the joints (T, n+1, 3) mm give one cylinder per
-    section from joint i to i+1, as (centres m, quaternions, sizes m) per sample."""
+def bodies(joints: np.ndarray, radii: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The arm's cylinders at every sample, all at once: the joints (T, n+1, 3) mm give one per section from joint i
+    to i+1, as centres (T, n, 3) m, quaternions (T, n, 4) and sizes (T, n, 3) m."""
     d = joints[:, 1:] - joints[:, :-1]
     length = np.linalg.norm(d, axis=-1)
     unit = d / np.where(length > 0, length, 1.0)[..., None]
-    centres = ((joints[:, 1:] + joints[:, :-1]) / 2 * M).tolist()
-    quats = z_to(unit).tolist()
-    sizes = np.stack(np.broadcast_arrays(2 * radii * M, 2 * radii * M, length * M), axis=-1).tolist()
-    return list(zip(centres, quats, sizes))
+    sizes = np.stack(np.broadcast_arrays(2 * radii * M, 2 * radii * M, length * M), axis=-1)
+    return (joints[:, 1:] + joints[:, :-1]) / 2 * M, z_to(unit), sizes
 
 
 def body(t: float, sample) -> object:
-    """``SceneUpdate`` of the arm at one sample of :func:`bodies`."""
+    """``SceneUpdate`` of the arm at one sample of :func:`bodies` (its centres, quaternions and sizes as lists)."""
     fm = _fg()
     grey = _colour((0.27, 0.27, 0.27, 1.0))
     cylinders = [fm.CylinderPrimitive(pose=fm.Pose(position=fm.Vector3(x=c[0], y=c[1], z=c[2]),
@@ -151,8 +151,8 @@ def _coverage(t: float, points: np.ndarray, seen: np.ndarray):
 
 
 def messages(rec: Recording, start_s: float = 0.0, speed: float = 1.0):
-    """Every message of the recording as (topic, time s, Foxglove message), sorted by time; a message at recording
-    time t is stamped ``start_s`` + t / ``speed``."""
+    """Every message of the recording as (topic, time s, Foxglove message) in time order, the arm's made as they
+    are written; a message at recording time t is stamped ``start_s`` + t / ``speed``."""
     fm = _fg()
     out = []
 
@@ -162,7 +162,7 @@ def messages(rec: Recording, start_s: float = 0.0, speed: float = 1.0):
     def add(topic: str, t: float, msg) -> None:
         out.append((topic, stamp(t), msg))
 
-    scene, robot = rec.scene, rec.robot
+    scene = rec.scene
     add("/scene", 0.0, obstacles(scene, stamp(0.0)))
     found = rec.found_s
     if len(scene.targets):
@@ -173,20 +173,6 @@ def messages(rec: Recording, start_s: float = 0.0, speed: float = 1.0):
                 t = float(found[i])
                 add("/targets", t, fm.SceneUpdate(entities=[_spheres(stamp(t), f"found-{i}", scene.targets[i:i + 1],
                                                                      TARGET_M * 1.2, FOUND)]))
-    joints = rec.joint_positions()
-    scale = si_scale(robot)
-    samples = bodies(joints, robot.radii)
-    tips = (joints[:, -1] * M).tolist()
-    axis = joints[:, -1] - joints[:, -2]
-    tip_rotations = z_to(axis / np.linalg.norm(axis, axis=-1, keepdims=True)).tolist()
-    for k, t in enumerate(rec.t.tolist()):
-        add("/arm", t, body(stamp(t), samples[k]))
-        (x, y, z), (qx, qy, qz, qw) = tips[k], tip_rotations[k]
-        add("/tf", t, fm.FrameTransforms(transforms=[fm.FrameTransform(
-            timestamp=_ts(stamp(t)), parent_frame_id=SCENE_FRAME, child_frame_id="tip",
-            translation=fm.Vector3(x=x, y=y, z=z), rotation=fm.Quaternion(x=qx, y=qy, z=qz, w=qw))]))
-        add("/joint_states", t, fm.JointStates(timestamp=_ts(stamp(t)), joints=[
-            fm.JointState(name=name, position=float(v)) for name, v in zip(robot.joint_names, rec.q[k] * scale)]))
     for i, (path, start) in enumerate(zip(rec.paths, rec.path_starts_s.tolist())):
         add("/tip_path", start, fm.SceneUpdate(entities=[_entity(stamp(start), f"path-{i}", lines=[fm.LinePrimitive(
             type=fm.LinePrimitiveLineType.LineStrip, pose=_pose(np.zeros(3)), thickness=LINE_M,
@@ -214,7 +200,26 @@ def messages(rec: Recording, start_s: float = 0.0, speed: float = 1.0):
         mark = _spheres(stamp(f.time_s), "failure", f.position[None], FAILURE_M, FAILURE)
         add("/judge", f.time_s, fm.SceneUpdate(entities=[mark]))
     out.sort(key=lambda m: m[1])
-    return out
+    return heapq.merge(out, _motion(rec, stamp), key=lambda m: m[1])
+
+
+def _motion(rec: Recording, stamp):
+    """``/arm``, ``/tf`` (the tip) and ``/joint_states`` at every sample, made as they are written."""
+    fm = _fg()
+    robot = rec.robot
+    joints = rec.joint_positions()
+    centres, quats, sizes = bodies(joints, robot.radii)
+    axis = joints[:, -1] - joints[:, -2]
+    tip_rotations = z_to(axis / np.linalg.norm(axis, axis=-1, keepdims=True))
+    positions = rec.q * si_scale(robot)
+    for k, t in enumerate(rec.t.tolist()):
+        yield "/arm", stamp(t), body(stamp(t), (centres[k].tolist(), quats[k].tolist(), sizes[k].tolist()))
+        (x, y, z), (qx, qy, qz, qw) = (joints[k, -1] * M).tolist(), tip_rotations[k].tolist()
+        yield "/tf", stamp(t), fm.FrameTransforms(transforms=[fm.FrameTransform(
+            timestamp=_ts(stamp(t)), parent_frame_id=SCENE_FRAME, child_frame_id="tip",
+            translation=fm.Vector3(x=x, y=y, z=z), rotation=fm.Quaternion(x=qx, y=qy, z=qz, w=qw))])
+        yield "/joint_states", stamp(t), fm.JointStates(timestamp=_ts(stamp(t)), joints=[
+            fm.JointState(name=name, position=v) for name, v in zip(robot.joint_names, positions[k].tolist())])
 
 
 _CHANNELS = {"SceneUpdate": "SceneUpdateChannel", "FrameTransforms": "FrameTransformsChannel",

@@ -10,6 +10,7 @@ as the station's carriage does); every URDF joint is a transform from its parent
 
 from __future__ import annotations
 
+import heapq
 from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
@@ -86,17 +87,17 @@ def pose(T: np.ndarray) -> dict[str, Any]:
     return {"position": {"x": x, "y": y, "z": z}, "orientation": quaternion(T[:3, :3])}
 
 
-def transforms(T: np.ndarray) -> list[tuple[dict[str, float], dict[str, float]]]:
-    """Poses (k, 4, 4) mm as (translation m, rotation) of ``geometry_msgs/Transform``, all at once."""
-    xyz = (T[:, :3, 3] * M).tolist()
-    quat = quaternions(T[:, :3, :3]).tolist()
-    return [(dict(zip("xyz", a)), dict(zip("xyzw", b))) for a, b in zip(xyz, quat)]
+def transforms(T: np.ndarray) -> np.ndarray:
+    """Poses (k, 4, 4) mm as rows (k, 7) of ``geometry_msgs/Transform``: translation x y z (m), rotation x y z w; all
+    at once."""
+    return np.concatenate([T[:, :3, 3] * M, quaternions(T[:, :3, :3])], axis=1)
 
 
-def transform(t: float, parent: str, child: str, pose_m: tuple[dict, dict]) -> dict[str, Any]:
-    """``geometry_msgs/TransformStamped`` of ``child`` in ``parent`` (from :func:`transforms`)."""
+def transform(t: float, parent: str, child: str, row: np.ndarray) -> dict[str, Any]:
+    """``geometry_msgs/TransformStamped`` of ``child`` in ``parent``, from a row of :func:`transforms`."""
+    x, y, z, qx, qy, qz, qw = row.tolist()
     return {"header": header(t, parent), "child_frame_id": child,
-            "transform": {"translation": pose_m[0], "rotation": pose_m[1]}}
+            "transform": {"translation": {"x": x, "y": y, "z": z}, "rotation": {"x": qx, "y": qy, "z": qz, "w": qw}}}
 
 
 def _point(p: np.ndarray) -> dict[str, float]:
@@ -183,37 +184,52 @@ def coverage_cloud(t: float, points: np.ndarray, seen: np.ndarray) -> dict[str, 
 
 
 def messages(rec: Recording) -> Iterator[Message]:
-    """Every message of the recording, in time order within each topic."""
-    robot, scene = rec.robot, rec.scene
+    """Every message of the recording in time order (a message at an equal time in topic order), made as they are
+    written: one topic's stream at a time, merged."""
+    return heapq.merge(_latched(rec), _motion(rec), _paths(rec), _targets(rec), _views(rec), _coverage(rec),
+                       _judge(rec), key=lambda m: m.t)
+
+
+def _still(rec: Recording) -> bool:
+    return len(rec.t) > 0 and bool(np.all(rec.bases == rec.bases[0]))
+
+
+def _latched(rec: Recording) -> Iterator[Message]:
+    robot = rec.robot
     urdf = to_urdf(robot)
     yield Message("/robot_description", 0.0, {"data": urdf})
-    scale = si_scale(robot)
     movable = set(robot.joint_names)
     static = [transform(0.0, parent, child, transforms(T)[0]) for name, parent, child, T in
               urdf_joint_transforms(urdf, np.zeros((1, robot.dof))) if name not in movable]
-    still = len(rec.t) > 0 and bool(np.all(rec.bases == rec.bases[0]))
-    if still:
+    if _still(rec):
         static.append(transform(0.0, SCENE_FRAME, ROOT_LINK, transforms(rec.bases[:1])[0]))
     yield Message("/tf_static", 0.0, {"transforms": static})
-    yield Message("/scene", 0.0, markers(scene))
+    yield Message("/scene", 0.0, markers(rec.scene))
     yield Message("/joint_trajectory", 0.0, joint_trajectory(rec))
-    moving = [(parent, child, transforms(T)) for name, parent, child, T in urdf_joint_transforms(urdf, rec.q)
-              if name in movable]
-    if not still and len(rec.t):
+
+
+def _motion(rec: Recording) -> Iterator[Message]:
+    """``/tf`` (every movable URDF joint, and the base when it moves) and ``/joint_states`` at every sample."""
+    robot = rec.robot
+    movable = set(robot.joint_names)
+    moving = [(parent, child, transforms(T)) for name, parent, child, T in
+              urdf_joint_transforms(to_urdf(robot), rec.q) if name in movable]
+    if not _still(rec) and len(rec.t):
         moving.append((SCENE_FRAME, ROOT_LINK, transforms(rec.bases)))
+    scale = si_scale(robot)
     for k, t in enumerate(rec.t.tolist()):
-        yield Message("/tf", t, {"transforms": [transform(t, parent, child, poses[k]) for parent, child, poses in
+        yield Message("/tf", t, {"transforms": [transform(t, parent, child, rows[k]) for parent, child, rows in
                                                 moving]})
         state = {"header": header(t, ROOT_LINK), "name": list(robot.joint_names), "position": rec.q[k] * scale}
         if rec.velocities is not None:
             state["velocity"] = rec.velocities[k] * scale
         yield Message("/joint_states", t, state)
+
+
+def _paths(rec: Recording) -> Iterator[Message]:
     for path, start in zip(rec.paths, rec.path_starts_s.tolist()):
         yield Message("/tip_path", start, {"header": header(start), "poses": [
             {"header": header(start), "pose": {"position": _point(p), "orientation": {"w": 1.0}}} for p in path]})
-    yield from _targets(rec)
-    yield from _views(rec)
-    yield from _judge(rec)
 
 
 def _targets(rec: Recording) -> Iterator[Message]:
@@ -237,6 +253,9 @@ def _views(rec: Recording) -> Iterator[Message]:
         T = np.eye(4)
         T[:3, :3], T[:3, 3] = view_rotation(d), p
         yield Message("/views", t, {"header": header(t), "pose": pose(T)})
+
+
+def _coverage(rec: Recording) -> Iterator[Message]:
     if rec.points is not None:
         first = rec.first_seen
         yield Message("/coverage", 0.0, coverage_cloud(0.0, rec.points, first <= 0.0))
