@@ -36,7 +36,8 @@ def add_parsers(bsub) -> None:
     p.add_argument("--out", default="bench-run", help="results folder (default bench-run)")
     p.add_argument("--fresh", action="store_true", help="discard earlier runs instead of resuming")
     p.add_argument("--json", action="store_true", help="print the runner's outcome and the summary as JSON")
-    live_args(p, "the benchmark: each reach plan shown in its scene as it is judged, a line for every row")
+    live_args(p, "the benchmark while it runs: each reach plan shown in its scene as it is judged, a line for "
+                 "every row")
     backend_args(p)
     p.set_defaults(func=cmd_bench_run)
 

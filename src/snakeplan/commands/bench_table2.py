@@ -34,7 +34,8 @@ def add_parser(bsub) -> None:
                                        "frontier)")
     p.add_argument("--fresh", action="store_true", help="discard earlier runs instead of resuming")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
-    live_args(p, "the benchmark: each reach plan shown in its scene as it is judged, a line for every row")
+    live_args(p, "the benchmark while it runs: each reach plan shown in its scene as it is judged, a line for "
+                 "every row")
     backend_args(p)
     p.set_defaults(func=cmd_bench_table2)
 

@@ -15,10 +15,11 @@ from snakeplan.commands.ros import check_ros, check_ros_robot, ros_args, write_r
 
 def add_parser(sub) -> None:
     p = sub.add_parser("export", help="write a saved plan as a ROS 2 bag or a Foxglove MCAP file",
-                       description="Judge a plan file (snakeplan.plan/1, as plan --json writes; a reach plan or an "
-                                   "inspect or search mission) in its scene and write it as a ROS 2 bag (--rosbag) "
-                                   "and/or a Foxglove MCAP file (--mcap). Exit 0 written, 1 a bag asked for a plan "
-                                   "the judge refuses (the MCAP is still written, the failure marked), 2 bad input.")
+                       description="Judge a plan file (as plan --json writes it: a reach or search plan, "
+                                   "snakeplan.plan/1, or an inspect mission, snakeplan.inspection/1) in its scene "
+                                   "and write it as a ROS 2 bag (--rosbag) and/or a Foxglove MCAP file (--mcap). "
+                                   "Exit 0 written, 1 a bag asked for a plan the judge refuses or the robot cannot "
+                                   "execute (the MCAP is still written, the failure marked), 2 bad input.")
     p.add_argument("plan_file", metavar="PLAN.json", help="the plan file ('-' reads standard input)")
     plan_scene_args(p)
     p.add_argument("--robot", help=ROBOT_HELP + "; a plan file's own arm is used when it carries one")

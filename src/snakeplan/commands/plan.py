@@ -55,7 +55,7 @@ def add_parser(sub) -> None:
     view_args(p, "the plan (an inspection mission: the camera's flight and the map filling in)")
     p.add_argument("--trajectory", action="append", metavar="FILE", help=TRAJECTORY_HELP)
     ros_args(p, "the judged plan (a mission: its motions, views and coverage)",
-             live="the plan: the scene at once, then the judged plan replayed at mission speed, again and again")
+             live="the plan: the scene at once, then the judged plan replayed at mission speed until Ctrl-C")
     p.set_defaults(func=cmd_plan)
 
 

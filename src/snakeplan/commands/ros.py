@@ -13,7 +13,7 @@ from snakeplan.commands.common import EXIT_INFEASIBLE, EXIT_OK, UsageError
 #: The live view's default port (Foxglove's), and where it listens unless --live-host says otherwise.
 LIVE_PORT, LOOPBACK = 8765, "127.0.0.1"
 LIVE_HELP = ("serve a live Foxglove view (WebSocket, ws://127.0.0.1:PORT; open it in Foxglove with 'Open connection') "
-             "of {what} while it runs; Ctrl-C stops it")
+             "of {what}")
 
 
 def ros_args(p: argparse.ArgumentParser, what: str, live: str | None = None) -> None:
@@ -130,7 +130,8 @@ def write_ros(args: argparse.Namespace, scene, robot, path, report, mission=None
                          f"topics, {shown.duration_s:.2f} s)\n")
     if rosbag is not None:
         if for_bag is None:
-            sys.stderr.write(f"snakeplan: no bag: {why}; only a plan the judge accepts goes to the controllers\n")
+            sys.stderr.write(f"snakeplan: no bag: {why}; a bag goes to the controllers, so it holds only a plan the "
+                             "judge accepts and the robot can execute\n")
             status = EXIT_INFEASIBLE
         else:
             from snakeplan.ros.bag import write_bag

@@ -35,7 +35,7 @@ def check_bag(directory: str, field: str = "--rosbag") -> Path:
     if path.exists():
         raise ValueError(f"{field}: {directory} exists; a bag is a new folder (rosbag2 does not write into one)")
     if not path.parent.is_dir():
-        raise ValueError(f"{field}: folder {path.parent} does not exist")
+        raise ValueError(f"{field}: folder {str(path.parent)!r} does not exist (create it first)")
     if not os.access(path.parent, os.W_OK | os.X_OK):
         raise ValueError(f"{field}: folder {path.parent} is not writable")
     return path
