@@ -9,7 +9,7 @@ import sys
 
 from snakeplan.commands.common import EXIT_OK, UsageError, finite, name_list, print_json, seed_list
 from snakeplan.commands.options import backend, backend_args
-from snakeplan.commands.ros import check_ros, live_args, live_rows, live_view
+from snakeplan.commands.ros import check_ros, live_args, live_rows, serving
 from snakeplan.files import check_output
 
 
@@ -92,13 +92,9 @@ def cmd_bench_run(args: argparse.Namespace) -> int:
     except KeyError as exc:
         raise UsageError(f"--scenes: {exc.args[0]}") from None
     check_ros(args)
-    view = live_view(args)
-    try:
+    with serving(args) as view:
         outcome = run_sweep(sweep, args.out, backend(args), fresh=args.fresh, progress=not args.json, runs=runs,
                             on_row=live_rows(view))
-    finally:
-        if view is not None:
-            view.stop()
     result = write_report(args.out)
     if args.json:
         print_json({"runner": outcome.to_dict(), "summary": result["entries"]})

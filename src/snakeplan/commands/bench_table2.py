@@ -10,7 +10,7 @@ from pathlib import Path
 from snakeplan.commands.bench_run import outcome_line
 from snakeplan.commands.common import EXIT_OK, UsageError, finite, name_list, print_json, seed
 from snakeplan.commands.options import backend, backend_args
-from snakeplan.commands.ros import check_ros, live_args, live_rows, live_view
+from snakeplan.commands.ros import check_ros, live_args, live_rows, serving
 
 
 def add_parser(bsub) -> None:
@@ -67,13 +67,9 @@ def _run(args: argparse.Namespace, config, out: str, outputs, markdown, written:
     from snakeplan.bench.runner import run_sweep
 
     check_ros(args)
-    view = live_view(args)
-    try:
+    with serving(args) as view:
         outcome = run_sweep(config.sweep(), out, backend(args), fresh=args.fresh, progress=not args.json,
                             on_row=live_rows(view))
-    finally:
-        if view is not None:
-            view.stop()
     summary = outputs(config, outcome.rows, Path(out))
     if args.json:
         print_json({"summary": summary, "runner": outcome.to_dict()})

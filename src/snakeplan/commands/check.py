@@ -6,8 +6,8 @@ import argparse
 import sys
 
 from snakeplan.commands.common import EXIT_INFEASIBLE, EXIT_OK, UsageError, print_json
-from snakeplan.commands.inputs import PlanFile, load_plan_file, load_scene, robot_for
-from snakeplan.commands.options import DEFAULT_SCENE, ROBOT_HELP, scene_args, view_args
+from snakeplan.commands.inputs import PlanFile, load_plan_file, plan_scene, robot_for
+from snakeplan.commands.options import DEFAULT_SCENE, ROBOT_HELP, plan_scene_args, view_args
 from snakeplan.commands.ros import check_ros, check_ros_robot, ros_args, write_ros
 from snakeplan.commands.views import check_picture, check_views, write_episode_views, write_plot, write_views
 
@@ -16,7 +16,7 @@ def add_parser(sub) -> None:
     p = sub.add_parser("check", help="judge a tip path made elsewhere",
                        description="Judge a tip path ({\"path\": [[x, y, z], ...]}, any plan file will do) with "
                                    "snakeplan's judge. Exit 0 feasible, 1 infeasible, 2 bad input.")
-    scene_args(p, plan_file=True)
+    plan_scene_args(p, fallback=True)
     p.add_argument("--robot", help=ROBOT_HELP + "; a plan file's own arm is used when it carries one")
     p.add_argument("--json", action="store_true", help="print the verdict as JSON")
     p.add_argument("--plot", help="also write a PNG picture of the judged path")
@@ -31,11 +31,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     check_views(args)
     check_ros(args)
     plan = load_plan_file(args.path_file)
-    named = plan.scene  # the generated scene the plan was made in, or None
-    args.scene = args.scene or (named[0] if named else DEFAULT_SCENE)
-    if args.seed is None:
-        args.seed = named[1] if named and args.scene == named[0] else 0
-    scene = load_scene(args)
+    scene = plan_scene(args, plan.scene, (DEFAULT_SCENE, 0))
     robot, source = plan_robot(args, scene, plan)
     check_ros_robot(args, robot)
     problem, report = judge_plan(scene, robot, plan)
@@ -55,7 +51,7 @@ def cmd_check(args: argparse.Namespace) -> int:
         print_json(check_document(scene, robot, report))
     else:
         sys.stdout.write(f"arm: {robot.name} ({source})\n" + "\n".join(report.lines()) + "\n")
-    written = write_ros(args, scene, robot, plan.path, report, plan.mission)
+    written, _ = write_ros(args, scene, robot, plan.path, report, plan.mission)
     return EXIT_OK if report.success and not written else EXIT_INFEASIBLE
 
 

@@ -32,9 +32,9 @@ def cmd_export(args: argparse.Namespace) -> int:
         raise UsageError("--rosbag: give --rosbag DIR, --mcap FILE or both")
     check_ros(args)
     plan = load_plan_file(args.plan_file)
-    scene = plan_scene(args, plan.scene or (None, None))
+    scene = plan_scene(args, plan.scene)
     robot, source = plan_robot(args, scene, plan)
     check_ros_robot(args, robot)
     _, report = judge_plan(scene, robot, plan)
     sys.stderr.write(f"arm: {robot.name} ({source}); {report.lines()[0]}\n")
-    return write_ros(args, scene, robot, plan.path, report, plan.mission)
+    return write_ros(args, scene, robot, plan.path, report, plan.mission)[0]

@@ -26,15 +26,19 @@ def load_scene(args: argparse.Namespace):
         raise UsageError(f"--scene: {exc.args[0]}") from None
 
 
-def plan_scene(args: argparse.Namespace, named: tuple[str | None, int | None]):
+def plan_scene(args: argparse.Namespace, named: tuple[str, int] | None,
+               fallback: tuple[str, int] | None = None):
     """A plan file's scene: --scene-file's, else --scene and --seed, each defaulting to the scene the plan names
-    (``named``: name, seed)."""
+    (``named``: name, seed, or None), then to ``fallback``."""
     from snakeplan.scenes import Scene, make_scene
 
     if args.scene_file:
         return Scene.from_json(read_text(args.scene_file, "--scene-file"), "--scene-file", scene_dir(args.scene_file))
-    name = args.scene or named[0]
-    scene_seed = args.seed if args.seed is not None else named[1]
+    name, scene_seed = args.scene, args.seed
+    for default in (named, fallback):
+        if default is not None:
+            name = default[0] if name is None else name
+            scene_seed = default[1] if scene_seed is None else scene_seed
     if name is None or scene_seed is None:
         raise UsageError("--scene: the plan names no generated scene; give --scene and --seed, or --scene-file")
     try:

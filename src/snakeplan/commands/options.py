@@ -15,20 +15,20 @@ TRAJECTORY_HELP = ("write the judged plan's trajectory (feed, joints, cables ove
                    "snakeplan.trajectory/1, .csv, or .ros.json / .yaml (ROS JointTrajectory); may be repeated")
 
 
-def scene_args(p: argparse.ArgumentParser, plan_file: bool = False) -> None:
-    """--scene, --seed and --scene-file; for a command that reads a plan file (``plan_file``), --scene and --seed
-    default to the scene the plan names, else to the default scene (the command fills them in)."""
-    where = "the plan's, else " if plan_file else ""
-    p.add_argument("--scene", default=None if plan_file else DEFAULT_SCENE,
-                   help=f"scene name (default {where}{DEFAULT_SCENE}); 'snakeplan scene --list' lists them")
-    p.add_argument("--seed", type=seed, default=None if plan_file else 0, help=f"scene seed (default {where}0)")
+def scene_args(p: argparse.ArgumentParser) -> None:
+    """--scene, --seed and --scene-file."""
+    p.add_argument("--scene", default=DEFAULT_SCENE,
+                   help=f"scene name (default {DEFAULT_SCENE}); 'snakeplan scene --list' lists them")
+    p.add_argument("--seed", type=seed, default=0, help="scene seed (default 0)")
     p.add_argument("--scene-file", help="a scene JSON file (snakeplan.scene/1) instead of --scene/--seed")
 
 
-def plan_scene_args(p: argparse.ArgumentParser) -> None:
-    """--scene, --seed and --scene-file for a command that reads a plan file: each defaults to the plan's scene."""
-    p.add_argument("--scene", help="scene name (default: the plan's)")
-    p.add_argument("--seed", type=seed, help="scene seed (default: the plan's)")
+def plan_scene_args(p: argparse.ArgumentParser, fallback: bool = False) -> None:
+    """--scene, --seed and --scene-file for a command that reads a plan file: each defaults to the plan's scene
+    (``fallback``: then to the default scene, for a bare path file)."""
+    also = f", else {DEFAULT_SCENE}" if fallback else ""
+    p.add_argument("--scene", help=f"scene name (default: the plan's{also}); 'snakeplan scene --list' lists them")
+    p.add_argument("--seed", type=seed, help=f"scene seed (default: the plan's{', else 0' if fallback else ''})")
     p.add_argument("--scene-file", help="a scene JSON file (snakeplan.scene/1) instead of the plan's scene")
 
 

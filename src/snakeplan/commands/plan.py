@@ -23,7 +23,7 @@ from snakeplan.commands.common import (
 )
 from snakeplan.commands.inputs import load_planner, load_scene, robot_for
 from snakeplan.commands.options import ROBOT_HELP, TRAJECTORY_HELP, scene_args, view_args
-from snakeplan.commands.ros import check_ros, check_ros_robot, live_view, ros_args, write_ros
+from snakeplan.commands.ros import check_ros, check_ros_robot, recordings, ros_args, serving, write_ros
 from snakeplan.commands.trajectory import check_trajectories, write_trajectories
 from snakeplan.commands.views import check_picture, check_views, write_episode_views
 
@@ -100,8 +100,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
     if not kernels_ready():
         sys.stderr.write("snakeplan: compiling the planning kernels on first use (about a minute, once: numba keeps "
                          "them; 'snakeplan compile' builds them ahead of time)\n")
-    view = live_view(args)
-    try:
+    with serving(args) as view:
         if view is not None:
             view.show_scene(scene)
         wall = time.perf_counter()
@@ -134,26 +133,26 @@ def cmd_plan(args: argparse.Namespace) -> int:
                                                    plan.planner, planner_seed=args.planner_seed,
                                                    status=str(plan.status))
                 code = written or code
+        made = None
         if episode.report is None:
             if args.rosbag is not None or args.mcap is not None:
                 sys.stderr.write("snakeplan: no bag or MCAP: the planner returned no plan to record\n")
                 code = EXIT_INFEASIBLE
-        elif write_ros(args, scene, robot, plan.path, episode.report, plan.mission, traj):
-            code = EXIT_INFEASIBLE
+        else:
+            written, made = write_ros(args, scene, robot, plan.path, episode.report, plan.mission, traj)
+            code = written or code
         if view is not None:
-            hold_live(view, scene, robot, plan, episode.report, traj)
-    finally:
-        if view is not None:
-            view.stop()
+            if made is None and episode.report is not None:
+                made = recordings(scene, robot, plan.path, episode.report, plan.mission, traj)
+            hold_live(view, made.shown if made is not None else None)
     return code
 
 
-def hold_live(view, scene, robot, plan, report, trajectory) -> None:
-    """Replay the judged plan on the live view at mission speed until Ctrl-C (or SIGTERM) stops it."""
-    from snakeplan.commands.ros import recordings
+def hold_live(view, shown) -> None:
+    """Replay the judged plan (its recording ``shown``, or None) on the live view at mission speed until Ctrl-C (or
+    SIGTERM) stops it."""
     from snakeplan.interrupt import interruptible
 
-    shown = None if report is None else recordings(scene, robot, plan.path, report, plan.mission, trajectory)[1]
     sys.stderr.write("live view: replaying the plan; Ctrl-C stops\n" if shown is not None else
                      "live view: no plan to show; Ctrl-C stops\n")
     with interruptible() as stop:

@@ -7,6 +7,9 @@ from __future__ import annotations
 import argparse
 import ipaddress
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import NamedTuple
 
 from snakeplan.commands.common import EXIT_INFEASIBLE, EXIT_OK, UsageError
 
@@ -88,59 +91,71 @@ def check_ros_robot(args: argparse.Namespace, robot) -> None:
         raise UsageError(f"{field}: {str(exc).removeprefix('robot: ')}") from None
 
 
-def recordings(scene, robot, path, report, mission=None, trajectory=None):
-    """(the recording a bag may carry: None when the judge refuses the plan or the robot cannot execute it, with
-    why; the recording a Foxglove file shows: any judged plan, its first failure marked). ``trajectory``: the
+class Recordings(NamedTuple):
+    """A judged plan as the exports record it: ``for_bag`` the recording a bag may carry (None when the judge
+    refuses the plan or the robot cannot execute it, ``why`` then says so); ``shown`` the one a Foxglove file or the
+    live view shows (any judged plan, its first failure marked)."""
+
+    for_bag: object | None
+    why: str
+    shown: object
+
+
+def recordings(scene, robot, path, report, mission=None, trajectory=None) -> Recordings:
+    """The :class:`Recordings` of a judged plan (``path`` and ``report``, or ``mission``); ``trajectory``: the
     plan's, when one was built already."""
     from snakeplan.ros import of_mission, of_plan, of_trajectory
 
     if mission is not None:
         shown = of_mission(scene, robot, mission, report)
         if report.failure is not None:
-            return (None, f"the judge refuses the mission ({report.reason} at {report.failure.time_s:.2f} s)"), shown
+            return Recordings(None, f"the judge refuses the mission ({report.reason} at {report.failure.time_s:.2f} "
+                                    "s)", shown)
         if not mission.motions:
-            return (None, "the mission has no motion"), shown
-        return (shown, ""), shown
+            return Recordings(None, "the mission has no motion", shown)
+        return Recordings(shown, "", shown)
     if trajectory is None and report.success:
         from snakeplan.trajectory import InfeasiblePlan, build_trajectory
 
         try:
             trajectory = build_trajectory(scene, robot, path, report=report)
         except InfeasiblePlan as exc:
-            return (None, str(exc).removeprefix("plan: ")), of_plan(scene, robot, path, report)
+            return Recordings(None, str(exc).removeprefix("plan: "), of_plan(scene, robot, path, report))
     if trajectory is None:
-        return (None, f"the judge rejects it ({report.reason})"), of_plan(scene, robot, path, report)
+        return Recordings(None, f"the judge rejects it ({report.reason})", of_plan(scene, robot, path, report))
     rec = of_trajectory(scene, trajectory)
-    return (rec, ""), rec
+    return Recordings(rec, "", rec)
 
 
-def write_ros(args: argparse.Namespace, scene, robot, path, report, mission=None, trajectory=None) -> int:
-    """Write the judged plan (``path`` and ``report``, or ``mission``) to --rosbag and --mcap as asked; exit status
-    1 (one line) when a bag was asked for a plan that cannot be one."""
+def write_ros(args: argparse.Namespace, scene, robot, path, report, mission=None, trajectory=None
+              ) -> tuple[int, Recordings | None]:
+    """Write the judged plan (``path`` and ``report``, or ``mission``) to --rosbag and --mcap as asked: (exit
+    status, 1 with one line when a bag was asked for a plan that cannot be one; the recordings, None when neither
+    was asked for)."""
     rosbag, mcap = _given(args, "rosbag"), _given(args, "mcap")
     if rosbag is None and mcap is None:
-        return EXIT_OK
-    (for_bag, why), shown = recordings(scene, robot, path, report, mission, trajectory)
+        return EXIT_OK, None
+    made = recordings(scene, robot, path, report, mission, trajectory)
     status = EXIT_OK
     if mcap is not None:
         from snakeplan.ros.foxglove import write_mcap
 
-        counts = write_mcap(shown, mcap)
+        counts = write_mcap(made.shown, mcap)
         sys.stderr.write(f"wrote {mcap} (Foxglove MCAP: {sum(counts.values())} messages on {len(counts)} "
-                         f"topics, {shown.duration_s:.2f} s)\n")
+                         f"topics, {made.shown.duration_s:.2f} s)\n")
     if rosbag is not None:
-        if for_bag is None:
-            sys.stderr.write(f"snakeplan: no bag: {why}; a bag goes to the controllers, so it holds only a plan the "
-                             "judge accepts and the robot can execute\n")
+        if made.for_bag is None:
+            sys.stderr.write(f"snakeplan: no bag: {made.why}; a bag goes to the controllers, so it holds only a plan "
+                             "the judge accepts and the robot can execute\n")
             status = EXIT_INFEASIBLE
         else:
             from snakeplan.ros.bag import write_bag
 
             storage = args.storage or "mcap"
-            counts = write_bag(for_bag, rosbag, storage)
+            counts = write_bag(made.for_bag, rosbag, storage)
             sys.stderr.write(f"wrote {rosbag} (ROS 2 bag, {storage}: {sum(counts.values())} messages on "
-                             f"{len(counts)} topics, {for_bag.duration_s:.2f} s)\n")
-    return status
+                             f"{len(counts)} topics, {made.for_bag.duration_s:.2f} s)\n")
+    return status, made
 
 
 def _is_loopback(host: str) -> bool:
@@ -148,6 +163,17 @@ def _is_loopback(host: str) -> bool:
         return host == "localhost" or ipaddress.ip_address(host).is_loopback
     except ValueError:
         return False
+
+
+@contextmanager
+def serving(args: argparse.Namespace) -> Iterator[object | None]:
+    """The live view --live asks for (or None) while the block runs, stopped after it however it ends."""
+    view = live_view(args)
+    try:
+        yield view
+    finally:
+        if view is not None:
+            view.stop()
 
 
 def live_view(args: argparse.Namespace):

@@ -45,7 +45,7 @@ def cmd_trajectory(args: argparse.Namespace) -> int:
     if args.out:
         code, traj = write_trajectories(args.out, scene, robot, plan["path"], report, plan["planner"],
                                         plan_file=Path(args.plan_file).name)
-    return write_ros(args, scene, robot, plan["path"], report, trajectory=traj) or code
+    return write_ros(args, scene, robot, plan["path"], report, trajectory=traj)[0] or code
 
 
 def check_trajectories(filenames: list[str] | None, field: str) -> None:

@@ -32,10 +32,10 @@ from snakeplan.ros.messages import (
     TARGET_M,
     UNSEEN,
     quaternion,
-    si_scale,
     view_rotation,
 )
-from snakeplan.ros.recording import Recording
+from snakeplan.ros.recording import Recording, scene_triangles
+from snakeplan.trajectory.documents import si_scale
 
 #: Width (m) of the tip path's line.
 LINE_M = 0.004
@@ -81,14 +81,13 @@ def _points(ps: np.ndarray) -> list:
     return [fm.Point3(x=x, y=y, z=z) for x, y, z in (np.asarray(ps, dtype=float) * M).tolist()]
 
 
-def obstacles(scene, t: float = 0.0):
-    """``SceneUpdate`` of the scene's obstacles, one entity of triangles each."""
-    from snakeplan.geometry.tessellation import obstacle_mesh
-
+def obstacles(triangles: list[np.ndarray], prior: np.ndarray, t: float = 0.0):
+    """``SceneUpdate`` of a scene's obstacles (their ``triangles`` (k, 3, 3) mm, whether each is known before the
+    job), one entity of triangles each."""
     fm = _fg()
     entities = []
-    for i, (o, known) in enumerate(zip(scene.obstacles, scene.prior)):
-        tris = np.asarray(obstacle_mesh(o).triangles, dtype=float).reshape(-1, 3)
+    for i, (tris, known) in enumerate(zip(triangles, prior)):
+        tris = tris.reshape(-1, 3)
         entities.append(_entity(t, f"obstacle-{i}", triangles=[fm.TriangleListPrimitive(
             pose=_pose(np.zeros(3)), points=_points(tris), color=_colour(KNOWN if known else DISCOVERED))],
             metadata=[fm.KeyValuePair(key="known", value=str(bool(known)).lower())]))
@@ -163,7 +162,7 @@ def messages(rec: Recording, start_s: float = 0.0, speed: float = 1.0):
         out.append((topic, stamp(t), msg))
 
     scene = rec.scene
-    add("/scene", 0.0, obstacles(scene, stamp(0.0)))
+    add("/scene", 0.0, obstacles(rec.triangles, scene.prior, stamp(0.0)))
     found = rec.found_s
     if len(scene.targets):
         add("/targets", 0.0, fm.SceneUpdate(entities=[_spheres(stamp(0.0), "targets", scene.targets, TARGET_M,
@@ -178,15 +177,11 @@ def messages(rec: Recording, start_s: float = 0.0, speed: float = 1.0):
             type=fm.LinePrimitiveLineType.LineStrip, pose=_pose(np.zeros(3)), thickness=LINE_M,
             scale_invariant=False, points=_points(path), color=_colour(PATH))])]))
     if rec.views is not None:
-        times, positions, directions = rec.views
-        for t, p, d in zip(times.tolist(), positions, directions):
+        for t, p, d in zip(rec.views.times_s.tolist(), rec.views.positions, rec.views.directions):
             add("/views", t, fm.PoseInFrame(timestamp=_ts(stamp(t)), frame_id=SCENE_FRAME,
                                             pose=_pose(p, view_rotation(d))))
-    if rec.points is not None:
-        first = rec.first_seen
-        add("/coverage", 0.0, _coverage(stamp(0.0), rec.points, first <= 0.0))
-        for t in np.unique(first[np.isfinite(first) & (first > 0.0)]).tolist():
-            add("/coverage", t, _coverage(stamp(t), rec.points, first <= t))
+    for t, seen in rec.coverage_updates():
+        add("/coverage", t, _coverage(stamp(t), rec.points, seen))
     level = fm.LogLevel.Info if rec.success else fm.LogLevel.Warning
     add("/log", 0.0, fm.Log(timestamp=_ts(stamp(0.0)), level=level, message=rec.verdict, name="judge"))
     verdict = fm.TextPrimitive(pose=_pose(scene.entrance.position), billboard=True, font_size=14.0,
@@ -222,13 +217,9 @@ def _motion(rec: Recording, stamp):
             fm.JointState(name=name, position=v) for name, v in zip(robot.joint_names, positions[k].tolist())])
 
 
-_CHANNELS = {"SceneUpdate": "SceneUpdateChannel", "FrameTransforms": "FrameTransformsChannel",
-             "JointStates": "JointStatesChannel", "PoseInFrame": "PoseInFrameChannel",
-             "PointCloud": "PointCloudChannel", "Log": "LogChannel"}
-
-
 class _Channels:
-    """Typed channels (each with its Foxglove schema) made on first use, in one logging context."""
+    """Typed channels (each with its Foxglove schema: foxglove-sdk's channel class named for the message's) made on
+    first use, in one logging context."""
 
     def __init__(self, context) -> None:
         self.context = context
@@ -239,7 +230,7 @@ class _Channels:
 
         channel = self.channels.get(topic)
         if channel is None:
-            channel = getattr(fc, _CHANNELS[type(msg).__name__])(topic, context=self.context)
+            channel = getattr(fc, f"{type(msg).__name__}Channel")(topic, context=self.context)
             self.channels[topic] = channel
         channel.log(msg, log_time=log_time_ns)
 
@@ -292,7 +283,7 @@ class LiveView:
         import time
 
         now = time.time()
-        self.channels.log("/scene", obstacles(scene, now), int(round(now * 1e9)))
+        self.channels.log("/scene", obstacles(scene_triangles(scene), scene.prior, now), int(round(now * 1e9)))
 
     def note(self, text: str) -> None:
         """A line on ``/log`` now."""

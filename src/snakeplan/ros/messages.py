@@ -19,6 +19,8 @@ import numpy as np
 
 from snakeplan.robots.urdf import to_urdf
 from snakeplan.ros.recording import Recording
+from snakeplan.trajectory.documents import joint_trajectory as trajectory_message
+from snakeplan.trajectory.documents import ros_time, si_scale
 from snakeplan.trajectory.replay import urdf_joint_transforms
 
 #: The fixed frame of everything in the scene, and the URDF's root link.
@@ -56,14 +58,8 @@ class Message:
         return TOPICS[self.topic]
 
 
-def time(t: float) -> dict[str, int]:
-    """``builtin_interfaces/Time`` (or ``Duration``): whole seconds and nanoseconds, rounded to the nanosecond."""
-    ns = int(round(t * 1e9))
-    return {"sec": ns // 1_000_000_000, "nanosec": ns % 1_000_000_000}
-
-
 def header(t: float, frame: str = SCENE_FRAME) -> dict[str, Any]:
-    return {"stamp": time(t), "frame_id": frame}
+    return {"stamp": ros_time(t), "frame_id": frame}
 
 
 def quaternions(R: np.ndarray) -> np.ndarray:
@@ -118,37 +114,22 @@ def view_rotation(direction: np.ndarray) -> np.ndarray:
     return R[:, [2, 0, 1]]
 
 
-def si_scale(robot) -> np.ndarray:
-    """Per joint, the factor from snakeplan's units to ROS's: 1e-3 for a feed (mm to m), 1 for an angle."""
-    scale = np.ones(robot.dof)
-    if robot.has_feed:
-        scale[0] = M
-    return scale
-
-
 def joint_trajectory(rec: Recording) -> dict[str, Any]:
-    """``trajectory_msgs/JointTrajectory`` of the whole motion (feed m, angles rad; velocities and accelerations
-    where the motion was time-scaled), one point per sample whose time moves on (a trajectory's times increase)."""
-    scale = si_scale(rec.robot)
-    keep = np.r_[True, np.diff(rec.t) > 0] if len(rec.t) else np.zeros(0, dtype=bool)
-    points = []
-    for k in np.flatnonzero(keep):
-        point = {"positions": rec.q[k] * scale, "time_from_start": time(float(rec.t[k]))}
-        if rec.velocities is not None:
-            point["velocities"] = rec.velocities[k] * scale
-            point["accelerations"] = rec.accelerations[k] * scale
-        points.append(point)
-    return {"header": header(0.0, ROOT_LINK), "joint_names": list(rec.robot.joint_names), "points": points}
+    """``trajectory_msgs/JointTrajectory`` of the whole motion (:func:`snakeplan.trajectory.documents.
+    joint_trajectory`; velocities and accelerations where the motion was time-scaled), one point per sample whose
+    time moves on (a trajectory's times increase)."""
+    k = np.flatnonzero(np.r_[True, np.diff(rec.t) > 0]) if len(rec.t) else np.zeros(0, dtype=int)
+    timed = rec.velocities is not None
+    return trajectory_message(rec.robot, rec.t[k], rec.q[k], rec.velocities[k] if timed else None,
+                              rec.accelerations[k] if timed else None)
 
 
-def markers(scene) -> dict[str, Any]:
+def markers(rec: Recording) -> dict[str, Any]:
     """``visualization_msgs/MarkerArray``: one triangle-list marker per obstacle (m, scene frame), known ones grey,
     those not known before the job orange."""
-    from snakeplan.geometry.tessellation import obstacle_mesh
-
     out = []
-    for i, (o, known) in enumerate(zip(scene.obstacles, scene.prior)):
-        tris = np.asarray(obstacle_mesh(o).triangles, dtype=float).reshape(-1, 3) * M
+    for i, (triangles, known) in enumerate(zip(rec.triangles, rec.scene.prior)):
+        tris = triangles.reshape(-1, 3) * M
         out.append({"header": header(0.0), "ns": "obstacles", "id": i, "type": 11, "action": 0,
                     "pose": {"orientation": {"w": 1.0}}, "scale": {"x": 1.0, "y": 1.0, "z": 1.0},
                     "color": _colour(KNOWN if known else DISCOVERED),
@@ -186,40 +167,42 @@ def coverage_cloud(t: float, points: np.ndarray, seen: np.ndarray) -> dict[str, 
 def messages(rec: Recording) -> Iterator[Message]:
     """Every message of the recording in time order (a message at an equal time in topic order), made as they are
     written: one topic's stream at a time, merged."""
-    return heapq.merge(_latched(rec), _motion(rec), _paths(rec), _targets(rec), _views(rec), _coverage(rec),
-                       _judge(rec), key=lambda m: m.t)
+    urdf = to_urdf(rec.robot)
+    movable = set(rec.robot.joint_names)
+    joints = urdf_joint_transforms(urdf, rec.q if len(rec.q) else np.zeros((1, rec.robot.dof)))
+    fixed = [(parent, child, T[0]) for name, parent, child, T in joints if name not in movable]
+    moving = [(parent, child, T) for name, parent, child, T in joints if name in movable]
+    return heapq.merge(_latched(rec, urdf, fixed), _motion(rec, moving), _paths(rec), _targets(rec), _views(rec),
+                       _coverage(rec), _judge(rec), key=lambda m: m.t)
 
 
 def _still(rec: Recording) -> bool:
     return len(rec.t) > 0 and bool(np.all(rec.bases == rec.bases[0]))
 
 
-def _latched(rec: Recording) -> Iterator[Message]:
-    robot = rec.robot
-    urdf = to_urdf(robot)
+def _latched(rec: Recording, urdf: str, fixed: list) -> Iterator[Message]:
+    """The URDF, the fixed joints (and a base that stands still), the scene and the whole trajectory, at 0."""
     yield Message("/robot_description", 0.0, {"data": urdf})
-    movable = set(robot.joint_names)
-    static = [transform(0.0, parent, child, transforms(T)[0]) for name, parent, child, T in
-              urdf_joint_transforms(urdf, np.zeros((1, robot.dof))) if name not in movable]
+    static = [transform(0.0, parent, child, transforms(T[None])[0]) for parent, child, T in fixed]
     if _still(rec):
         static.append(transform(0.0, SCENE_FRAME, ROOT_LINK, transforms(rec.bases[:1])[0]))
     yield Message("/tf_static", 0.0, {"transforms": static})
-    yield Message("/scene", 0.0, markers(rec.scene))
+    yield Message("/scene", 0.0, markers(rec))
     yield Message("/joint_trajectory", 0.0, joint_trajectory(rec))
 
 
-def _motion(rec: Recording) -> Iterator[Message]:
-    """``/tf`` (every movable URDF joint, and the base when it moves) and ``/joint_states`` at every sample."""
+def _motion(rec: Recording, moving: list) -> Iterator[Message]:
+    """``/tf`` (the ``moving`` joints' transforms, and the base when it moves) and ``/joint_states`` at every
+    sample."""
+    if not len(rec.t):
+        return
+    rows = [(parent, child, transforms(T)) for parent, child, T in moving]
+    if not _still(rec):
+        rows.append((SCENE_FRAME, ROOT_LINK, transforms(rec.bases)))
     robot = rec.robot
-    movable = set(robot.joint_names)
-    moving = [(parent, child, transforms(T)) for name, parent, child, T in
-              urdf_joint_transforms(to_urdf(robot), rec.q) if name in movable]
-    if not _still(rec) and len(rec.t):
-        moving.append((SCENE_FRAME, ROOT_LINK, transforms(rec.bases)))
     scale = si_scale(robot)
     for k, t in enumerate(rec.t.tolist()):
-        yield Message("/tf", t, {"transforms": [transform(t, parent, child, rows[k]) for parent, child, rows in
-                                                moving]})
+        yield Message("/tf", t, {"transforms": [transform(t, parent, child, r[k]) for parent, child, r in rows]})
         state = {"header": header(t, ROOT_LINK), "name": list(robot.joint_names), "position": rec.q[k] * scale}
         if rec.velocities is not None:
             state["velocity"] = rec.velocities[k] * scale
@@ -248,19 +231,15 @@ def _targets(rec: Recording) -> Iterator[Message]:
 def _views(rec: Recording) -> Iterator[Message]:
     if rec.views is None:
         return
-    times, positions, directions = rec.views
-    for t, p, d in zip(times.tolist(), positions, directions):
+    for t, p, d in zip(rec.views.times_s.tolist(), rec.views.positions, rec.views.directions):
         T = np.eye(4)
         T[:3, :3], T[:3, 3] = view_rotation(d), p
         yield Message("/views", t, {"header": header(t), "pose": pose(T)})
 
 
 def _coverage(rec: Recording) -> Iterator[Message]:
-    if rec.points is not None:
-        first = rec.first_seen
-        yield Message("/coverage", 0.0, coverage_cloud(0.0, rec.points, first <= 0.0))
-        for t in np.unique(first[np.isfinite(first) & (first > 0.0)]).tolist():
-            yield Message("/coverage", t, coverage_cloud(t, rec.points, first <= t))
+    for t, seen in rec.coverage_updates():
+        yield Message("/coverage", t, coverage_cloud(t, rec.points, seen))
 
 
 def _judge(rec: Recording) -> Iterator[Message]:

@@ -8,15 +8,20 @@ Lengths in mm and times in s here; the exporters convert to SI.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
 from snakeplan import ftl
+from snakeplan.geometry.polyline import point_at
 from snakeplan.robots import Chain
 from snakeplan.scenes import Scene
 from snakeplan.trajectory import Trajectory, fed_joints
 from snakeplan.world import JUDGE
+from snakeplan.world.joint_motion import arm_bodies, interpolate
+from snakeplan.world.mission import Crawl, Views
 
 
 @dataclass(frozen=True)
@@ -34,11 +39,11 @@ class Recording:
     frame); ``q (T, dof)`` (feed mm, angles rad); ``robot`` with an identity base (its URDF is the one in the
     bag). ``velocities`` and ``accelerations`` (T, dof) come with a timed trajectory (None for a mission, whose
     samples are where its motions are piecewise linear). ``paths``: the tip paths flown (mm), with the time each
-    starts; ``views`` (times s, positions mm, unit directions) or None; ``points`` (P, 3) mm the points the judge
-    counts (a fed arm's points of interest, the station's mesh nodes) and ``first_seen`` (P,) s when a view first
-    saw each (inf: never; the station's: the mission's end, as the judge's map says which, not when); ``found_s``
-    (k,) s when a search's targets were found (inf: never; None unless a search). ``success`` and ``verdict`` (one
-    line) are the judge's, ``failure`` its first failure."""
+    starts; ``views`` a mission's, or None; ``points`` (P, 3) mm the points the judge counts (a fed arm's points of
+    interest, the station's mesh nodes) and ``first_seen`` (P,) s when a view first saw each (inf: never; the
+    station's: the mission's end, as the judge's map says which, not when); ``found_s`` (k,) s when a search's
+    targets were found (inf: never; None unless a search). ``success`` and ``verdict`` (one line) are the judge's,
+    ``failure`` its first failure."""
 
     scene: Scene
     robot: Chain
@@ -52,7 +57,7 @@ class Recording:
     failure: Failure | None = None
     velocities: np.ndarray | None = None
     accelerations: np.ndarray | None = None
-    views: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+    views: Views | None = None
     points: np.ndarray | None = None
     first_seen: np.ndarray | None = None
     found_s: np.ndarray | None = None
@@ -63,15 +68,28 @@ class Recording:
 
     def joint_positions(self) -> np.ndarray:
         """The body's joints (T, n+1, 3) mm in the scene frame at every sample."""
-        return np.einsum("tij,tkj->tki", self.bases, _homogeneous(self.robot.joint_positions(self.q)))[..., :3]
+        return arm_bodies(self.robot, self.bases, self.q)
+
+    @cached_property
+    def triangles(self) -> list[np.ndarray]:
+        """Each obstacle's surface as triangles (k, 3, 3) mm, tessellated once for every writer."""
+        return scene_triangles(self.scene)
+
+    def coverage_updates(self) -> Iterator[tuple[float, np.ndarray]]:
+        """(time s, which points are seen by then) at the start and whenever a view sees a point first."""
+        if self.points is None:
+            return
+        first = self.first_seen
+        yield 0.0, first <= 0.0
+        for t in np.unique(first[np.isfinite(first) & (first > 0.0)]).tolist():
+            yield t, first <= t
 
 
-def _homogeneous(p: np.ndarray) -> np.ndarray:
-    return np.concatenate([p, np.ones(p.shape[:-1] + (1,))], axis=-1)
+def scene_triangles(scene: Scene) -> list[np.ndarray]:
+    """Each obstacle's surface as triangles (k, 3, 3) mm (:func:`snakeplan.geometry.tessellation.obstacle_mesh`)."""
+    from snakeplan.geometry.tessellation import obstacle_mesh
 
-
-def _verdict(report) -> str:
-    return report.lines()[0]
+    return [np.asarray(obstacle_mesh(o).triangles, dtype=float) for o in scene.obstacles]
 
 
 def of_trajectory(scene: Scene, traj: Trajectory) -> Recording:
@@ -79,27 +97,27 @@ def of_trajectory(scene: Scene, traj: Trajectory) -> Recording:
     report = traj.report
     bases = np.broadcast_to(traj.base_pose, (len(traj.t), 4, 4))
     return Recording(scene, traj.robot.with_base(np.eye(4)), traj.t, bases, traj.positions, [traj.path],
-                     np.zeros(1), report.success, _verdict(report), None, traj.velocities, traj.accelerations)
+                     np.zeros(1), report.success, report.lines()[0], None, traj.velocities, traj.accelerations)
 
 
 def of_plan(scene: Scene, robot: Chain, path: np.ndarray, report) -> Recording:
     """Any judged reach plan, feasible or not: the crawl states at the judge's steps, timed at the robot's feed
-    speed (no time scaling: a plan the judge refuses is shown, not executed), and the judge's first failure."""
+    speed (no time scaling: a plan the judge refuses is shown, not executed), and the judge's first failure, where
+    the tip is on the path at its depth."""
     p = np.asarray(path, dtype=np.float64)
     entrance, u = scene.entrance.position, scene.entrance.direction
     states = ftl.crawl(p, robot.lengths, u, JUDGE.step_mm, entrance=entrance)
     base, q = fed_joints(robot, entrance, u, states)
-    t = states.s / robot.limits.feed_speed_mm_s
+    speed = robot.limits.feed_speed_mm_s
     failure = None
     if report.first_failure_depth_mm is not None:
         depth = float(report.first_failure_depth_mm)
-        tip = ftl.fit_states(p, robot.lengths, [depth], u, entrance=entrance).joints[0, -1]
-        failure = Failure(report.reason, depth / robot.limits.feed_speed_mm_s, tip)
-    return Recording(scene, robot.with_base(np.eye(4)), t, np.broadcast_to(base, (len(t), 4, 4)), q, [p],
-                     np.zeros(1), report.success, _verdict(report), failure)
+        failure = Failure(report.reason, depth / speed, point_at(p, np.array([depth]))[0])
+    return Recording(scene, robot.with_base(np.eye(4)), states.s / speed, np.broadcast_to(base, (len(q), 4, 4)), q,
+                     [p], np.zeros(1), report.success, report.lines()[0], failure)
 
 
-def _crawl_samples(scene: Scene, robot: Chain, crawl) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _crawl_samples(scene: Scene, robot: Chain, crawl: Crawl) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(times, base poses, joint vectors) of a fed arm's crawl: its samples, and between two of them a sample every
     judge's step (5 mm) of depth, where the body follows the leader."""
     times, depths = [crawl.times_s[:1]], [crawl.depths_mm[:1]]
@@ -115,13 +133,39 @@ def _crawl_samples(scene: Scene, robot: Chain, crawl) -> tuple[np.ndarray, np.nd
     return t, np.broadcast_to(base, (len(t), 4, 4)), q
 
 
+def _tip_at(robot: Chain, motion, t: float) -> np.ndarray:
+    """Where the tip (3,) mm of a mission's ``motion`` is at mission time ``t``, as the judge moves it: a crawl's on
+    its path at its depth then, a joint motion's between its samples as :func:`~snakeplan.world.joint_motion.
+    interpolate` moves the base and the joints."""
+    if isinstance(motion, Crawl):
+        return point_at(motion.path, motion.depth_at(np.array([t])))[0]
+    times = motion.times_s
+    i = int(np.clip(np.searchsorted(times, t, side="right") - 1, 0, len(times) - 1))
+    if i == len(times) - 1 or times[i + 1] == times[i]:
+        bases, q = motion.bases[i:i + 1], motion.q[i:i + 1]
+    else:
+        bases, q = interpolate(motion.bases, motion.q, i, np.array([(t - times[i]) / (times[i + 1] - times[i])]))
+    return arm_bodies(robot, bases, q)[0, -1]
+
+
+def _failure_tip(scene: Scene, robot: Chain, mission, failure) -> np.ndarray:
+    """Where the tip is when the judge's first failure happens: in the motion it names, or, for a failure of the
+    mission as a whole (motion -1), in the motion under way then; at the entrance when there is none."""
+    motions = mission.motions
+    if not motions:
+        return scene.entrance.position
+    k = failure.motion if failure.motion >= 0 else next(
+        (i for i, m in enumerate(motions) if m.end_s >= failure.time_s), len(motions) - 1)
+    return _tip_at(robot, motions[k], failure.time_s)
+
+
 def of_mission(scene: Scene, robot: Chain, mission, report) -> Recording:
     """An inspect or search mission as the judge replayed it: every motion's samples in time order (a crawl's every
     5 mm of depth, a joint motion's as given: its joints move linearly between them), the views, which points of
     interest the views saw first when (the judge's camera), a search's targets and when each was found, and the
     judge's first failure."""
     from snakeplan.evaluation import SearchReport
-    from snakeplan.world.mission import Crawl, inspected_surface
+    from snakeplan.world.mission import inspected_surface
     from snakeplan.world.sight import PoiCamera
 
     ts, bases, qs, paths, starts = [np.zeros(0)], [np.zeros((0, 4, 4))], [np.zeros((0, robot.dof))], [], []
@@ -138,12 +182,9 @@ def of_mission(scene: Scene, robot: Chain, mission, report) -> Recording:
         ts.append(t)
         bases.append(b)
         qs.append(q)
-    t, b, q = np.concatenate(ts), np.concatenate(bases), np.concatenate(qs)
     views = mission.views
-    failure = None
-    if report.failure is not None and len(t):
-        when = report.failure.time_s
-        failure = Failure(report.reason, when, _tip_at(robot, t, b, q, when))
+    f = report.failure
+    failure = None if f is None else Failure(report.reason, f.time_s, _failure_tip(scene, robot, mission, f))
     search = isinstance(report, SearchReport)
     points = first = None
     if not search and report.tip_camera:  # a fed arm's points of interest, each when a view first saw it
@@ -154,19 +195,7 @@ def of_mission(scene: Scene, robot: Chain, mission, report) -> Recording:
     elif not search and report.seen is not None:  # the station's mesh nodes: the judge's map says which, not when
         points = inspected_surface(scene)[0].vertices
         first = np.where(report.seen, float(views.times_s[-1]) if len(views) else 0.0, np.inf)
-    return Recording(scene, robot.with_base(np.eye(4)), t, b, q, paths, np.array(starts), report.success,
-                     _verdict(report), failure,
-                     views=(views.times_s, views.positions, views.directions), points=points, first_seen=first,
+    return Recording(scene, robot.with_base(np.eye(4)), np.concatenate(ts), np.concatenate(bases),
+                     np.concatenate(qs), paths, np.array(starts), report.success, report.lines()[0], failure,
+                     views=views, points=points, first_seen=first,
                      found_s=np.asarray(report.found_s, dtype=float) if search else None)
-
-
-def _tip_at(robot: Chain, t: np.ndarray, bases: np.ndarray, q: np.ndarray, when: float) -> np.ndarray:
-    """The tip (3,) mm at time ``when`` between samples: the joints and the base's translation linear between them,
-    its rotation the earlier sample's (the samples are the motions' own, or 5 mm of depth apart)."""
-    k = int(np.clip(np.searchsorted(t, when, side="right") - 1, 0, len(t) - 1))
-    j = min(k + 1, len(t) - 1)
-    f = 0.0 if j == k or t[j] == t[k] else float(np.clip((when - t[k]) / (t[j] - t[k]), 0.0, 1.0))
-    base = bases[k].copy()
-    base[:3, 3] += f * (bases[j][:3, 3] - bases[k][:3, 3])
-    tip = robot.with_base(np.eye(4)).joint_positions(q[k] + f * (q[j] - q[k]))[-1]
-    return base[:3, :3] @ tip + base[:3, 3]

@@ -132,8 +132,8 @@ def to_csv(traj: Trajectory) -> str:
     return out.getvalue()
 
 
-def _duration(t: float) -> dict[str, int]:
-    """``builtin_interfaces/Duration``: whole seconds and nanoseconds."""
+def ros_time(t: float) -> dict[str, int]:
+    """``builtin_interfaces/Time`` or ``Duration`` of ``t`` s (t >= 0): whole seconds and nanoseconds."""
     sec = math.floor(t)
     nanosec = int(round((t - sec) * 1e9))
     if nanosec >= 1_000_000_000:
@@ -141,18 +141,34 @@ def _duration(t: float) -> dict[str, int]:
     return {"sec": int(sec), "nanosec": nanosec}
 
 
-def ros_message(traj: Trajectory) -> dict[str, Any]:
-    """A ``trajectory_msgs/msg/JointTrajectory`` as plain data, in ROS's SI units: the feed in m, m/s, m/s²;
-    angles in rad, rad/s, rad/s²; ``header.frame_id`` the URDF's root link."""
-    scale = np.ones(traj.robot.dof)
-    scale[0] = 1e-3
-    points = [{"positions": (traj.positions[k] * scale).tolist(),
-               "velocities": (traj.velocities[k] * scale).tolist(),
-               "accelerations": (traj.accelerations[k] * scale).tolist(),
-               "effort": [],
-               "time_from_start": _duration(float(traj.t[k]))} for k in range(len(traj.depths))]
+def si_scale(robot) -> np.ndarray:
+    """Per joint, the factor from snakeplan's units to ROS's: 1e-3 for a feed (mm to m), 1 for an angle."""
+    scale = np.ones(robot.dof)
+    if robot.has_feed:
+        scale[0] = 1e-3
+    return scale
+
+
+def joint_trajectory(robot, t: np.ndarray, positions: np.ndarray, velocities: np.ndarray | None = None,
+                     accelerations: np.ndarray | None = None) -> dict[str, Any]:
+    """A ``trajectory_msgs/msg/JointTrajectory`` as plain data, in ROS's SI units (feed m, m/s, m/s²; angles rad,
+    rad/s, rad/s²), one point per time ``t`` (s) of the joint arrays (T, dof) in snakeplan's units (velocities and
+    accelerations when given); ``header.frame_id`` the URDF's root link."""
+    scale = si_scale(robot)
+    points = []
+    for k in range(len(t)):
+        point = {"positions": (positions[k] * scale).tolist()}
+        if velocities is not None:
+            point["velocities"] = (velocities[k] * scale).tolist()
+            point["accelerations"] = (accelerations[k] * scale).tolist()
+        points.append({**point, "effort": [], "time_from_start": ros_time(float(t[k]))})
     return {"header": {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": ROOT_LINK},
-            "joint_names": list(traj.robot.joint_names), "points": points}
+            "joint_names": list(robot.joint_names), "points": points}
+
+
+def ros_message(traj: Trajectory) -> dict[str, Any]:
+    """The trajectory as a ``trajectory_msgs/msg/JointTrajectory`` (:func:`joint_trajectory`)."""
+    return joint_trajectory(traj.robot, traj.t, traj.positions, traj.velocities, traj.accelerations)
 
 
 def write(traj: Trajectory, filename: str, field: str = "--trajectory") -> str:
