@@ -285,9 +285,10 @@ class Planner(ABC):
         fresh = problem.hidden  # every plan starts knowing only the prior, and nothing a warm-up saw
         problem = fresh()
         with single_threaded():
-            if self.warm_key() not in _WARM:
+            key = self.warm_key()
+            if key not in _WARM:
                 self.warm_up(fresh())
-                _WARM.add(self.warm_key())
+                _WARM.add(key)
             t0 = time.perf_counter()
             refusal = input_refusal(problem)
             if refusal is not None:
