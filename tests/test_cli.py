@@ -315,7 +315,7 @@ def test_bench_speed_saves_each_row_and_a_rerun_measures_only_the_rest(capsys, t
     (["--station-seeds", "-1"], "snakeplan: error: --station-seeds: expected a positive integer, got -1\n"),
     (["--out", "speed.txt"], "snakeplan: error: --out: expected a .md file, got 'speed.txt'\n"),
     (["--rows", "station,warp"], "snakeplan: error: --rows: unknown warp (known: rrt-star, sp-rrt, as-rrt, sac-her, "
-                                 "command, judge, station)\n"),
+                                 "optimize, command, judge, station)\n"),
 ])
 def test_bench_speed_refuses_bad_options_before_any_work(capsys, tmp_path, monkeypatch, argv, expected):
     monkeypatch.chdir(tmp_path)

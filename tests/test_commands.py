@@ -32,7 +32,7 @@ import snakeplan.commands
 
 #: Module -> the names a command module may import from it (None: any name).
 ALLOWED: dict[str, frozenset[str] | None] = {
-    "snakeplan.planners.registry": frozenset({"PLANNERS"}),
+    "snakeplan.planners.registry": frozenset({"PLANNERS", "get_planner"}),
     "snakeplan.planners": frozenset({"planner_names", "Problem", "Plan"}),
     "snakeplan.scenes": None,
     "snakeplan.scenes.registry": None,

@@ -48,6 +48,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("scenes", ("snakeplan.scenes",)),
     ("world", ("snakeplan.world",)),
     ("evaluation", ("snakeplan.evaluation",)),
+    ("optimiser", ("snakeplan.optimize",)),
     ("trajectory", ("snakeplan.trajectory", "snakeplan.ros")),
     ("planners", ("snakeplan.planners",)),
     ("episode", ("snakeplan.episode",)),

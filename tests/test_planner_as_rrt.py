@@ -38,7 +38,7 @@ CASES = [("fuel-tank", 0), ("fuel-tank", 2), ("oil-tank", 0), ("oil-tank", 3)]
 @cache
 def solved(name: str, seed: int, knowledge: str = "full") -> tuple[Scene, Plan]:
     scene = make_scene(name, seed)
-    return scene, AsRRT().plan(Problem(scene, ROBOT, BUDGET_S, knowledge=knowledge), seed)
+    return scene, get_planner("as-rrt", optimize="none").plan(Problem(scene, ROBOT, BUDGET_S, knowledge=knowledge), seed)
 
 
 def kappa_limit(scene: Scene) -> float:

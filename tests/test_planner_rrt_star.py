@@ -12,6 +12,7 @@ from snakeplan.evaluation import evaluate
 from snakeplan.geometry.polyline import densify
 from snakeplan.geometry.primitives import Box
 from snakeplan.planners import Problem
+from snakeplan.planners.registry import get_planner
 from snakeplan.planners.rrt_star import RRTStar
 from snakeplan.robots import get_robot
 from snakeplan.scenes import make_scene
@@ -37,7 +38,7 @@ def _enclosed(scene, target, inner_half_mm: float, wall_mm: float = 10.0):
 @pytest.mark.parametrize(("name", "seed"), [("fuel-tank", 0), ("oil-tank", 1)])
 def test_plan_passes_the_judge(name, seed):
     scene = make_scene(name, seed)
-    plan = RRTStar().plan(Problem(scene, ROBOT, time_limit_s=10.0), seed=seed)
+    plan = get_planner("rrt-star", optimize="none").plan(Problem(scene, ROBOT, time_limit_s=10.0), seed=seed)
     assert plan.status == "found" and plan.planner == "rrt-star"
     report = evaluate(scene, ROBOT, plan.path)
     assert report.success, report.reason
@@ -55,7 +56,10 @@ def test_same_seed_same_plan():
     second = RRTStar().plan(problem, seed=7)
     assert first.status == second.status == "found"
     np.testing.assert_array_equal(first.path, second.path)
-    assert first.details == second.details
+    timed = ("optimize",)  # the optimiser's own time is the one figure that is the clock's
+    assert {k: v for k, v in first.details.items() if k not in timed} == \
+        {k: v for k, v in second.details.items() if k not in timed}
+    assert {**first.details["optimize"], "time_s": 0} == {**second.details["optimize"], "time_s": 0}
 
 
 def test_stops_within_a_short_budget():

@@ -6,6 +6,7 @@ import pytest
 from snakeplan.evaluation import evaluate
 from snakeplan.geometry.primitives import Plate
 from snakeplan.planners.base import Problem
+from snakeplan.planners.registry import get_planner
 from snakeplan.planners.sp_rrt import TREE_BEND_FRACTION, SpRRT
 from snakeplan.robots import get_robot
 from snakeplan.scenes import make_scene
@@ -27,7 +28,8 @@ def plans():
     out = {}
     for name, seed in CASES:
         scene = make_scene(name, seed)
-        out[name, seed] = scene, SpRRT().plan(Problem(scene, ROBOT, time_limit_s=10.0), seed=seed)
+        out[name, seed] = scene, get_planner("sp-rrt", optimize="none").plan(Problem(scene, ROBOT, time_limit_s=10.0),
+                                                                         seed=seed)
     return out
 
 

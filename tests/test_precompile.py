@@ -20,6 +20,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from snakeplan import jit
+from snakeplan.bench.runner import untimed
 
 PLANNERS = ("sac-her", "rrt-star", "sp-rrt", "as-rrt")
 #: Runs a command in-process and says on stderr whether numba was imported.
@@ -79,7 +80,7 @@ def _plan(cache: Path, planner: str, **extra: str) -> tuple[dict, bool]:
     assert proc.returncode in (0, 1), proc.stderr
     doc = json.loads(proc.stdout)
     doc.pop("compute_time_s")
-    doc["details"] = {k: v for k, v in doc["details"].items() if not k.endswith("_s")}
+    doc["details"] = untimed(doc["details"])
     return doc, "numba imported: True" in proc.stderr
 
 

@@ -331,10 +331,10 @@ def make_row(run: Run, episode, provenance: dict) -> dict:
 
 
 def comparable(row: dict) -> dict:
-    """A row without what measures time or place (:data:`TIMING_FIELDS`, details in seconds, ``*_s``, and the
-    details of a run its time budget stopped, ``timeout``: its search statistics, and the why of any run its clock
-    stopped, which says how far it got): what must agree between backends and between an interrupted run and an
-    uninterrupted one."""
+    """A row without what measures time or place (:data:`TIMING_FIELDS`, details in seconds, ``*_s`` at any depth,
+    and the details of a run its time budget stopped, ``timeout``: its search statistics, and the why of any run its
+    clock stopped, which says how far it got): what must agree between backends and between an interrupted run and
+    an uninterrupted one."""
     out = {k: v for k, v in row.items() if k not in TIMING_FIELDS}
     details = out.get("details") if isinstance(out.get("details"), dict) else {}
     if "timeout" in (out.get("status"), details.get("stopped")):
@@ -342,8 +342,13 @@ def comparable(row: dict) -> dict:
     if out.get("status") == "timeout":
         out.pop("details", None)  # how far the search got before its clock stopped it: a measure of speed
     elif isinstance(out.get("details"), dict):
-        out["details"] = {k: v for k, v in out["details"].items() if not k.endswith("_s")}
+        out["details"] = untimed(out["details"])
     return out
+
+
+def untimed(details: dict) -> dict:
+    """``details`` without its seconds (``*_s`` keys), nested objects included (the optimiser's ``time_s``)."""
+    return {k: untimed(v) if isinstance(v, dict) else v for k, v in details.items() if not k.endswith("_s")}
 
 
 # --- the results folder ----------------------------------------------------------------------------------------

@@ -10,7 +10,10 @@ process on the same problems, and the machine's load (1-minute load average) bef
 - ``rrt-star`` on fuel-tank and oil-tank: the compiled RRT* against OMPL's (``backend="ompl"``), with their
   judged success;
 - ``sp-rrt``, ``as-rrt``, ``sac-her``: compute per plan (warm: a plan of another seed runs first); baseline: the
-  default BLAS threads;
+  default BLAS threads. The planner rows time the planners alone (``optimize="none"``);
+- the path optimiser (``optimize="fast"``) on ``rrt-star``, ``sp-rrt`` and ``as-rrt`` paths in both tanks: its
+  own time per plan (median and p99), against the same plans without it (their compute time, judged success and
+  smoothness index beside the optimised ones');
 - ``snakeplan plan --scene fuel-tank --seed 1`` wall time in a fresh interpreter (caches warm), with its kernels
   compiled ahead of time (``snakeplan compile``, into a temporary cache folder); baselines: the same command with
   numba's cache instead (numba's import and its compiler's start-up, about 0.6 s, are what the compiled kernels
@@ -43,13 +46,18 @@ from snakeplan.files import atomic_write
 from snakeplan.interrupt import Interrupted, interruptible
 
 SCHEMA = "snakeplan.bench.speed/1"
-#: The issue's aims (s): station worst case, rrt-star median, sp-rrt / as-rrt medians, sac-her median and p99,
+#: The aims (s): the optimiser's median and p99, station worst case, rrt-star median, sp-rrt / as-rrt medians, sac-her
+#: median and p99,
 #: plan command wall time, judge time.
-AIMS = {"station": 5.0, "rrt-star": 0.05, "sp-rrt": 0.010, "as-rrt": 0.005, "sac-her": 0.005, "sac-her-p99": 0.05,
+AIMS = {"optimize": 0.020, "optimize-p99": 0.200,
+        "station": 5.0, "rrt-star": 0.05, "sp-rrt": 0.010, "as-rrt": 0.005, "sac-her": 0.005, "sac-her-p99": 0.05,
         "plan-command": 0.6, "judge": 2.0}
 SPIN = "while True:\n    pass\n"
 #: The rows ``run_speed_bench`` can measure (all by default).
-ROWS = ("rrt-star", "sp-rrt", "as-rrt", "sac-her", "command", "judge", "station")
+ROWS = ("rrt-star", "sp-rrt", "as-rrt", "sac-her", "optimize", "command", "judge", "station")
+#: The planners and scenes of the optimiser's row.
+OPTIMIZED = ("rrt-star", "sp-rrt", "as-rrt")
+OPTIMIZED_SCENES = ("fuel-tank", "oil-tank")
 
 
 def load() -> float:
@@ -155,6 +163,48 @@ def planner_rows(name: str, scene: str, seeds: int, baseline: Callable[[], conte
     return out
 
 
+def optimize_rows(seeds: int, progress: Callable[[str], None]) -> dict:
+    """The path optimiser (``fast``) on each of :data:`OPTIMIZED` in each of :data:`OPTIMIZED_SCENES`, seeds
+    0..seeds-1: its own time per found plan (``details["optimize"]["time_s"]``), against the same planner without
+    it (compute time), with judged success and median smoothness index of both."""
+    from snakeplan.episode import run_episode
+    from snakeplan.planners import Problem, get_planner
+    from snakeplan.robots import get_robot
+    from snakeplan.scenes import make_scene, scene_spec
+
+    out: dict = {}
+    spent: list[float] = []
+    for scene in OPTIMIZED_SCENES:
+        robot = get_robot(scene_spec(scene).robot)
+        problems = [Problem(make_scene(scene, s), robot) for s in range(seeds)]
+        for name in OPTIMIZED:
+            row = {}
+            for level in ("none", "fast"):
+                run_episode(Problem(make_scene(scene, 10_000), robot), get_planner(name, optimize=level),
+                            seed=10_000)  # warm
+                times, smooth, ok, opt = [], [], 0, []
+                for seed, problem in enumerate(problems):
+                    episode = run_episode(problem, get_planner(name, optimize=level), seed=seed)
+                    times.append(episode.plan.compute_time_s)
+                    ok += episode.success
+                    if episode.success:
+                        smooth.append(episode.report.smoothness_index)
+                    if "optimize" in episode.plan.details:
+                        opt.append(episode.plan.details["optimize"]["time_s"])
+                row[level] = {**_stats(times), "success": ok,
+                              "smoothness_median": float(np.median(smooth)) if smooth else None}
+                if opt:
+                    row[level]["optimize"] = _stats(opt)
+                    spent += opt
+            out[f"{name} {scene}"] = row
+            fast = row["fast"]
+            progress(f"optimize {name} {scene}: {fast['optimize']['median_s'] * 1e3:.1f} ms median, smoothness "
+                     f"{row['none']['smoothness_median']} -> {fast['smoothness_median']}, success "
+                     f"{row['none']['success']} -> {fast['success']}/{seeds} (load {load():.2f})")
+    out["all"] = _stats(spent)
+    return out
+
+
 def _child_env(**extra: str) -> dict:
     """The environment of a child interpreter that imports this snakeplan (this process's path), with ``extra``."""
     return {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p), **extra}
@@ -251,7 +301,6 @@ def run_speed_bench(seeds: int = 100, station_seeds: int = 20, station_baseline_
     measures only the rows it lacks; SIGINT or SIGTERM stops at once with
     :class:`~snakeplan.interrupt.Interrupted` saying what was saved. The caller removes ``state`` when done."""
     from snakeplan.planners import get_planner
-    from snakeplan.planners.rrt_star import RRTStar
 
     for field, value in (("seeds", seeds), ("station_seeds", station_seeds), ("repeats", repeats)):
         if isinstance(value, bool) or not isinstance(value, int) or value < 1:
@@ -282,11 +331,15 @@ def run_speed_bench(seeds: int = 100, station_seeds: int = 20, station_baseline_
     if "rrt-star" in rows:
         for scene in ("fuel-tank", "oil-tank"):
             todo.append((f"rrt-star {scene}", lambda s=scene: planner_rows(
-                "rrt-star", s, seeds, contextlib.nullcontext, RRTStar, lambda: RRTStar(backend="ompl"), say)))
+                "rrt-star", s, seeds, contextlib.nullcontext, lambda: get_planner("rrt-star", optimize="none"),
+                lambda: get_planner("rrt-star", optimize="none", backend="ompl"), say)))
     for name in ("sp-rrt", "as-rrt", "sac-her"):
         if name in rows:
             todo.append((f"{name} fuel-tank", lambda n=name: planner_rows(
-                n, "fuel-tank", seeds, default_threads, lambda: get_planner(n), lambda: get_planner(n), say)))
+                n, "fuel-tank", seeds, default_threads, lambda: get_planner(n, optimize="none"),
+                lambda: get_planner(n, optimize="none"), say)))
+    if "optimize" in rows:
+        todo.append(("optimize", lambda: optimize_rows(seeds, say)))
     if "command" in rows:
         todo.append(("plan command", lambda: command_rows(repeats, say)))
     if "judge" in rows:
@@ -363,6 +416,19 @@ def speed_markdown(summary: dict) -> str:
         lines.append(f"| `{name}` fuel-tank{' (median / p99)' if name == 'sac-her' else ''} (success "
                      f"{row['now']['success']}/{row['now']['n']}) | {pair(row['now'], ms, 'ms', worst)} | "
                      f"{pair(row['before'], ms, 'ms', worst)} | default BLAS threads | {aim} |")
+    opt = r.get("optimize")
+    if opt is not None:
+        lines.append(f"| path optimiser `fast`, its time per found plan, all {opt['all']['n']} (median / p99) | "
+                     f"{pair(opt['all'], ms, 'ms', 'p99_s')} | — | no optimisation | median <= "
+                     f"{AIMS['optimize'] * ms:g} ms, p99 <= {AIMS['optimize-p99'] * ms:g} ms |")
+        for key, row in opt.items():
+            if key == "all":
+                continue
+            none, fast = row["none"], row["fast"]
+            lines.append(f"| `{key}`: compute, success, median smoothness | {pair(fast, ms, 'ms', 'p99_s')}, "
+                         f"{fast['success']}/{fast['n']}, S {_fmt(fast['smoothness_median'])} | "
+                         f"{pair(none, ms, 'ms', 'p99_s')}, {none['success']}/{none['n']}, S "
+                         f"{_fmt(none['smoothness_median'])} | `optimize=\"none\"` | S >= 0.5 |")
     cmd = r.get("plan command")
     if cmd is not None:
         now = cmd.get("now", cmd.get("numba"))
@@ -384,6 +450,10 @@ def speed_markdown(summary: dict) -> str:
     lines += ["", f"BLAS outside planning: {blas}; planning pins every pool to one thread. Kernels of the rows "
                   f"timed in this process: {summary.get('kernels', 'numba')}."]
     return "\n".join(lines) + "\n"
+
+
+def _fmt(value: float | None) -> str:
+    return "—" if value is None else f"{value:.3f}"
 
 
 def run_speed_table(out: Path, progress: Callable[[str], None] | None = None, **settings) -> dict:

@@ -80,6 +80,13 @@ def cmd_bench_run(args: argparse.Namespace) -> int:
         if not sep or not key:
             raise UsageError(f"--option: expected KEY=VALUE, got {item!r}")
         options[key] = _option_value(value)
+    if "optimize" in options:
+        from snakeplan.optimize import as_level
+
+        try:
+            as_level(options["optimize"])
+        except ValueError as exc:
+            raise UsageError(f"--option {exc}") from None
     scenes = tuple(n.strip() for n in args.scenes.split(",") if n.strip())
     if not scenes:
         raise UsageError("--scenes: empty list")

@@ -35,7 +35,7 @@ def add_parsers(bsub) -> None:
                    help="station missions also flown by the previous implementation (default 2: it is slow)")
     p.add_argument("--repeats", type=int, default=5, help="runs of the plan command (default 5)")
     p.add_argument("--rows", help="comma-separated rows to measure (default all: rrt-star,sp-rrt,as-rrt,sac-her,"
-                                  "command,judge,station)")
+                                  "optimize,command,judge,station)")
     p.add_argument("--out", default="bench-speed.md", help="markdown table to write (default bench-speed.md)")
     p.add_argument("--json", action="store_true", help="print the figures as JSON")
     p.set_defaults(func=cmd_bench_speed)

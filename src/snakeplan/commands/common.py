@@ -115,6 +115,18 @@ def why_line(plan) -> str:
     return f"why: {plan.why}\n" if plan.why else ""
 
 
+def optimize_line(plan) -> str:
+    """The console line saying what the path optimiser did ("optimize: ..."), or "" where it did not run."""
+    done = plan.details.get("optimize")
+    if not done:
+        return ""
+    b, a = done["before"]["smoothness_index"], done["after"]["smoothness_index"]
+    what = (f"smoothness {b:.3f} -> {a:.3f}, length {done['before']['length_mm']:.0f} -> "
+            f"{done['after']['length_mm']:.0f} mm" if done["kept"] else "no smoother path cleared the checks; "
+                                                                       "the planner's path is kept")
+    return f"optimize ({done['level']}): {what} ({done['checks']} crawl checks, {1e3 * done['time_s']:.1f} ms)\n"
+
+
 def where(scene) -> str:
     """A scene as the console names it: "fuel-tank (seed 3)", or a file scene's name alone (it has no seed)."""
     return scene.name if scene.seed is None else f"{scene.name} (seed {scene.seed})"

@@ -155,8 +155,8 @@ def load_plan_file(filename: str) -> PlanFile:
 
 
 def load_planner(name: str, **options):
-    """The registered planner ``name`` made with ``options``."""
-    from snakeplan.planners.registry import PLANNERS
+    """The registered planner ``name`` made with ``options`` (``optimize`` among them: every planner takes it)."""
+    from snakeplan.planners.registry import PLANNERS, get_planner
 
     try:
         cls = PLANNERS.get(name)
@@ -167,7 +167,7 @@ def load_planner(name: str, **options):
     if "reach" in options and "reach" not in inspect.signature(cls).parameters:
         raise UsageError(f"--reach: planner {name} has no reaching planner to choose (the search planners do)")
     try:
-        return cls(**options)
+        return get_planner(name, **options)
     except KeyError as exc:
         if "reach" in options:
             raise UsageError(f"--reach: {exc.args[0]}") from None

@@ -14,6 +14,7 @@ from snakeplan.commands.common import (
     UsageError,
     as_option,
     finite,
+    optimize_line,
     print_json,
     seed,
     status,
@@ -41,6 +42,10 @@ def add_parser(sub) -> None:
                                     "sscc (default: the shipped one for the scene and robot; the learned planners: "
                                     "the generalist where the scene's family ships none)")
     p.add_argument("--time-limit", type=finite, default=30.0, help="planning budget in seconds (default 30)")
+    p.add_argument("--optimize", choices=("none", "fast", "full"),  # optimize.LEVELS, without importing it
+                   help="the path optimiser on a found reach path: none, fast (a few ms, bounded) or full (a wider "
+                        "search); smoother, never less clear, judged (default: fast for rrt-star, sp-rrt and as-rrt, "
+                        "none for the others)")
     p.add_argument("--knowledge", choices=("full", "sensed"),
                    help="what the planner may know: the whole scene, or what its sensor revealed (default: full; "
                         "sensed for a search)")
@@ -79,6 +84,8 @@ def cmd_plan(args: argparse.Namespace) -> int:
         if task is not Task.SEARCH:
             raise UsageError(f"--reach: only a search task has a reaching planner to choose (this one is {task})")
         options["reach"] = args.reach
+    if args.optimize is not None:
+        options["optimize"] = args.optimize
     knowledge = args.knowledge or ("sensed" if task is Task.SEARCH else "full")
     planner = load_planner(args.planner or spec.planner_for(task), **options)
     blame = "--task" if args.task else "--planner"
@@ -118,7 +125,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
         else:
             sys.stdout.write(f"{plan.planner} on {where(scene)} with {robot.name}: {status(plan)} "
                              f"in {plan.compute_time_s:.3f} s ({wall:.2f} s wall, judging and loading included)\n"
-                             f"{why_line(plan)}")
+                             f"{why_line(plan)}{optimize_line(plan)}")
             if episode.report is not None:
                 sys.stdout.write("\n".join(episode.report.lines()) + "\n")
         code = EXIT_OK if episode.success else EXIT_INFEASIBLE

@@ -592,6 +592,7 @@ class AsRRT(Planner):
     the whole scene or with only the obstacles sensed near its tree."""
 
     name = "as-rrt"
+    default_optimize = "fast"
     needs_full_scene = False
 
     def __init__(self, goal_bias: float = GOAL_BIAS, arc_sections: float = ARC_SECTIONS):

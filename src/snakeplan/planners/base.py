@@ -29,6 +29,8 @@ from typing import ClassVar, NamedTuple
 import numpy as np
 
 from snakeplan.geometry.polyline import validate_path
+from snakeplan.optimize import optimize_path
+from snakeplan.optimize import warm_up as warm_optimizer
 from snakeplan.planners.input_states import invalid_start, invalid_target
 from snakeplan.robots import Chain
 from snakeplan.scenes import Scene, Task, as_task, spec_for
@@ -275,6 +277,13 @@ class Planner(ABC):
     needs_full_scene: ClassVar[bool] = True
     #: Whether the planner rolls out a trained policy, given as ``policy=`` (a file; ``snakeplan plan --policy``).
     takes_policy: ClassVar[bool] = False
+    #: How hard the path optimiser works on a found reach path (:data:`snakeplan.optimize.LEVELS`) unless the
+    #: planner is made with ``optimize=`` (every planner takes it: :func:`snakeplan.planners.get_planner`):
+    #: ``fast`` for the sampling planners, whose paths are rough; ``none`` for the others (the learned planners
+    #: rank their own smoothings), so that each paper's method is what runs unless asked.
+    default_optimize: ClassVar[str] = "none"
+    #: This instance's level; None: ``default_optimize``.
+    optimize: str | None = None
 
     def plan(self, problem: Problem, seed: int = 0) -> Plan:
         """Plan within ``problem.time_limit_s``; the wall time is measured here, the same way for all planners,
@@ -289,19 +298,31 @@ class Planner(ABC):
             if key not in _WARM:
                 self.warm_up(fresh())
                 _WARM.add(key)
+            if (self.optimize or self.default_optimize) != "none":
+                warm_optimizer()
             t0 = time.perf_counter()
             refusal = input_refusal(problem)
             if refusal is not None:
                 return Plan(self.name, refusal.status, None, time.perf_counter() - t0, refusal.details,
                             why=refusal.why)
             out = self._solve(problem, np.random.default_rng(seed), t0 + problem.time_limit_s)
+            if not isinstance(out, Solution):  # a plain (status, path, details[, mission]) tuple: no why
+                out = Solution(*out[:3], mission=out[3] if len(out) > 3 else None)
+            out = self._optimized(problem, out, t0 + problem.time_limit_s)
             elapsed = time.perf_counter() - t0
-        if not isinstance(out, Solution):  # a plain (status, path, details[, mission]) tuple: no why
-            out = Solution(*out[:3], mission=out[3] if len(out) > 3 else None)
         why = out.why
         if not why and Status(out.status) is Status.TIMEOUT:
             why = f"the time limit of {problem.time_limit_s:g} s ran out"
         return Plan(self.name, out.status, out.path, elapsed, out.details, out.mission, why)
+
+    def _optimized(self, problem: Problem, out: Solution, deadline: float) -> Solution:
+        """``out`` with its path optimised (:func:`snakeplan.optimize.optimize_path`) when it is a found reach path
+        and this planner's level is not none; what the optimiser did goes in ``details["optimize"]``."""
+        level = self.optimize or self.default_optimize
+        if level == "none" or problem.task is not Task.REACH or Status(out.status) is not Status.FOUND:
+            return out
+        done = optimize_path(out.path, problem.world, problem.robot, problem.goals, level, deadline)
+        return out._replace(path=done.path, details={**out.details, "optimize": done.to_dict()})
 
     def check_task(self, task: Task | str) -> None:
         """ValueError naming ``task`` (and the tasks this planner does) unless it does ``task``."""

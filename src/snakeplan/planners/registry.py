@@ -8,6 +8,7 @@ is named is the scene's spec (:func:`snakeplan.scenes.scene_spec`).
 
 from __future__ import annotations
 
+from snakeplan.optimize import as_level
 from snakeplan.planners.base import Planner
 from snakeplan.registry import Registry, named_subclass
 from snakeplan.scenes import Task, as_task
@@ -43,10 +44,14 @@ def planner_names(task: Task | str | None = None) -> list[str]:
     return [n for n in PLANNERS.names() if task in PLANNERS.get(n).tasks]
 
 
-def get_planner(name: str, task: Task | str | None = None, **options) -> Planner:
-    """A new planner instance; KeyError lists the known names (of the planners that do ``task``, when given) for an
-    unknown one."""
+def get_planner(name: str, task: Task | str | None = None, optimize: str | None = None, **options) -> Planner:
+    """A new planner instance made with ``options``, its path optimiser at ``optimize`` (every planner takes it:
+    :data:`snakeplan.optimize.LEVELS`; None: the planner's ``default_optimize``); KeyError lists the known names
+    (of the planners that do ``task``, when given) for an unknown one, ValueError names ``optimize``."""
     if task is not None and name not in PLANNERS:
         known = planner_names(task)
         raise KeyError(f"unknown {as_task(task)} planner {name!r} (known: {', '.join(known)})")
-    return PLANNERS.get(name)(**options)
+    planner = PLANNERS.get(name)(**options)
+    if optimize is not None:
+        planner.optimize = as_level(optimize)
+    return planner

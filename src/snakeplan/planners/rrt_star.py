@@ -378,6 +378,7 @@ class RRTStar(Planner):
     """RRT* in tip space (compiled, or OMPL's), shortcut, filleted and crawl-checked, with a bounded repair."""
 
     name = "rrt-star"
+    default_optimize = "fast"
     needs_full_scene = True
 
     def __init__(self, backend: str = "compiled") -> None:

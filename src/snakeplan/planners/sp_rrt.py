@@ -263,6 +263,7 @@ class SpRRT(Planner):
     """Sp-RRT: an RRT of joint positions one section apart, rooted at the target, grown back to the entrance."""
 
     name = "sp-rrt"
+    default_optimize = "fast"
     needs_full_scene = True
 
     def __init__(self, tree_bend_fraction: float = TREE_BEND_FRACTION, goal_bias: float = GOAL_BIAS,
