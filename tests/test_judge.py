@@ -109,5 +109,5 @@ def test_reasons_and_failure_kinds_are_typed_and_print_their_plain_value():
         assert value == "collision" and str(value) == f"{value}" == "%s" % value == "collision"
         assert json.dumps({"reason": value}) == '{"reason": "collision"}'
     assert [str(r) for r in Reason] == ["reached", "collision", "bend_limit", "insertion", "out_of_bounds",
-                                        "not_reached"]
+                                        "not_reached", "not_holdable"]
     assert {str(k) for k in FailureKind} < {str(r) for r in Reason}

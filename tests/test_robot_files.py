@@ -35,6 +35,8 @@ def test_urdf_round_trip_of_every_preset_keeps_fk_to_1e_9_mm(name, base):
     np.testing.assert_allclose(back.max_bends, chain.max_bends, rtol=0, atol=1e-15)
     assert back.limits.feed_speed_mm_s == pytest.approx(chain.limits.feed_speed_mm_s, rel=1e-15)
     assert back.limits.joint_rate_rad_s == pytest.approx(chain.limits.joint_rate_rad_s, rel=1e-15)
+    np.testing.assert_allclose(back.masses, chain.masses, rtol=1e-15)  # the inertials come back
+    np.testing.assert_allclose(back.coms, chain.coms, rtol=0, atol=1e-9)
     q = chain.clip_to_limits(chain.random_q(7, 200))
     assert np.max(np.abs(back.joint_positions(q) - chain.joint_positions(q))) <= 1e-9
 
@@ -181,7 +183,7 @@ def _own_arm() -> dict:
 @pytest.mark.parametrize("mistake, expect", [
     (lambda d: d.update(feed=d.pop("feed_range")), "feed: unknown field (known: schema, name, sections"),
     (lambda d: d["sections"].__setitem__(3, {"length": 120.0, "radius": 20.0, "maxbend": 0.7}),
-     "section 3: maxbend: unknown field (known: length, radius, max_bend); did you mean max_bend?"),
+     "section 3: maxbend: unknown field (known: length, radius, max_bend, mass_kg, com_mm); did you mean max_bend?"),
     (lambda d: d["sections"].__setitem__(0, {"length": 120.0, "radius": 20.0, "max_bend": 40.0}),
      "section 0: max_bend must be in (0, pi) rad, got 40.0 (it looks like degrees: 40 deg is 0.6981 rad)"),
     (lambda d: d["sections"].__setitem__(0, {"length": 120.0, "radius": 20.0, "max_bend": 0.0122}),

@@ -263,7 +263,7 @@ def test_to_dict_from_dict_round_trip(name):
     d = json.loads(json.dumps(chain.to_dict()))
     assert d["schema"] == "snakeplan.robot/1"
     assert d["total_length"] == pytest.approx(sum(s["length"] for s in d["sections"]))
-    assert set(d["sections"][0]) == {"length", "radius", "max_bend"}
+    assert set(d["sections"][0]) == {"length", "radius", "max_bend", "mass_kg", "com_mm"}
     back = Chain.from_dict(d)
     assert back.name == chain.name and back.k_ul == chain.k_ul and back.feed_range == chain.feed_range
     assert back.sections == chain.sections

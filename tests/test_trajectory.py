@@ -181,10 +181,12 @@ def test_csv_has_one_row_per_point_with_units_in_the_header(oil_tank_trajectory)
     traj = oil_tank_trajectory
     lines = to_csv(traj).splitlines()
     header = lines[0].split(",")
-    assert header[:4] == ["t_s", "depth_mm", "feed_mm", "s0_a_rad"] and "s11_c2_mm" == header[-1]
+    assert header[:4] == ["t_s", "depth_mm", "feed_mm", "s0_a_rad"] and "s11_c2_tension_n" == header[-1]
+    assert header.index("s11_c2_mm") == header.index("s0_c0_tension_n") - 1
     assert len(lines) == len(traj.t) + 1
     row = dict(zip(header, map(float, lines[50].split(","))))
     assert row["t_s"] == traj.t[49] and row["s3_b_vel_rad_s"] == traj.velocities[49, 8]
+    assert row["s5_c1_tension_n"] == traj.statics.tensions_n[49, 16]
 
 
 def test_ros_message_is_a_joint_trajectory_in_si_units(oil_tank_trajectory):

@@ -24,8 +24,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from snakeplan.geometry.polyline import arclength_grid, cumulative_length, validate_path
-from snakeplan.geometry.transforms import normalize
+from snakeplan.geometry.transforms import frame_from_z, normalize, pose
 from snakeplan.jit import kernel, leaf
+from snakeplan.robots import Chain
 
 #: How far (mm) P[0] may be from a given entrance point.
 ENTRANCE_TOL = 1e-6
@@ -388,3 +389,17 @@ def max_depth(
         else:
             hi = probe[0]
     return lo
+
+
+def fed_joints(robot: Chain, entrance: np.ndarray, direction: np.ndarray, states: FTLBatch
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """(the arm's base pose (4x4, mm), its joint vectors (T, dof): feed mm, angles rad) for follow-the-leader
+    ``states`` of a fed arm entering at ``entrance`` along unit ``direction``: the base stands on the feed axis
+    behind the entrance where the feed is at its lower end at depth 0. Neither feed nor angles are held to their
+    limits here."""
+    lo, _ = robot.feed_range
+    behind = robot.total_length + lo
+    base_pose = pose(frame_from_z(direction), entrance - behind * direction)
+    q = robot.joint_angles_from_directions(directions(states.joints), base_rotation=base_pose[:3, :3],
+                                           feed=states.joint_arclength[:, 0] + behind)
+    return base_pose, q

@@ -14,6 +14,7 @@ from enum import StrEnum
 import numpy as np
 
 from snakeplan.evaluation.metrics import curvature_profile, path_length, smoothness_index
+from snakeplan.evaluation.statics import crawl_statics
 from snakeplan.geometry.polyline import validate_path
 from snakeplan.robots import Chain
 from snakeplan.scenes import Scene
@@ -33,8 +34,9 @@ CRAWL_STEP_MM = JUDGE.step_mm
 
 class Reason(StrEnum):
     """The judge's verdict (:attr:`Report.reason`): the kind of the first failure in depth (a
-    :class:`~snakeplan.world.FailureKind`), else ``reached`` when every target was reached, else ``not_reached``.
-    A ``str`` so that JSON and printed output hold the plain value, and it compares equal to it."""
+    :class:`~snakeplan.world.FailureKind`), else ``not_holdable`` where the settings require every depth holdable
+    by non-negative cable tensions and one is not, else ``reached`` when every target was reached, else
+    ``not_reached``. A ``str`` so that JSON and printed output hold the plain value, and it compares equal to it."""
 
     REACHED = "reached"
     COLLISION = "collision"
@@ -42,6 +44,7 @@ class Reason(StrEnum):
     INSERTION = "insertion"
     OUT_OF_BOUNDS = "out_of_bounds"
     NOT_REACHED = "not_reached"
+    NOT_HOLDABLE = "not_holdable"
 
 
 @dataclass(frozen=True)
@@ -51,6 +54,9 @@ class JudgeSettings:
     reach_tolerance_mm: float = REACH_TOLERANCE_MM
     crawl_step_mm: float = CRAWL_STEP_MM
     curvature_step_mm: float | None = None  # None: the robot's mean section length (docs/ARCHITECTURE.md)
+    #: Whether a depth that no non-negative cable tensions hold (force closure lost) fails the plan. Off in the
+    #: library's rules: the papers judge geometry, and the tensions are reported beside it.
+    require_holdable: bool = False
 
 
 @dataclass
@@ -79,6 +85,14 @@ class Report:
     curvature: np.ndarray = field(repr=False)
     #: The body at the last judged depth: joints ``(n+1, 3)`` (mm), base first.
     body_mm: np.ndarray = field(repr=False)
+    #: Statics (None for a robot without masses, cables or feed): the largest least cable tension over the crawl
+    #: (N), its depth (mm) and the section whose cable carries it; whether every depth is holdable, and the first
+    #: that is not.
+    peak_tension_n: float | None = None
+    peak_tension_depth_mm: float | None = None
+    peak_tension_section: int | None = None
+    holdable: bool | None = None
+    first_unholdable_depth_mm: float | None = None
 
     def lines(self) -> list[str]:
         """The verdict and the metrics as console lines, one per metric."""
@@ -110,10 +124,15 @@ def evaluate(scene: Scene, robot: Chain, path, settings: JudgeSettings = JudgeSe
     reached_count = targets_reached(p, scene.targets, settings.reach_tolerance_mm)
     reached = reached_count == len(scene.targets)
     failure = check.failure
+    held = crawl_statics(scene, robot, states)
+    unholdable = None if held is None else held.first_unholdable_mm
     if failure is not None:
         reason = Reason(failure.kind)
+    elif settings.require_holdable and unholdable is not None:
+        reason = Reason.NOT_HOLDABLE
     else:
         reason = Reason.REACHED if reached else Reason.NOT_REACHED
+    peak = (None, None, None, None) if held is None else held.peak
 
     s_k, kappa = curvature_profile(p, h)
     k_max = float(kappa.max()) if kappa.size else 0.0
@@ -139,6 +158,11 @@ def evaluate(scene: Scene, robot: Chain, path, settings: JudgeSettings = JudgeSe
         max_bend_rad=float(states.bend_angles.max()),
         first_failure_depth_mm=failure.depth_mm if failure is not None else None,
         crawl_steps=len(states),
+        peak_tension_n=peak[0],
+        peak_tension_depth_mm=peak[1],
+        peak_tension_section=peak[2],
+        holdable=None if held is None else unholdable is None,
+        first_unholdable_depth_mm=unholdable,
         curvature_s=s_k,
         curvature=kappa,
         body_mm=states.joints[-1],

@@ -54,9 +54,13 @@ def _number(where: str, name: str, value: Any) -> float:
 #: The fields of a ``snakeplan.robot/1`` object and of one of its sections; any other is refused, naming it.
 ROBOT_KEYS = ("schema", "name", "sections", "k_ul", "total_length", "dof", "feed_range", "base", "kinematics",
               "limits", "cables", "camera", "description", "source")
-SECTION_KEYS = ("length", "radius", "max_bend")
+SECTION_KEYS = ("length", "radius", "max_bend", "mass_kg", "com_mm")
 #: A section's bend limit below this (rad, 1 deg) is taken for a unit mistake, not an arm.
 MIN_PLAUSIBLE_BEND_RAD = math.radians(1.0)
+#: A section's mean density (kg/mm^3: its mass over its solid cylinder's volume) outside these bounds is taken for
+#: a unit mistake (grams for kilograms, metres for mm): 0.01 g/cm^3 is a tenth of a thin carbon-fibre tube's,
+#: 25 g/cm^3 more than any metal's.
+DENSITY_RANGE_KG_MM3 = (1e-8, 2.5e-5)
 
 
 def _known_keys(where: str, d: Mapping, known: tuple[str, ...]) -> None:
@@ -84,24 +88,64 @@ def _check_section_fields(where: str, length: Any, radius: Any, max_bend: Any) -
     return lv, rv, mv
 
 
+def _check_mass(where: str, length: float, radius: float, mass: Any, com: Any
+                ) -> tuple[float | None, tuple[float, float, float] | None]:
+    """Validated (mass kg, centre of mass mm) of a section of ``length`` and ``radius`` mm: the mass positive and
+    of a plausible density (:data:`DENSITY_RANGE_KG_MM3`), the centre of mass (default: the middle of the axis)
+    inside the section's cylinder. Neither given: (None, None); a centre of mass without a mass is refused."""
+    if mass is None:
+        if com is not None:
+            raise ValueError(f"{where}: com_mm given without mass_kg")
+        return None, None
+    m = _number(where, "mass_kg", mass)
+    if m <= 0:
+        raise ValueError(f"{where}: mass_kg must be > 0, got {m}")
+    density = m / (math.pi * radius ** 2 * length)
+    lo, hi = DENSITY_RANGE_KG_MM3
+    if not lo <= density <= hi:
+        raise ValueError(f"{where}: mass_kg {m:g} is implausible for a section of {length:g} mm by {radius:g} mm "
+                         f"radius ({density * 1e6:.3g} g/cm^3; plausible {lo * 1e6:g} to {hi * 1e6:g}); masses are "
+                         f"in kg, lengths in mm")
+    if com is None:
+        return m, (0.0, 0.0, 0.5 * length)
+    if isinstance(com, str) or not isinstance(com, Sequence | np.ndarray) or len(com) != 3:
+        raise ValueError(f"{where}: com_mm must be [x, y, z] (mm), got {com!r}")
+    c = tuple(_number(where, "com_mm", v) for v in com)
+    tol = _LENGTH_TOL * (1.0 + length)
+    if not -tol <= c[2] <= length + tol or math.hypot(c[0], c[1]) > radius + tol:
+        raise ValueError(f"{where}: com_mm {list(c)} lies outside the section (0 <= z <= {length:g}, "
+                         f"x^2 + y^2 <= {radius:g}^2, mm from its start, z along it)")
+    return m, c
+
+
 @dataclass(frozen=True)
 class Section:
     """One rigid section: ``length`` (mm), body ``radius`` (mm) and ``max_bend`` (rad), the largest angle
-    between its axis and the previous section's axis (for section 0, the base/feed axis)."""
+    between its axis and the previous section's axis (for section 0, the base/feed axis); optionally its
+    ``mass_kg`` (kg) and centre of mass ``com_mm`` (mm, in the section's frame from its start: z along the axis;
+    default the middle of the axis), which the statics (:mod:`snakeplan.robots.statics`) need."""
 
     length: float
     radius: float
     max_bend: float
+    mass_kg: float | None = None
+    com_mm: tuple[float, float, float] | None = None
 
     def __post_init__(self) -> None:
         lv, rv, mv = _check_section_fields("section", self.length, self.radius, self.max_bend)
         object.__setattr__(self, "length", lv)
         object.__setattr__(self, "radius", rv)
         object.__setattr__(self, "max_bend", mv)
+        m, c = _check_mass("section", lv, rv, self.mass_kg, self.com_mm)
+        object.__setattr__(self, "mass_kg", m)
+        object.__setattr__(self, "com_mm", c)
 
-    def to_dict(self) -> dict[str, float]:
-        """``{"length", "radius", "max_bend"}`` (mm, mm, rad)."""
-        return {"length": self.length, "radius": self.radius, "max_bend": self.max_bend}
+    def to_dict(self) -> dict[str, Any]:
+        """``{"length", "radius", "max_bend"}`` (mm, mm, rad), with ``mass_kg`` and ``com_mm`` where given."""
+        out: dict[str, Any] = {"length": self.length, "radius": self.radius, "max_bend": self.max_bend}
+        if self.mass_kg is not None:
+            out.update(mass_kg=self.mass_kg, com_mm=list(self.com_mm))
+        return out
 
 
 @dataclass(frozen=True)
@@ -461,6 +505,10 @@ class Chain:
         self._kin = default_kinematics(self._sections, feed) if kinematics is None else kinematics
         self._base = _readonly(_check_base(base))
         n = len(self._sections)
+        massed = [s.mass_kg is not None for s in self._sections]
+        if any(massed) and not all(massed):
+            raise ValueError(f"sections: section {massed.index(False)} has no mass_kg while section "
+                             f"{massed.index(True)} has one (give every section a mass, or none)")
         self._lengths = _readonly([s.length for s in self._sections])
         self._radii = _readonly([s.radius for s in self._sections])
         self._max_bends = _readonly([s.max_bend for s in self._sections])
@@ -557,6 +605,20 @@ class Chain:
         return self._lengths
 
     @property
+    def masses(self) -> np.ndarray | None:
+        """Section masses (kg), or None when the robot states none."""
+        if self._sections[0].mass_kg is None:
+            return None
+        return _readonly([s.mass_kg for s in self._sections])
+
+    @property
+    def coms(self) -> np.ndarray | None:
+        """Section centres of mass ``(n, 3)`` (mm, each in its section's frame from its start), or None."""
+        if self._sections[0].mass_kg is None:
+            return None
+        return _readonly([s.com_mm for s in self._sections])
+
+    @property
     def radii(self) -> np.ndarray:
         """Section body radii (n,) in mm."""
         return self._radii
@@ -605,6 +667,18 @@ class Chain:
     def cables(self) -> CableRouting | None:
         """The driving cables' routing, or None for an arm that is not cable-driven."""
         return self._cables
+
+    def with_masses(self, masses_kg: ArrayLike, coms_mm: ArrayLike | None = None) -> Chain:
+        """A copy whose sections weigh ``masses_kg`` (kg, one per section) with centres of mass ``coms_mm``
+        (``(n, 3)`` mm, each in its section's frame from its start; default the middle of each axis)."""
+        m = np.asarray(masses_kg, dtype=float).reshape(-1)
+        if m.size != self.n_sections:
+            raise ValueError(f"masses_kg: {m.size} masses for {self.n_sections} sections")
+        c = [None] * m.size if coms_mm is None else [tuple(row) for row in np.asarray(coms_mm, dtype=float)]
+        sections = [Section(s.length, s.radius, s.max_bend, float(mi), ci)
+                    for s, mi, ci in zip(self._sections, m, c)]
+        return Chain(sections, name=self._name, feed_range=self._feed, base=self._base, k_ul=self._k_ul,
+                     kinematics=self._kin, limits=self._limits, cables=self._cables, camera=self._camera)
 
     def with_base(self, base: ArrayLike) -> Chain:
         """A copy of this chain standing at ``base`` (4x4)."""
@@ -931,7 +1005,8 @@ class Chain:
                 raise ValueError(f"{where}: max_bend {fields[2]:.4g} rad ({math.degrees(fields[2]):.3g} deg) is "
                                  f"implausibly small for a snake arm's section (under 1 deg); robot files state "
                                  f"angles in rad")
-            sections.append(Section(*fields))
+            mass = _check_mass(where, fields[0], fields[1], s.get("mass_kg"), s.get("com_mm"))
+            sections.append(Section(*fields, *mass))
         k_ul = d.get("k_ul")
         if k_ul is not None:
             k_ul = _number("k_ul", "", k_ul)

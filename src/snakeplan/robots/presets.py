@@ -1,7 +1,9 @@
 """Robot presets of the three source papers, by name (mm, rad, 1/mm).
 
 - ``sjtu-snake-iii`` (paper 000, Zhu et al. 2026): 12 two-DoF sections, 2130 mm, 55 mm diameter, 50.7 deg
-  between sections, k_UL = 0.0055 /mm (reproduces the paper's smoothness indices), feed 0..2130 mm. Cable-driven:
+  between sections, k_UL = 0.0055 /mm (reproduces the paper's smoothness indices), feed 0..2130 mm, 0.91 kg in
+  all (paper 000's Table 1: "total mass of arm"), shared evenly, each section's centre of mass at the middle of
+  its axis (the paper gives no distribution; its discs and joints repeat along the arm). Cable-driven:
   "each platform ... controlled by three driving cables"; the paper gives no routing, so 3 cables per section
   120 deg apart, each section's pattern turned 10 deg from the previous one's (the 36 cables use 36 holes 10 deg
   apart); pitch radius 22 mm (0.8 of the 27.5 mm outer radius, leaving a 5.5 mm wall outside the holes); disc
@@ -11,10 +13,13 @@
 - ``sscc-16`` / ``sscc-24`` (paper 001, SSCC in pipes): 8 / 12 universal joints of equal total length. The
   paper's tables were lost, so: 1200 mm total (150 / 100 mm sections), radius 15 mm, 60 deg per joint, a base
   feed 0..1200 mm (the pipe scenes feed the arm along the pipe axis). Their k_UL is the curvature of the circle
-  through three joints at maximum bend, ``2 sin(max_bend / 2) / length`` (1/150 and 1/100 /mm).
+  through three joints at maximum bend, ``2 sin(max_bend / 2) / length`` (1/150 and 1/100 /mm). Masses, which the
+  paper does not give: 0.6 kg for the 1.2 m arm (a thin aluminium tube with its joints), shared evenly.
 - ``hsr-10`` (paper 002, Qin et al. 2024): loaded from ``data/hsr-10.yaml`` (modified DH, eq. 1); the paper
   gives no sizes, so 10 units of 800 mm, radius 60 mm, 30 deg per section, feed 0..2000 mm along the paper's
-  base y axis (turned onto snakeplan's +z); k_UL by the same three-joint rule.
+  base y axis (turned onto snakeplan's +z); k_UL by the same three-joint rule. Masses, which the paper does not
+  give: 4 kg a unit (a 40 kg arm of 8 m, its units hollow), at the middle of each; the station is in free fall,
+  so its scenes have no gravity and the masses matter only elsewhere.
 
 Motion limits (:class:`~snakeplan.robots.limits.MotionLimits`) bound the time-parameterised trajectories; the papers
 give none, so these are chosen for slow, safe motion at each arm's scale: sjtu-snake-iii feed 50 mm/s and
@@ -32,6 +37,8 @@ from collections.abc import Callable
 from importlib.resources import files
 from pathlib import Path
 
+import numpy as np
+
 from snakeplan.inputs import load_json
 from snakeplan.registry import Registry
 from snakeplan.robots.cable_routing import CableRouting
@@ -45,6 +52,7 @@ SJTU_RADIUS_MM = 55.0 / 2.0
 SJTU_MAX_BEND_RAD = math.radians(50.7)
 SJTU_K_UL = 0.0055  # 1/mm, paper 000 eq. 20
 SJTU_FEED_RANGE_MM = (0.0, 2130.0)
+SJTU_MASS_KG = 0.91
 SJTU_CABLES_PER_SECTION = 3
 SJTU_CABLE_PITCH_RADIUS_MM = 22.0
 SJTU_DISC_SPACING_MM = 30.0
@@ -56,6 +64,7 @@ SSCC_TOTAL_LENGTH_MM = 1200.0
 SSCC_RADIUS_MM = 15.0
 SSCC_MAX_BEND_RAD = math.radians(60.0)
 SSCC_FEED_RANGE_MM = (0.0, 1200.0)
+SSCC_MASS_KG = 0.6
 SSCC_LIMITS = MotionLimits(feed_speed_mm_s=50.0, feed_acceleration_mm_s2=100.0, joint_rate_rad_s=0.5,
                            joint_acceleration_rad_s2=1.0)
 
@@ -65,6 +74,7 @@ HSR_RADIUS_MM = 60.0
 HSR_MAX_BEND_RAD = math.radians(30.0)
 HSR_FEED_RANGE_MM = (0.0, 2000.0)
 HSR_DH_FILE = "hsr-10.yaml"
+HSR_UNIT_MASS_KG = 4.0
 
 
 def three_joint_k_ul(length: float, max_bend: float) -> float:
@@ -77,7 +87,7 @@ def sjtu_snake_iii() -> Chain:
     section."""
     length = SJTU_TOTAL_LENGTH_MM / SJTU_SECTIONS
     return Chain(
-        [Section(length, SJTU_RADIUS_MM, SJTU_MAX_BEND_RAD)] * SJTU_SECTIONS,
+        [Section(length, SJTU_RADIUS_MM, SJTU_MAX_BEND_RAD, SJTU_MASS_KG / SJTU_SECTIONS)] * SJTU_SECTIONS,
         name="sjtu-snake-iii",
         feed_range=SJTU_FEED_RANGE_MM,
         k_ul=SJTU_K_UL,
@@ -91,7 +101,7 @@ def sscc(n_joints: int) -> Chain:
     """SSCC arm (paper 001) with ``n_joints`` universal joints over 1200 mm, with a base feed."""
     length = SSCC_TOTAL_LENGTH_MM / n_joints
     return Chain(
-        [Section(length, SSCC_RADIUS_MM, SSCC_MAX_BEND_RAD)] * n_joints,
+        [Section(length, SSCC_RADIUS_MM, SSCC_MAX_BEND_RAD, SSCC_MASS_KG / n_joints)] * n_joints,
         name=f"sscc-{2 * n_joints}",
         feed_range=SSCC_FEED_RANGE_MM,
         k_ul=three_joint_k_ul(length, SSCC_MAX_BEND_RAD),
@@ -101,7 +111,8 @@ def sscc(n_joints: int) -> Chain:
 
 def hsr_10() -> Chain:
     """HSR-10 (paper 002) from its shipped DH table."""
-    return load_dh(str(files("snakeplan.robots").joinpath("data", HSR_DH_FILE)))
+    chain = load_dh(str(files("snakeplan.robots").joinpath("data", HSR_DH_FILE)))
+    return chain.with_masses(np.full(chain.n_sections, HSR_UNIT_MASS_KG))
 
 
 def sscc_16() -> Chain:

@@ -79,8 +79,26 @@ def _cylinder(link: ElementTree.Element, start: np.ndarray, end: np.ndarray, rad
                                length=_fmt([np.linalg.norm(axis) * scale]))
 
 
+def _inertial(link: ElementTree.Element, end: np.ndarray, section: Section, scale: float) -> None:
+    """``<inertial>`` of ``section`` on ``link``: its mass (kg) at its centre of mass, from the section's end frame
+    ``end`` (4x4 in the link's frame, +z along the section), with a solid cylinder's inertia (kg m^2) about it,
+    for dynamics users; statics need the mass and centre of mass alone."""
+    if link.find("inertial") is not None:
+        raise ValueError(f"urdf: link {link.get('name')} would carry two sections' masses")
+    T = end.copy()
+    T[:3, 3] = end[:3, 3] + end[:3, :3] @ (np.asarray(section.com_mm) - [0.0, 0.0, section.length])
+    el = ElementTree.SubElement(link, "inertial")
+    _origin(el, T, scale)
+    m, r, length = section.mass_kg, section.radius * scale, section.length * scale
+    ElementTree.SubElement(el, "mass", value=_fmt([m]))
+    side, axial = m * (3.0 * r * r + length * length) / 12.0, 0.5 * m * r * r
+    ElementTree.SubElement(el, "inertia", ixx=_fmt([side]), ixy="0.0", ixz="0.0", iyy=_fmt([side]), iyz="0.0",
+                           izz=_fmt([axial]))
+
+
 def to_urdf(chain: Chain, *, length_scale: float = 1e-3) -> str:
-    """URDF XML text of ``chain`` at its base pose (root link ``world``, arm root ``base_link``)."""
+    """URDF XML text of ``chain`` at its base pose (root link ``world``, arm root ``base_link``), with each
+    section's ``<inertial>`` where the chain states masses."""
     kin = chain.kinematics
     lower, upper = chain.joint_limits()
     robot = ElementTree.Element("robot", name=chain.name)
@@ -107,6 +125,8 @@ def to_urdf(chain: Chain, *, length_scale: float = 1e-3) -> str:
             T = acc.copy()
             T[:3, :3] = acc[:3, :3] @ (link_pose @ acc)[:3, :3].T
             name = "arm_base" if mark == 0 else f"s{mark - 1}_end"
+            if mark > 0 and chain.masses is not None:
+                _inertial(links[current], T, chain.sections[mark - 1], length_scale)
             add_joint(f"{name}_joint", "fixed", current, name, T)
             mark += 1
         if index == kin.frames[-1]:
@@ -335,6 +355,29 @@ def _tip(model, end: str, children: dict[str, list[Any]]) -> tuple[str, np.ndarr
     return link, T
 
 
+def _section_masses(model, links_of: list[list[str]], before: dict[str, np.ndarray], path: list[Any],
+                    R0: np.ndarray, pivots: np.ndarray) -> list[tuple[float | None, tuple | None]]:
+    """Per section, (mass kg, centre of mass mm in its frame from its start) of the ``<inertial>`` elements on its
+    links, summed; (None, None) for every section unless each has a positive mass (a URDF without inertials, or
+    with some links unweighed, states no statics)."""
+    by_name = {lk.name: lk for lk in model.robot.links}
+    pose = {j.child: before[j.name] for j in path}
+    out = []
+    for i, links in enumerate(links_of):
+        total, moment = 0.0, np.zeros(3)
+        for name in links:
+            inertial = by_name[name].inertial
+            if inertial is None or not inertial.mass:
+                continue
+            at = pose[name] @ _matrix(inertial.origin)
+            total += float(inertial.mass)
+            moment += float(inertial.mass) * at[:3, 3]
+        if total <= 0.0:
+            return [(None, None)] * len(links_of)
+        out.append((total, tuple(R0.T @ (moment / total - pivots[i]))))
+    return out
+
+
 def from_urdf(source: str | os.PathLike) -> Chain:
     """Chain from a URDF file or XML text (see the module docstring for what is understood); ValueError
     ``urdf: ...`` naming the element that is wrong or unsupported."""
@@ -432,12 +475,16 @@ def from_urdf(source: str | os.PathLike) -> Chain:
         start = names.index(j.name)
         stop = names.index(revolute[2 * i + 2].name) if 2 * i + 2 < len(revolute) else len(path)
         links_of.append([p.child for p in path[start:stop]])
+    masses = _section_masses(model, links_of, before, path, R0, pivots)
     sections = []
     for i, pair in enumerate(zip(revolute[::2], revolute[1::2])):
         bend = min(min(abs(lo), abs(hi)) for lo, hi in (limits[movable.index(p)] for p in pair))
         if not 0.0 < bend < math.pi:
             raise _fail(f"joint '{pair[0].name}': section {i} must bend both ways (limits around 0, within +-pi)")
-        sections.append(Section(float(lengths[i]), _radius(model, links_of[i], children, i), bend))
+        try:
+            sections.append(Section(float(lengths[i]), _radius(model, links_of[i], children, i), bend, *masses[i]))
+        except ValueError as exc:
+            raise _fail(f"links of section {i}: {str(exc).removeprefix('section: ')}") from None
     speeds = {}
     if feed is not None and feed.limit.velocity:
         speeds["feed_speed_mm_s"] = feed.limit.velocity * _MM

@@ -18,7 +18,7 @@ from snakeplan import ftl
 from snakeplan.geometry.polyline import point_at
 from snakeplan.robots import Chain
 from snakeplan.scenes import Scene
-from snakeplan.trajectory import Trajectory, fed_joints
+from snakeplan.trajectory import Trajectory
 from snakeplan.world import JUDGE
 from snakeplan.world.joint_motion import arm_bodies, interpolate
 from snakeplan.world.mission import Crawl, Views
@@ -107,7 +107,7 @@ def of_plan(scene: Scene, robot: Chain, path: np.ndarray, report) -> Recording:
     p = np.asarray(path, dtype=np.float64)
     entrance, u = scene.entrance.position, scene.entrance.direction
     states = ftl.crawl(p, robot.lengths, u, JUDGE.step_mm, entrance=entrance)
-    base, q = fed_joints(robot, entrance, u, states)
+    base, q = ftl.fed_joints(robot, entrance, u, states)
     speed = robot.limits.feed_speed_mm_s
     failure = None
     if report.first_failure_depth_mm is not None:
@@ -129,7 +129,7 @@ def _crawl_samples(scene: Scene, robot: Chain, crawl: Crawl) -> tuple[np.ndarray
     t, d = np.concatenate(times), np.concatenate(depths)
     entrance, u = scene.entrance.position, scene.entrance.direction
     states = ftl.fit_states(crawl.path, robot.lengths, d, u, entrance=entrance)
-    base, q = fed_joints(robot, entrance, u, states)
+    base, q = ftl.fed_joints(robot, entrance, u, states)
     return t, np.broadcast_to(base, (len(t), 4, 4)), q
 
 

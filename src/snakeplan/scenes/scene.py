@@ -9,6 +9,7 @@ reader of scene files, also checks the metadata that code reads and where the en
 from __future__ import annotations
 
 import json
+import math
 import os
 import warnings
 from dataclasses import dataclass, field, replace
@@ -29,6 +30,11 @@ ENTRANCE_TOLERANCE_MM = CONTACT_RESOLUTION_MM
 #: Most obstacles in a scene file (the generated scenes have at most about 50; `snakeplan show` draws 10,000 in
 #: well under a minute).
 MAX_OBSTACLES = 10_000
+#: Gravity (m/s^2) of a scene that states none: the Earth's, down the scene's -z (every tank and vessel family
+#: stands with +z up).
+DEFAULT_GRAVITY = (0.0, 0.0, -9.81)
+#: The largest gravity (m/s^2) a scene may state: ten times the Earth's; more is a unit mistake.
+MAX_GRAVITY_M_S2 = 100.0
 
 
 class MeshWarning(UserWarning):
@@ -63,6 +69,8 @@ class Scene:
     meets them only through its sensor); every other obstacle is prior (walls, partitions, the CAD structure).
     ``inspect``: what an inspect task looks at (:mod:`snakeplan.scenes.inspect`); None: every surface.
     ``task``: the task a scene file asks for (``"task"``: reach, inspect or search); None: its family's.
+    ``gravity``: the gravity vector (m/s^2, scene frame; default :data:`DEFAULT_GRAVITY`, 9.81 down -z; the station
+    has none): what the statics of the judge (cable tensions) hold the arm against.
 
     Immutable: its arrays are read-only and its obstacles a tuple, so the packed obstacles it caches can never go
     stale. Build a changed scene with ``dataclasses.replace``.
@@ -79,6 +87,7 @@ class Scene:
     discovered: tuple[int, ...] = ()
     inspect: InspectSpec | None = None
     task: Task | None = None
+    gravity: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         lo, hi = inputs.corners(self.bounds_min, self.bounds_max, "bounds")
@@ -94,7 +103,8 @@ class Scene:
                   "targets": _frozen(inputs.points(self.targets, "targets")), "obstacles": obstacles,
                   "metadata": inputs.mapping(self.metadata, "metadata"),
                   "discovered": _indices(self.discovered, len(obstacles)),
-                  "task": None if self.task is None else as_task(self.task)}
+                  "task": None if self.task is None else as_task(self.task),
+                  "gravity": _frozen(check_gravity(DEFAULT_GRAVITY if self.gravity is None else self.gravity))}
         if self.inspect is not None:
             if not isinstance(self.inspect, InspectSpec):
                 raise ValueError(f"inspect: expected an InspectSpec, got {inputs.show(self.inspect)}")
@@ -180,6 +190,8 @@ class Scene:
             d["inspect"] = self.inspect.to_dict()
         if self.task is not None:
             d["task"] = str(self.task)
+        if not np.array_equal(self.gravity, DEFAULT_GRAVITY):
+            d["gravity"] = self.gravity.tolist()
         return d
 
     def to_json(self, indent: int | None = None) -> str:
@@ -228,7 +240,7 @@ class Scene:
                     entrance=Entrance(entrance["position"], entrance["direction"]), targets=d.get("targets", []),
                     obstacles=obstacles, metadata=metadata, discovered=tuple(discovered),
                     inspect=None if d.get("inspect") is None else InspectSpec.from_dict(d["inspect"], len(obstacles)),
-                    task=d.get("task"))
+                    task=d.get("task"), gravity=d.get("gravity"))
         check_placement(scene)
         return scene
 
@@ -237,6 +249,17 @@ class Scene:
         """Parse scene JSON ``text`` (:func:`snakeplan.inputs.load_json`'s limits; ``source`` names the file in a
         message about the file as a whole; mesh files are read relative to ``base_dir``)."""
         return cls.from_dict(inputs.load_json(text, source), base_dir)
+
+
+def check_gravity(value) -> np.ndarray:
+    """``value`` as a gravity vector (m/s^2): three finite numbers, at most :data:`MAX_GRAVITY_M_S2` long
+    (ValueError naming ``gravity``)."""
+    g = inputs.vector(value, "gravity", 3, limit=math.inf, shape="[gx, gy, gz] (m/s^2)")
+    size = float(np.linalg.norm(g))
+    if size > MAX_GRAVITY_M_S2:
+        raise ValueError(f"gravity: {size:.4g} m/s^2 is implausible (at most {MAX_GRAVITY_M_S2:g} m/s^2, ten times "
+                         f"the Earth's; gravity is in m/s^2, not mm/s^2)")
+    return g
 
 
 def check_placement(scene: Scene) -> None:

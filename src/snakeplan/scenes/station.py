@@ -225,7 +225,7 @@ def station(seed: int, *, n_sources: int = HEAT_SOURCES, base_temperature_k: flo
         "parameters": {"n_sources": n_sources, "base_temperature_k": base_temperature_k},
     }
     return Scene("station", seed, [-R - margin, -R - margin, -margin], [R + margin, R + margin, H + margin],
-                 entrance, np.zeros((0, 3)), [Mesh(V, F)], meta)
+                 entrance, np.zeros((0, 3)), [Mesh(V, F)], meta, gravity=(0.0, 0.0, 0.0))
 
 
 @dataclass(frozen=True)

@@ -19,7 +19,6 @@ from snakeplan.trajectory.build import (
     InfeasiblePlan,
     Trajectory,
     build_trajectory,
-    fed_joints,
 )
 from snakeplan.trajectory.documents import (
     SCHEMA,
@@ -34,5 +33,5 @@ from snakeplan.trajectory.replay import ReplayReport, replay
 from snakeplan.trajectory.timing import METHOD, Timing, time_scale
 
 __all__ = ["FEED_SLACK_MM", "LIMIT_SLACK", "METHOD", "SCHEMA", "InfeasiblePlan", "ReplayReport", "Timing",
-           "Trajectory", "build_trajectory", "fed_joints", "output_format", "read_plan", "replay", "ros_message",
+           "Trajectory", "build_trajectory", "output_format", "read_plan", "replay", "ros_message",
            "time_scale", "to_csv", "to_dict", "write"]

@@ -9,7 +9,7 @@ from numpy.typing import ArrayLike
 
 from snakeplan import ftl
 from snakeplan.evaluation import Report, evaluate
-from snakeplan.geometry.transforms import frame_from_z, pose
+from snakeplan.evaluation.statics import CrawlStatics, crawl_statics
 from snakeplan.robots import Chain
 from snakeplan.robots.cables import cable_lengths
 from snakeplan.scenes import Scene
@@ -36,8 +36,9 @@ class Trajectory:
     their times; ``positions``, ``velocities``, ``accelerations`` ``(T, dof)`` in the robot's joint order (feed
     mm, angles rad); ``tip_poses (T, 4, 4)`` (mm, scene frame); ``body (T, n+1, 3)`` the follow-the-leader joints
     the judge crawled (mm); ``deviation_mm (T,)`` the largest chord-to-path deviation of an inserted link;
-    ``cables (T, n_cables)`` (mm) or None. ``provenance`` says where the plan came from; ``report`` is the
-    judge's."""
+    ``cables (T, n_cables)`` (mm) or None; ``statics`` the cable tensions that hold the arm at each state against
+    the scene's gravity (:mod:`snakeplan.evaluation.statics`), or None for a robot without masses or cables.
+    ``provenance`` says where the plan came from; ``report`` is the judge's."""
 
     robot: Chain
     base_pose: np.ndarray
@@ -53,6 +54,7 @@ class Trajectory:
     direction: np.ndarray
     report: Report = field(repr=False)
     provenance: dict = field(default_factory=dict)
+    statics: CrawlStatics | None = field(default=None, repr=False)
 
     @property
     def t(self) -> np.ndarray:
@@ -82,20 +84,6 @@ def _inserted_deviation(states: ftl.FTLBatch) -> np.ndarray:
     return np.max(np.where(inserted, states.deviation, 0.0), axis=1)
 
 
-def fed_joints(robot: Chain, entrance: np.ndarray, direction: np.ndarray, states: ftl.FTLBatch
-               ) -> tuple[np.ndarray, np.ndarray]:
-    """(the arm's base pose (4x4, mm), its joint vectors (T, dof): feed mm, angles rad) for follow-the-leader
-    ``states`` of a fed arm entering at ``entrance`` along unit ``direction``: the base stands on the feed axis
-    behind the entrance where the feed is at its lower end at depth 0. Neither feed nor angles are held to their
-    limits here."""
-    lo, _ = robot.feed_range
-    behind = robot.total_length + lo
-    base_pose = pose(frame_from_z(direction), entrance - behind * direction)
-    q = robot.joint_angles_from_directions(ftl.directions(states.joints), base_rotation=base_pose[:3, :3],
-                                           feed=states.joint_arclength[:, 0] + behind)
-    return base_pose, q
-
-
 def build_trajectory(scene: Scene, robot: Chain, path: ArrayLike, provenance: dict | None = None,
                      report: Report | None = None) -> Trajectory:
     """The trajectory of ``robot`` crawling the tip ``path`` (mm) into ``scene``: every judged crawl state, timed
@@ -114,7 +102,7 @@ def build_trajectory(scene: Scene, robot: Chain, path: ArrayLike, provenance: di
     p = np.asarray(path, dtype=np.float64)
     entrance, u = scene.entrance.position, scene.entrance.direction
     states = ftl.crawl(p, robot.lengths, u, JUDGE.step_mm, entrance=entrance)
-    base_pose, q = fed_joints(robot, entrance, u, states)
+    base_pose, q = ftl.fed_joints(robot, entrance, u, states)
     lo, hi = robot.feed_range
     if np.max(q[:, 0]) > hi + FEED_SLACK_MM:
         raise InfeasiblePlan(f"plan: needs {np.max(q[:, 0]) - lo:.6g} mm of feed, the feed stage of {robot.name} "
@@ -132,5 +120,6 @@ def build_trajectory(scene: Scene, robot: Chain, path: ArrayLike, provenance: di
     timing = time_scale(states.s, q, robot.limits, feed_joint=0)
     cables = cable_lengths(placed, q) if robot.cables is not None else None
     return Trajectory(robot, base_pose, states.s, timing, q, frames[:, -1], states.joints,
-                      _inserted_deviation(states), cables, p, entrance, u, report, dict(provenance or {}))
+                      _inserted_deviation(states), cables, p, entrance, u, report, dict(provenance or {}),
+                      crawl_statics(scene, robot, states))
 

@@ -82,7 +82,8 @@ def to_dict(traj: Trajectory) -> dict[str, Any]:
         "provenance": {"snakeplan": __version__, **traj.provenance,
                        "judge": {"success": report.success, "reason": report.reason,
                                  "max_deviation_mm": report.max_deviation_mm,
-                                 "min_clearance_mm": report.min_clearance_mm},
+                                 "min_clearance_mm": report.min_clearance_mm,
+                                 "peak_tension_n": report.peak_tension_n, "holdable": report.holdable},
                        "entrance": {"position": traj.entrance, "direction": traj.direction},
                        "path": traj.path},
     }
@@ -100,6 +101,9 @@ def to_dict(traj: Trajectory) -> dict[str, Any]:
                  "deviation_mm": traj.deviation_mm[k], "deviation_percent": traj.deviation_percent[k]}
         if traj.cables is not None:
             point["cable_lengths"] = traj.cables[k]
+        if traj.statics is not None:
+            point["cable_tensions_n"] = traj.statics.tensions_n[k]
+            point["holdable"] = bool(traj.statics.holdable[k])
         points.append(point)
     doc["points"] = points
     return jsonable(doc)
@@ -110,8 +114,8 @@ def _unit(name: str, feed: str, length: str, angle: str) -> str:
 
 
 def to_csv(traj: Trajectory) -> str:
-    """One row per point: time, depth, positions, velocities, tip position, deviation, cable lengths (mm, rad,
-    s; the column names say the unit)."""
+    """One row per point: time, depth, positions, velocities, tip position, deviation, cable lengths and tensions
+    (mm, rad, s, N; the column names say the unit)."""
     robot = traj.robot
     feed = robot.joint_names[0]
     header = ["t_s", "depth_mm"]
@@ -120,6 +124,8 @@ def to_csv(traj: Trajectory) -> str:
     header += ["tip_x_mm", "tip_y_mm", "tip_z_mm", "deviation_mm", "deviation_percent"]
     if traj.cables is not None:
         header += [f"{n}_mm" for n in robot.cables.names]
+    if traj.statics is not None:
+        header += [f"{n}_tension_n" for n in robot.cables.names]
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
     writer.writerow(header)
@@ -128,6 +134,8 @@ def to_csv(traj: Trajectory) -> str:
                traj.deviation_mm[k], traj.deviation_percent[k]]
         if traj.cables is not None:
             row += list(traj.cables[k])
+        if traj.statics is not None:
+            row += list(traj.statics.tensions_n[k])
         writer.writerow([repr(float(v)) for v in row])
     return out.getvalue()
 
