@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 
 from snakeplan.evaluation import evaluate
 from snakeplan.geometry.distance import ObstacleSet, workspace
-from snakeplan.geometry.primitives import Sphere
+from snakeplan.geometry.primitives import Plate, Sphere
 from snakeplan.planners import Planner, Problem, get_planner, planner_names
 from snakeplan.robots import get_robot
 from snakeplan.scenes import Entrance, Scene, make_scene
@@ -113,18 +113,22 @@ def test_a_sensed_views_scene_is_structure_only():
     assert np.array_equal(view.scene.targets, scene.targets)
     with pytest.raises(UnsensedObstacleError):
         view.scene.obstacles
-    assert len(view.fresh().obstacle_set) == len(scene.obstacles) - scene.metadata["clutter"]
+    assert len(view.fresh().obstacle_set) == len(scene.obstacles) - len(scene.discovered)
 
 
 def test_fuel_tank_clutter_is_discovered_and_the_structure_prior():
-    """The generator marks its clutter (the last ``metadata["clutter"]`` obstacles) as discovered; a sensed view
-    starts knowing the walls, partitions and frame and none of the clutter."""
+    """Paper 000's setting (§4.1): the operator knows the coarse structure alone. The generator lists the six outer
+    walls and seven partitions first (plates, the holes cut in them) and marks everything after them, the support
+    frame and the clutter, as discovered; a sensed view starts knowing the walls and partitions only."""
     for seed in range(3):
         scene = make_scene("fuel-tank", seed)
         n, clutter = len(scene.obstacles), scene.metadata["clutter"]
-        assert clutter >= 3 and scene.discovered == tuple(range(n - clutter, n))
+        coarse = 6 + 7
+        assert all(isinstance(o, Plate) for o in scene.obstacles[:coarse])
+        assert not any(isinstance(o, Plate) for o in scene.obstacles[coarse:])
+        assert clutter >= 3 and scene.discovered == tuple(range(coarse, n)) and n - coarse > clutter
         view = SensedView.of(scene)
-        assert list(view.known) == [True] * (n - clutter) + [False] * clutter
+        assert list(view.known) == [True] * coarse + [False] * (n - coarse)
         assert not SensedView.of(scene, prior=False).known.any()
     assert make_scene("oil-tank", 0).prior.all()
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import csv
 import io
+import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -34,7 +35,10 @@ DEFAULT_RUNS = 10
 DEFAULT_TIME_LIMIT_S = 10.0
 #: The runner's configuration name of this table (rows' ``config``; ``bench report`` draws its figures).
 CONFIG = "table2"
-METRICS = ("path_length_mm", "compute_time_s", "smoothness_index")
+METRICS = ("path_length_mm", "compute_time_s", "smoothness_index", "peak_tension_n")
+#: The path optimiser's levels of the table's rows: each planner as its paper has it, then optimised
+#: (:mod:`snakeplan.optimize`); an optimised row is labelled ``"<planner> +<level>"``.
+OPTIMIZE_LEVELS = ("none", "fast")
 
 #: Paper 000, Table 2: (mean, std) of path length (mm), computation time (s), smoothness index.
 PAPER_TABLE2: dict[tuple[str, str], dict[str, tuple[float, float]]] = {
@@ -76,6 +80,8 @@ class Table2Config:
     knowledge: tuple[str, ...] = KNOWLEDGE
     #: Whether the generalist policy's rows go beside the family policies' (when the generalist is installed).
     generalist: bool = True
+    #: The optimiser levels: every planner's rows at each (:data:`OPTIMIZE_LEVELS`).
+    optimize: tuple[str, ...] = OPTIMIZE_LEVELS
 
     def planners_in(self, scene: str) -> tuple[str, ...]:
         """The planners compared in ``scene``: all but those whose trained policy ships only for other scene
@@ -89,11 +95,13 @@ class Table2Config:
                              f"for some scene families is compared only in those)")
 
     def entries_in(self, scene: str) -> tuple[tuple[str, str, dict], ...]:
-        """(label, planner, options) of each row group in ``scene``: :meth:`planners_in`, then the generalist."""
-        rows = [(p, p, {}) for p in self.planners_in(scene)]
+        """(label, planner, options) of each row group in ``scene``: :meth:`planners_in`, then the generalist, at
+        each optimiser level (the first level's rows carry the planner's own name)."""
+        base = [(p, p, {}) for p in self.planners_in(scene)]
         if self.generalist and generalist_installed():
-            rows.append(("generalist", *GENERALIST_ENTRY))
-        return tuple(rows)
+            base.append(("generalist", *GENERALIST_ENTRY))
+        return tuple((label if level == "none" else f"{label} +{level}", planner, {**options, "optimize": level})
+                     for level in self.optimize for label, planner, options in base)
 
     def robot_in(self, scene: str) -> str:
         """The robot planned in ``scene``."""
@@ -101,14 +109,14 @@ class Table2Config:
 
     def sweep(self) -> Sweep:
         """This table as a sweep of the benchmark runner."""
-        entries = tuple((p, {}) for p in self.planners)
-        if self.generalist and generalist_installed():
-            entries += (GENERALIST_ENTRY,)
+        entries: list[tuple[str, dict]] = []
+        for s in self.scenes:
+            entries += [(p, o) for _, p, o in self.entries_in(s) if (p, o) not in entries]
 
         def include(scene: str, planner: str, options: dict) -> bool:
-            return (planner, options) == GENERALIST_ENTRY or planner in self.planners_in(scene)
+            return any((p, o) == (planner, options) for _, p, o in self.entries_in(scene))
 
-        return Sweep(CONFIG, self.scenes, self.seeds, entries, self.time_limit_s, self.robot, self.knowledge,
+        return Sweep(CONFIG, self.scenes, self.seeds, tuple(entries), self.time_limit_s, self.robot, self.knowledge,
                      include=include)
 
     def blocks(self) -> tuple[int, ...]:
@@ -144,12 +152,69 @@ def run_table2(config: Table2Config, out_dir: str | Path, fresh: bool = False, p
 
 
 def table2_outputs(config: Table2Config, rows: list[dict], out: Path) -> dict:
-    """Write ``table2.md`` (summary and Appendix A), ``table2.csv`` and ``fig7_*.png`` from logged rows."""
+    """Write ``table2.md`` (summary, smoothness against tension, Appendix A), ``table2.csv``, ``fig7_*.png`` and
+    ``tension.png`` from logged rows."""
     summary = summarise(rows, config)
-    atomic_write(out / "table2.md", summary_markdown(summary, config) + "\n\n" + statistics_markdown(rows, config))
+    atomic_write(out / "table2.md", summary_markdown(summary, config) + "\n\n" + tension_markdown(rows, config)
+                 + "\n\n" + statistics_markdown(rows, config))
     _write_summary_csv(out / "table2.csv", summary)
     figure_7(config, rows, out)
+    tension_figure(config, rows, out)
     return summary
+
+
+def smoothness_and_tension(rows: list[dict], config: Table2Config, scene: str | None = None
+                           ) -> tuple[np.ndarray, np.ndarray]:
+    """(smoothness index, peak tension N) of every successful run of the table (of ``scene`` when given), each run
+    once whatever its knowledge block."""
+    keys = {(s, p, json.dumps(o, sort_keys=True)) for s in config.scenes for _, p, o in config.entries_in(s)}
+    pairs = {r["key"]: (r["metrics"]["smoothness_index"], r["metrics"].get("peak_tension_n")) for r in rows
+             if r["success"] and (scene is None or r["scene"] == scene)
+             and (r["scene"], r["planner"], json.dumps(r.get("options", {}), sort_keys=True)) in keys}
+    kept = np.array([v for v in pairs.values() if v[1] is not None], dtype=float).reshape(-1, 2)
+    return kept[:, 0], kept[:, 1]
+
+
+def tension_markdown(rows: list[dict], config: Table2Config) -> str:
+    """Spearman's rank correlation of the smoothness index with the peak cable tension over the table's successful
+    plans, per scene and in all (paper 000 §1: abrupt curvature means unfavourable tensions)."""
+    from scipy.stats import spearmanr
+
+    lines = ["## Smoothness against cable tension", "",
+             "Spearman's rank correlation of each successful plan's smoothness index with its peak cable tension "
+             "(`tension.png`); paper 000 argues that smoother paths need lower tensions, which is a negative rho.",
+             "", "| plans | n | rho | p |", "|---|---|---|---|"]
+    for scene in (*config.scenes, None):
+        S, T = smoothness_and_tension(rows, config, scene)
+        if S.size < 3:
+            continue
+        rho, p = spearmanr(S, T)
+        lines.append(f"| {scene or 'all'} | {S.size} | {rho:.3f} | {p:.3g} |")
+    return "\n".join(lines)
+
+
+def tension_figure(config: Table2Config, rows: list[dict], out: Path) -> Path | None:
+    """``tension.png``: every successful plan's peak cable tension against its smoothness index, per scene."""
+    import matplotlib.pyplot as plt
+
+    from snakeplan.viz.figures import save_figure
+
+    fig, ax = plt.subplots(figsize=(7, 5))
+    drawn = False
+    for i, scene in enumerate(config.scenes):
+        S, T = smoothness_and_tension(rows, config, scene)
+        if S.size:
+            ax.scatter(S, T, s=10, alpha=0.6, color=f"C{i}", label=f"{scene} ({S.size} plans)")
+            drawn = True
+    if not drawn:
+        plt.close(fig)
+        return None
+    ax.set_xlabel("smoothness index S (eq. 20)")
+    ax.set_ylabel("peak cable tension (N)")
+    ax.set_title("Table 2's plans: smoothness against the tension that holds the arm")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    return save_figure(fig, out / "tension.png")
 
 
 def _values(rows: list[dict], metric: str, successful_only: bool) -> np.ndarray:
@@ -178,7 +243,9 @@ def summarise(rows: list[dict], config: Table2Config) -> dict:
                                      float(v.std(ddof=1)) if v.size > 1 else math.nan)
                 entry["median_compute_time_s"] = float(np.median(_values(group, "compute_time_s", False))) \
                     if group else math.nan
-                entry["paper"] = PAPER_TABLE2.get((s, label)) if block == 0 else None
+                smooth = _values(group, "smoothness_index", True)
+                entry["median_smoothness_index"] = float(np.median(smooth)) if smooth.size else math.nan
+                entry["paper"] = PAPER_TABLE2.get((s, label.split(" +")[0])) if block == 0 else None
                 out[f"{s}/{label}/{config.knowledge[block]}"] = entry
     return out
 
@@ -192,14 +259,16 @@ def _pm(pair: tuple[float, float] | None, digits: int) -> str:
 
 def summary_markdown(summary: dict, config: Table2Config) -> str:
     head = ("| scene | planner | knowledge | runs | success | path length (mm) | paper | time (s) | paper | "
-            "smoothness index | paper |\n|---|---|---|---|---|---|---|---|---|---|---|")
+            "smoothness index | median | paper | peak tension (N) |\n" + "|---" * 13 + "|")
     seeds = list(config.seeds)
     contiguous = len(seeds) > 2 and seeds == list(range(seeds[0], seeds[-1] + 1))
     shown = f"{seeds[0]}-{seeds[-1]}" if contiguous else ", ".join(map(str, seeds))
     lines = [f"Table 2 on seeds {shown} with a {config.time_limit_s:g} s budget per plan "
              f"({', '.join(dict.fromkeys(map(config.robot_in, config.scenes)))}); length and smoothness over "
-             f"successful runs, time over all runs. Knowledge: what the planner knew (sensed: the tank's structure "
-             f"and what its tip sensor revealed; the judge always uses the whole scene).", ""]
+             f"successful runs, time over all runs. Knowledge: what the planner knew (sensed: the tank's coarse "
+             f"structure, walls and partitions, and what its tip sensor revealed; the judge always uses the whole "
+             f"scene). A row \"+fast\" is the same planner with the path optimiser (time: plan and optimisation); "
+             f"peak tension: the largest least cable tension holding the arm along the crawl.", ""]
     for block, mode in enumerate(config.knowledge):
         title = ("Paper 000's setting: planners that can plan sensed do" if mode == "sensed"
                  else f"Every planner with {mode} knowledge")
@@ -213,7 +282,9 @@ def summary_markdown(summary: dict, config: Table2Config) -> str:
                 f"| {s} | {label} | {e['knowledge']} | {e['runs']} | {100 * e['success_rate']:.0f} % | "
                 f"{_pm(e['path_length_mm'], 1)} | {_pm(paper.get('path_length_mm'), 1)} | "
                 f"{_pm(e['compute_time_s'], 3)} | {_pm(paper.get('compute_time_s'), 3)} | "
-                f"{_pm(e['smoothness_index'], 4)} | {_pm(paper.get('smoothness_index'), 4)} |")
+                f"{_pm(e['smoothness_index'], 4)} | {e['median_smoothness_index']:.4f} | "
+                f"{_pm(paper.get('smoothness_index'), 4)} | "
+                f"{_pm(e['peak_tension_n'], 1)} |")
         lines.append("")
     return "\n".join(lines).rstrip()
 
@@ -249,12 +320,14 @@ def _write_summary_csv(path: Path, summary: dict) -> None:
     w = csv.writer(text)
     w.writerow(["scene", "planner", "block", "knowledge", "runs", "success_rate", "path_length_mean",
                 "path_length_std", "time_mean", "time_std", "time_median", "smoothness_mean", "smoothness_std",
-                "paper_path_length", "paper_time", "paper_smoothness"])
+                "smoothness_median", "peak_tension_mean", "peak_tension_std", "paper_path_length", "paper_time",
+                "paper_smoothness"])
     for key, e in summary.items():
         s, label, _ = key.split("/")
         paper = e["paper"] or {}
         w.writerow([s, label, e["block"], e["knowledge"], e["runs"], e["success_rate"], *e["path_length_mm"],
                     *e["compute_time_s"], e["median_compute_time_s"], *e["smoothness_index"],
+                    e["median_smoothness_index"], *e["peak_tension_n"],
                     paper.get("path_length_mm", ("",))[0], paper.get("compute_time_s", ("",))[0],
                     paper.get("smoothness_index", ("",))[0]])
     atomic_write(path, text.getvalue())

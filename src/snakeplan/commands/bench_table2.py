@@ -25,6 +25,9 @@ def add_parser(bsub) -> None:
     p.add_argument("--seed", type=seed, default=0, help="first seed (default 0)")
     p.add_argument("--time-limit", type=finite, help="budget per plan in seconds (default 10; 30 per mission with "
                                                       "--search)")
+    p.add_argument("--optimize", default="none,fast",
+                   help="comma-separated path optimiser levels: every planner's rows at each (default none,fast: "
+                        "each planner as its paper has it, then optimised)")
     p.add_argument("--out", help="output folder (default bench-table2; bench-search with --search)")
     p.add_argument("--search", action="store_true",
                    help="the search setting: targets hidden until the tip camera sees them, clutter unknown; each "
@@ -54,8 +57,9 @@ def cmd_bench_table2(args: argparse.Namespace) -> int:
     seeds = tuple(range(args.seed, args.seed + args.runs))
     if args.search:
         return _search(args, planners, scenes, seeds)
+    levels = name_list(args.optimize, ["none", "fast", "full"], "--optimize")  # optimize.LEVELS
     config = Table2Config(planners=planners, scenes=scenes, seeds=seeds,
-                          time_limit_s=10.0 if args.time_limit is None else args.time_limit)
+                          time_limit_s=10.0 if args.time_limit is None else args.time_limit, optimize=tuple(levels))
     config.check("--planners")
     return _run(args, config, args.out or "bench-table2", table2_outputs, summary_markdown,
                 "table2.md, table2.csv, runs.jsonl, fig7_*.png")

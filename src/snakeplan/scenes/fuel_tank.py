@@ -1,10 +1,12 @@
 """`fuel-tank`: paper 000's multi-obstacle scene, an 1800 x 1400 x 400 mm tank of six chambers (mm, rad).
 
-Fixed coarse structure (the operator knows it): a 3 (x) x 2 (y) grid of 600 x 700 mm chambers; one partition
-plate per pair of adjacent chambers, each with a centred 500 x 300 mm oval hole (7 holes); outer walls as plates
-whose inner faces lie on the bounds; a support frame of boxes (pillars at the partition crossings, half pillars
-where partitions meet the outer walls, corner posts, stiffener beams along the top and bottom edges of every
-partition and outer side wall) that never covers a hole. Per seed (unknown to the operator): the entrance (a
+Fixed structure: a 3 (x) x 2 (y) grid of 600 x 700 mm chambers; one partition plate per pair of adjacent
+chambers, each with a centred 500 x 300 mm oval hole (7 holes); outer walls as plates whose inner faces lie on the
+bounds; a support frame of boxes (pillars at the partition crossings, half pillars where partitions meet the outer
+walls, corner posts, stiffener beams along the top and bottom edges of every partition and outer side wall) that
+never covers a hole. The operator knows the coarse structure alone (paper 000 §4.1: "overall dimensions,
+compartment structure, and passage locations"): the outer walls and the partitions with their holes; the frame is
+clutter to them as much as the debris is. Per seed (unknown to the operator): the entrance (a
 point on an outer side wall, fed along the inward normal, through a round port cut in that wall), 3-6 clutter
 obstacles resting on the floor, and one debris target one or two oval holes away from the entrance chamber, with
 clearance and geodesic reach checked by :mod:`snakeplan.scenes.routes.geodesic`: its geodesic distance from the
@@ -13,8 +15,8 @@ entrance lies between ``MIN_TARGET_GEODESIC_MM`` and the reach limit, so paths a
 tighter than the arm's bend limits allow (``TURN_RADIUS_MM``; see :func:`outside_turning_region`).
 
 Obstacles are listed as: the six outer walls (x-, x+, y-, y+, floor, ceiling), the seven partitions, the frame
-boxes, then the clutter (the last ``metadata["clutter"]`` obstacles). The clutter is ``discovered`` (unknown before
-the job); everything else is prior.
+boxes, then the clutter (the last ``metadata["clutter"]`` obstacles). The frame and the clutter are ``discovered``
+(unknown before the job); the outer walls and the partitions are prior.
 """
 
 from __future__ import annotations
@@ -379,7 +381,7 @@ def fuel_tank(seed: int, *, arm_length_mm: float = ARM_LENGTH_MM, reach_fraction
                                    "wall_thickness_mm": WALL_THICKNESS_MM},
                 }
                 return Scene("fuel-tank", seed, bounds_min, bounds_max, entrance, target[None], obstacles, meta,
-                             discovered=tuple(range(len(fixed), len(obstacles))))
+                             discovered=tuple(range(len(walls) + len(plates), len(obstacles))))
     raise RuntimeError(f"fuel-tank: no valid scene for seed {seed} in {MAX_ATTEMPTS} attempts")
 
 
