@@ -30,6 +30,9 @@ from snakeplan.jit import kernel
 #: Fewest points a fit resamples its path to, and the finest spacing (mm) it uses.
 MIN_STEP_MM = 5.0
 MAX_POINTS = 160
+#: The largest penalty weight: beyond it the fit is its limit already, and the factorisation of ``I + lam A`` in
+#: double precision would lose the identity's digits.
+MAX_PENALTY = 1e12
 #: Points held on the feed ray behind the entrance (with ``feed``): enough for a third-difference penalty to see
 #: the ray's direction.
 FEED_POINTS = 3
@@ -60,6 +63,25 @@ def _difference_normal(m: int, order: int) -> np.ndarray:
     d = np.diff(np.eye(m), order, axis=0)
     out = d.T @ d
     out.setflags(write=False)
+    return out
+
+
+@lru_cache(maxsize=64)
+def _normal_band(m: int, order: int) -> np.ndarray:
+    """The upper band of :func:`_difference_normal` (read-only, kept per shape)."""
+    out = _banded(_difference_normal(m, order), order)
+    out.setflags(write=False)
+    return out
+
+
+def _free_band(band: np.ndarray, free: np.ndarray, width: int) -> np.ndarray:
+    """The upper band of the banded matrix ``band`` restricted to the rows and columns ``free`` (ascending): still
+    banded, of the same width, gathered without forming either matrix."""
+    out = np.zeros((width + 1, free.size))
+    for d in range(width + 1):
+        gap = free[d:] - free[:free.size - d]
+        near = gap <= width
+        out[width - d, d:][near] = band[width - gap[near], free[d:][near]]
     return out
 
 
@@ -126,11 +148,11 @@ def penalised_fits(path: ArrayLike, targets: ArrayLike, scales: Sequence[float],
     if free.size == 0 or m <= order:
         return [pts[pre:].copy() for _ in scales]
     normal = _difference_normal(m, order)
-    band = _banded(normal[np.ix_(free, free)], order)
+    band = _free_band(_normal_band(m, order), free, order)
     fixed_part = normal[np.ix_(free, held)] @ pts[held]
     out = []
     for scale in scales:
-        lam = (float(scale) / step) ** (2 * order)
+        lam = min((float(scale) / step) ** (2 * order), MAX_PENALTY)
         x = pts.copy()
         x[free] = _solve_penalised(band, lam, pts[free] - lam * fixed_part)
         out.append(x[pre:])
