@@ -12,7 +12,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from snakeplan.geometry import polyline
-from snakeplan.geometry.polyline import REMAINDER_TOL, resample_with_arclength
+from snakeplan.geometry.polyline import REMAINDER_TOL, resample_unchecked, resample_with_arclength
 from snakeplan.jit import kernel
 
 #: Turning angles (rad) below this are round-off on a straight stretch and count as zero, so a straight path
@@ -96,3 +96,23 @@ def smoothness_index(k_max: float, k_mean: float, k_ul: float) -> float:
 def path_smoothness(path: ArrayLike, step: float, k_ul: float) -> float:
     """Smoothness index S (eq. 20) of a tip path with curvature measured at scale ``step`` (mm)."""
     return smoothness_index(*curvature_stats(path, step), k_ul)
+
+
+def smoothness_of(points: np.ndarray, step: float, k_ul: float) -> float:
+    """:func:`path_smoothness` of a path the caller made (a C-contiguous float ``(m, 3)`` array, finite, m >= 2;
+    ``step`` and ``k_ul`` positive), compiled whole without the input checks: for ranking thousands of candidate
+    paths (the optimiser's), where those checks cost more than the curvature."""
+    return _smoothness(points, float(step), float(k_ul))
+
+
+@kernel
+def _smoothness(points, h, k_ul):
+    """:func:`smoothness_index` of :func:`curvature_stats` at scale ``h``, in one compiled call."""
+    s, pts = resample_unchecked(points, h)
+    if s[-1] < (2.0 - REMAINDER_TOL) * h:
+        return 1.0
+    kappa = _turning(pts, s)
+    k_max, k_mean = kappa.max(), kappa.mean()
+    if k_mean == 0.0:
+        return 1.0
+    return (1.0 - k_max / k_ul) * math.exp(-(((k_max - k_mean) / k_mean) ** 2))

@@ -137,11 +137,11 @@ def grid_unchecked(length, h):
 
 def resample_with_arclength(path: ArrayLike, step: float) -> tuple[np.ndarray, np.ndarray]:
     """Like :func:`resample`, also returning the arc-length position (mm) of each resampled point."""
-    return _resample(validate_path(path), _check_step(step))
+    return resample_unchecked(validate_path(path), _check_step(step))
 
 
 @kernel
-def _resample(p, h):
+def resample_unchecked(p, h):
     """:func:`resample_with_arclength` of a validated path, compiled whole (it runs for every curvature a
     planner ranks): :func:`drop_duplicates`, the cumulative length, :func:`arclength_grid` and the points at it,
     with their arithmetic."""

@@ -126,10 +126,11 @@ def _solve_penalised(band, lam, rhs):
     return x
 
 
-def penalised_fits(path: ArrayLike, targets: ArrayLike, scales: Sequence[float], order: int,
-                   feed: ArrayLike | None = None) -> list[np.ndarray]:
-    """The penalised least-squares fits of ``path`` at each of ``scales`` (mm), ``order`` 2 or 3, holding its
-    start, its targets and (``feed``: the unit feed direction) :data:`FEED_POINTS` points on the feed ray."""
+def penalised_fits(path: ArrayLike, targets: ArrayLike, scales: Sequence[float], orders: Sequence[int],
+                   feed: ArrayLike | None = None) -> dict[int, list[np.ndarray]]:
+    """Per order of ``orders`` (2, 3, 4), the penalised least-squares fits of ``path`` at each of ``scales`` (mm),
+    holding its start, its targets and (``feed``: the unit feed direction) :data:`FEED_POINTS` points on the feed
+    ray: the path resampled and its held points found once for every order."""
     p = polyline.validate_path(path)
     goals = np.asarray(targets, dtype=float).reshape(-1, 3)
     step = fit_step(polyline.path_length(p))
@@ -145,17 +146,20 @@ def penalised_fits(path: ArrayLike, targets: ArrayLike, scales: Sequence[float],
         held = np.concatenate([np.arange(FEED_POINTS), held + FEED_POINTS])
     m = len(pts)
     free = np.setdiff1d(np.arange(m), held)
-    if free.size == 0 or m <= order:
-        return [pts[pre:].copy() for _ in scales]
-    normal = _difference_normal(m, order)
-    band = _free_band(_normal_band(m, order), free, order)
-    fixed_part = normal[np.ix_(free, held)] @ pts[held]
-    out = []
-    for scale in scales:
-        lam = min((float(scale) / step) ** (2 * order), MAX_PENALTY)
-        x = pts.copy()
-        x[free] = _solve_penalised(band, lam, pts[free] - lam * fixed_part)
-        out.append(x[pre:])
+    out: dict[int, list[np.ndarray]] = {}
+    for order in orders:
+        if free.size == 0 or m <= order:
+            out[order] = [pts[pre:].copy() for _ in scales]
+            continue
+        band = _free_band(_normal_band(m, order), free, order)
+        fixed_part = _difference_normal(m, order)[np.ix_(free, held)] @ pts[held]
+        fits = []
+        for scale in scales:
+            lam = min((float(scale) / step) ** (2 * order), MAX_PENALTY)
+            x = pts.copy()
+            x[free] = _solve_penalised(band, lam, pts[free] - lam * fixed_part)
+            fits.append(x[pre:])
+        out[order] = fits
     return out
 
 

@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
-from snakeplan.evaluation.metrics import path_length, path_smoothness
+from snakeplan.evaluation.metrics import path_length, path_smoothness, smoothness_of
 from snakeplan.geometry import polyline
 from snakeplan.optimize.fits import gaussian_fits, penalised_fits
 from snakeplan.robots import Chain
@@ -70,7 +70,7 @@ class Effort:
     shortcuts: bool
 
 
-EFFORT = {"fast": Effort(scales=5, reach=0.5, rounds=6, checks=20, shortcuts=False),
+EFFORT = {"fast": Effort(scales=5, reach=0.5, rounds=10, checks=28, shortcuts=False),
           "full": Effort(scales=12, reach=1.0, rounds=16, checks=80, shortcuts=True)}
 
 
@@ -82,8 +82,8 @@ def warm_up() -> None:
     a timed plan does not pay for them."""
     if not _WARM:
         tiny = np.array([[0.0, 0.0, 0.0], [0.0, 10.0, 30.0], [0.0, 0.0, 60.0]])
-        for fit in penalised_fits(tiny, tiny[1:2], (10.0,), 3):
-            path_smoothness(fit, 10.0, 0.01)
+        for fit in penalised_fits(tiny, tiny[1:2], (10.0,), (3,))[3]:
+            smoothness_of(fit, 10.0, 0.01)
         _WARM.append(True)
 
 
@@ -143,9 +143,9 @@ def _candidates(sources: list[tuple[str, np.ndarray]], targets: np.ndarray, feed
     for name, src in sources:
         length = polyline.path_length(src)
         scales = np.geomspace(10.0, max(20.0, effort.reach * length), effort.scales)
-        families = {f"{name}:penalised{order}{'-fed' if fed else ''}":
-                    penalised_fits(src, targets, scales, order, feed if fed else None)
-                    for order in ORDERS for fed in (False, True)}
+        families = {f"{name}:penalised{order}{'-fed' if fed else ''}": fits
+                    for fed in (False, True)
+                    for order, fits in penalised_fits(src, targets, scales, ORDERS, feed if fed else None).items()}
         families[f"{name}:gaussian"] = gaussian_fits(src, targets, scales)
         for family, fits in families.items():
             out += [(family, float(s), c) for s, c in zip(scales, fits)]
@@ -166,7 +166,7 @@ def _round(checker: ValidityChecker, world: KnowledgeView, p: np.ndarray, s_in: 
         if not np.isfinite(c).all():
             continue
         c[0] = p[0]
-        s = path_smoothness(c, h, k_ul)
+        s = smoothness_of(c, h, k_ul)
         if s >= s_in + MIN_GAIN:
             ranked.append((s, family, scale, c))
     ranked.sort(key=lambda r: (-r[0], r[1], r[2]))
