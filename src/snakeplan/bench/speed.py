@@ -46,9 +46,8 @@ from snakeplan.files import atomic_write
 from snakeplan.interrupt import Interrupted, interruptible
 
 SCHEMA = "snakeplan.bench.speed/1"
-#: The aims (s): the optimiser's median and p99, station worst case, rrt-star median, sp-rrt / as-rrt medians, sac-her
-#: median and p99,
-#: plan command wall time, judge time.
+#: The aims (s): the optimiser's median and p99, station worst case, rrt-star median, sp-rrt / as-rrt medians,
+#: sac-her median and p99, plan command wall time, judge time.
 AIMS = {"optimize": 0.020, "optimize-p99": 0.200,
         "station": 5.0, "rrt-star": 0.05, "sp-rrt": 0.010, "as-rrt": 0.005, "sac-her": 0.005, "sac-her-p99": 0.05,
         "plan-command": 0.6, "judge": 2.0}
@@ -198,8 +197,8 @@ def optimize_rows(seeds: int, progress: Callable[[str], None]) -> dict:
                     spent += opt
             out[f"{name} {scene}"] = row
             fast = row["fast"]
-            progress(f"optimize {name} {scene}: {fast['optimize']['median_s'] * 1e3:.1f} ms median, smoothness "
-                     f"{row['none']['smoothness_median']} -> {fast['smoothness_median']}, success "
+            progress(f"optimize {name} {scene}: {fast['optimize']['median_s'] * 1e3:.1f} ms median, median smoothness "
+                     f"{_fmt(row['none']['smoothness_median'])} -> {_fmt(fast['smoothness_median'])}, success "
                      f"{row['none']['success']} -> {fast['success']}/{seeds} (load {load():.2f})")
     out["all"] = _stats(spent)
     return out
