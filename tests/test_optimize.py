@@ -88,15 +88,22 @@ def test_second_differences_at_large_scale_give_the_chord():
 
 
 @settings(max_examples=30, deadline=None)
-@given(n=st.integers(8, 60), order=st.sampled_from((2, 3, 4)), lam=st.floats(1e-3, 1e9), seed=st.integers(0, 99))
+@given(n=st.integers(8, 60), order=st.sampled_from((2, 3, 4)), lam=st.floats(1e-3, 1e12), seed=st.integers(0, 99))
 def test_banded_solve_matches_dense(n, order, lam, seed):
+    """The compiled banded Cholesky solve is backward stable: its residual is round-off of the system's size
+    (``I + lam A`` is ill-conditioned at large ``lam``, so two solvers may differ more than their residuals do),
+    and it agrees with a dense solve where the system is well conditioned."""
     rng = np.random.default_rng(seed)
     keep = np.sort(rng.choice(n + 4, n, replace=False))
     a = _difference_normal(n + 4, order)[np.ix_(keep, keep)]
     rhs = rng.normal(size=(n, 3))
-    expected = np.linalg.solve(np.eye(n) + lam * a, rhs)
+    system = np.eye(n) + lam * a
     got = _solve_penalised(_banded(a, order), lam, rhs)
-    assert np.allclose(got, expected, rtol=1e-7, atol=1e-7 * np.abs(expected).max())
+    scale = np.linalg.norm(system, 2) * np.linalg.norm(got) + np.linalg.norm(rhs)
+    assert np.linalg.norm(system @ got - rhs) <= 1e-12 * scale
+    if np.linalg.cond(system) < 1e6:
+        expected = np.linalg.solve(system, rhs)
+        assert np.allclose(got, expected, rtol=1e-8, atol=1e-8 * np.abs(expected).max())
 
 
 def test_levels_and_bad_input(capsys):

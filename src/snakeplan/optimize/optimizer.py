@@ -77,14 +77,18 @@ EFFORT = {"fast": Effort(scales=5, reach=0.5, rounds=10, checks=28, shortcuts=Fa
 _WARM: list[bool] = []
 
 
-def warm_up() -> None:
-    """Load the optimiser's compiled kernels once per process (a fit and a smoothness index of a tiny path), so that
-    a timed plan does not pay for them."""
-    if not _WARM:
-        tiny = np.array([[0.0, 0.0, 0.0], [0.0, 10.0, 30.0], [0.0, 0.0, 60.0]])
-        for fit in penalised_fits(tiny, tiny[1:2], (10.0,), (3,))[3]:
-            smoothness_of(fit, 10.0, 0.01)
-        _WARM.append(True)
+def warm_up(world: KnowledgeView, robot: Chain) -> None:
+    """Load every kernel the optimiser calls once per process, before a timed plan needs them: an optimisation of a
+    short bent path from ``world``'s entrance (its crawls, tip balls, fits and smoothness indices), whatever it
+    keeps. ``world`` is a view the caller may let it sense."""
+    if _WARM:
+        return
+    entrance, u = world.scene.entrance.position, world.scene.entrance.direction
+    side = np.cross(u, [1.0, 0.0, 0.0] if abs(u[0]) < 0.9 else [0.0, 1.0, 0.0])
+    side /= np.linalg.norm(side)
+    bent = entrance + np.outer([0.0, 150.0, 300.0], u) + np.outer([0.0, 0.0, 40.0], side)
+    optimize_path(bent, world, robot, np.zeros((0, 3)), "fast")
+    _WARM.append(True)
 
 
 def as_level(level: str) -> str:

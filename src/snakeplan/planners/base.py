@@ -298,8 +298,9 @@ class Planner(ABC):
             if key not in _WARM:
                 self.warm_up(fresh())
                 _WARM.add(key)
-            if (self.optimize or self.default_optimize) != "none":
-                warm_optimizer()
+            if (self.optimize or self.default_optimize) != "none" and problem.task is Task.REACH:
+                warm = fresh()
+                warm_optimizer(warm.world, warm.robot)
             t0 = time.perf_counter()
             refusal = input_refusal(problem)
             if refusal is not None:

@@ -100,7 +100,8 @@ class BranchSource:
             pois = known_points(problem) if self.sensed else problem.scene.points_of_interest
         self.pois = pois
         self.camera = PoiCamera(problem.world.obstacle_set, self.pois, problem.inspection.camera)
-        self.reach = get_planner(reach or (SENSED_REACH_PLANNER if self.sensed else REACH_PLANNER))
+        # a mission's legs are its reaching planner's own paths: the optimiser would spend the mission's time
+        self.reach = get_planner(reach or (SENSED_REACH_PLANNER if self.sensed else REACH_PLANNER), optimize="none")
         self.seed = seed
         self.calls = 0
         self.clearance = self.robot.radii[-1] + GOAL_CLEARANCE_MM

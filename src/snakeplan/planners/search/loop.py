@@ -87,7 +87,7 @@ class SearchPlanner(Planner):
         super().warm_up(problem)
         from snakeplan.planners.registry import get_planner
 
-        reach = get_planner(self.reach)
+        reach = get_planner(self.reach, optimize="none")  # as the legs' (inspection.branches.BranchSource)
         e = problem.scene.entrance
         view = problem.world.for_targets((e.position + 300.0 * e.direction)[None])
         reach.plan(reach_problem(problem, view, WARM_UP_TIME_S, reach.needs_full_scene))
