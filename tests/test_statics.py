@@ -13,7 +13,10 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy.optimize import minimize
+from scipy.optimize import nnls as scipy_nnls
 
 from snakeplan.cli import main
 from snakeplan.evaluation import evaluate
@@ -22,7 +25,7 @@ from snakeplan.planners import Problem, get_planner
 from snakeplan.robots import Chain, Section, get_robot, robot_names, to_urdf
 from snakeplan.robots.cable_routing import CableRouting, SectionCables
 from snakeplan.robots.cables import cable_lengths
-from snakeplan.robots.statics import cable_jacobian, cable_tensions, gravity_torques
+from snakeplan.robots.statics import cable_jacobian, cable_tensions, gravity_torques, nnls
 from snakeplan.scenes import make_scene
 
 pin = pytest.importorskip("pinocchio")
@@ -107,6 +110,18 @@ def test_tensions_balance_never_pull_negative_and_are_least():
                        bounds=[(0.0, None)] * A.shape[1], options={"ftol": 1e-14, "maxiter": 1000})
         assert ref.success, ref.message
         assert np.linalg.norm(t) <= scale * np.linalg.norm(ref.x) * (1 + 1e-6)
+
+
+@settings(max_examples=60, deadline=None)
+@given(m=st.integers(2, 16), n=st.integers(2, 40), seed=st.integers(0, 10_000))
+def test_compiled_nnls_matches_scipy(m, n, seed):
+    """The compiled Lawson-Hanson NNLS the tensions solve with: non-negative, and as close as SciPy's."""
+    rng = np.random.default_rng(seed)
+    A, b = rng.normal(size=(m, n)), rng.normal(size=m)
+    x = nnls(A, b)
+    reference, _ = scipy_nnls(A, b)
+    assert np.min(x) >= 0.0
+    assert np.linalg.norm(A @ x - b) <= np.linalg.norm(A @ reference - b) + 1e-9
 
 
 def test_cables_on_one_side_cannot_hold_the_arm_up():

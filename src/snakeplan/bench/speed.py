@@ -138,8 +138,10 @@ def station_rows(seeds: int, baseline_seeds: int, progress: Callable[[str], None
 def planner_rows(name: str, scene: str, seeds: int, baseline: Callable[[], contextlib.AbstractContextManager],
                  factory: Callable[[], object], base_factory: Callable[[], object],
                  progress: Callable[[str], None]) -> dict:
-    """Compute per plan (warm; the planner's ``compute_time_s``, not the judge's time) and judged success of a
-    planner on ``scene`` seeds 0..seeds-1 (:func:`snakeplan.episode.run_episode`), now and baseline."""
+    """Compute per plan (warm; the planner's ``compute_time_s``, not the judge's time), judged success and the
+    successes' median smoothness index of a planner on ``scene`` seeds 0..seeds-1
+    (:func:`snakeplan.episode.run_episode`), now and baseline, with the path optimiser's own time per found plan
+    where it ran."""
     from snakeplan.episode import run_episode
     from snakeplan.planners import Problem
     from snakeplan.robots import get_robot
@@ -151,56 +153,37 @@ def planner_rows(name: str, scene: str, seeds: int, baseline: Callable[[], conte
     for label, ctx, make in (("now", contextlib.nullcontext, factory), ("before", baseline, base_factory)):
         with ctx():
             run_episode(Problem(make_scene(scene, 10_000), robot), make(), seed=10_000)  # warm: compilation, caches
-            times, ok = [], 0
+            times, ok, smooth, optimised = [], 0, [], []
             for seed, problem in enumerate(problems):
                 episode = run_episode(problem, make(), seed=seed)
                 times.append(episode.plan.compute_time_s)
                 ok += episode.success
-        out[label] = {**_stats(times), "success": ok}
+                if episode.success:
+                    smooth.append(episode.report.smoothness_index)
+                if "optimize" in episode.plan.details:
+                    optimised.append(episode.plan.details["optimize"]["time_s"])
+        out[label] = {**_stats(times), "success": ok,
+                      "smoothness_median": float(np.median(smooth)) if smooth else None}
+        if optimised:  # the path optimiser's own seconds per found plan
+            out[label]["optimize_s"] = optimised
         progress(f"{name} {scene} {label}: median {out[label]['median_s'] * 1e3:.1f} ms, success {ok}/{seeds} "
                  f"(load {load():.2f})")
     return out
 
 
 def optimize_rows(seeds: int, progress: Callable[[str], None]) -> dict:
-    """The path optimiser (``fast``) on each of :data:`OPTIMIZED` in each of :data:`OPTIMIZED_SCENES`, seeds
-    0..seeds-1: its own time per found plan (``details["optimize"]["time_s"]``), against the same planner without
-    it (compute time), with judged success and median smoothness index of both."""
-    from snakeplan.episode import run_episode
-    from snakeplan.planners import Problem, get_planner
-    from snakeplan.robots import get_robot
-    from snakeplan.scenes import make_scene, scene_spec
+    """:func:`planner_rows` of each of :data:`OPTIMIZED` in each of :data:`OPTIMIZED_SCENES` with the path optimiser
+    (``fast``) against the same planner without it, and the optimiser's own time over them all (``all``)."""
+    from snakeplan.planners import get_planner
 
     out: dict = {}
-    spent: list[float] = []
     for scene in OPTIMIZED_SCENES:
-        robot = get_robot(scene_spec(scene).robot)
-        problems = [Problem(make_scene(scene, s), robot) for s in range(seeds)]
         for name in OPTIMIZED:
-            row = {}
-            for level in ("none", "fast"):
-                run_episode(Problem(make_scene(scene, 10_000), robot), get_planner(name, optimize=level),
-                            seed=10_000)  # warm
-                times, smooth, ok, opt = [], [], 0, []
-                for seed, problem in enumerate(problems):
-                    episode = run_episode(problem, get_planner(name, optimize=level), seed=seed)
-                    times.append(episode.plan.compute_time_s)
-                    ok += episode.success
-                    if episode.success:
-                        smooth.append(episode.report.smoothness_index)
-                    if "optimize" in episode.plan.details:
-                        opt.append(episode.plan.details["optimize"]["time_s"])
-                row[level] = {**_stats(times), "success": ok,
-                              "smoothness_median": float(np.median(smooth)) if smooth else None}
-                if opt:
-                    row[level]["optimize"] = _stats(opt)
-                    spent += opt
-            out[f"{name} {scene}"] = row
-            fast = row["fast"]
-            progress(f"optimize {name} {scene}: {fast['optimize']['median_s'] * 1e3:.1f} ms median, median smoothness "
-                     f"{_fmt(row['none']['smoothness_median'])} -> {_fmt(fast['smoothness_median'])}, success "
-                     f"{row['none']['success']} -> {fast['success']}/{seeds} (load {load():.2f})")
-    out["all"] = _stats(spent)
+            out[f"{name} {scene}"] = planner_rows(
+                f"{name} optimised", scene, seeds, contextlib.nullcontext,
+                lambda n=name: get_planner(n, optimize="fast"), lambda n=name: get_planner(n, optimize="none"),
+                progress)
+    out["all"] = _stats([t for row in out.values() for t in row["now"]["optimize_s"]])
     return out
 
 
@@ -423,7 +406,7 @@ def speed_markdown(summary: dict) -> str:
         for key, row in opt.items():
             if key == "all":
                 continue
-            none, fast = row["none"], row["fast"]
+            none, fast = row["before"], row["now"]
             lines.append(f"| `{key}`: compute, success, median smoothness | {pair(fast, ms, 'ms', 'p99_s')}, "
                          f"{fast['success']}/{fast['n']}, S {_fmt(fast['smoothness_median'])} | "
                          f"{pair(none, ms, 'ms', 'p99_s')}, {none['success']}/{none['n']}, S "

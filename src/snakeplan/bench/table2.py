@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -166,12 +165,12 @@ def table2_outputs(config: Table2Config, rows: list[dict], out: Path) -> dict:
 def smoothness_and_tension(rows: list[dict], config: Table2Config, scene: str | None = None
                            ) -> tuple[np.ndarray, np.ndarray]:
     """(smoothness index, peak tension N) of every successful run of the table (of ``scene`` when given), each run
-    once whatever its knowledge block."""
-    keys = {(s, p, json.dumps(o, sort_keys=True)) for s in config.scenes for _, p, o in config.entries_in(s)}
-    pairs = {r["key"]: (r["metrics"]["smoothness_index"], r["metrics"].get("peak_tension_n")) for r in rows
-             if r["success"] and (scene is None or r["scene"] == scene)
-             and (r["scene"], r["planner"], json.dumps(r.get("options", {}), sort_keys=True)) in keys}
-    kept = np.array([v for v in pairs.values() if v[1] is not None], dtype=float).reshape(-1, 2)
+    once whatever its knowledge blocks."""
+    runs = {r["key"]: r for s in ((scene,) if scene else config.scenes) for label, _, _ in config.entries_in(s)
+            for block in config.blocks() for r in config.rows_of(rows, s, label, block) if r["success"]}
+    pairs = [(r["metrics"]["smoothness_index"], r["metrics"]["peak_tension_n"]) for r in runs.values()
+             if r["metrics"].get("peak_tension_n") is not None]
+    kept = np.array(pairs, dtype=float).reshape(-1, 2)
     return kept[:, 0], kept[:, 1]
 
 
@@ -245,7 +244,7 @@ def summarise(rows: list[dict], config: Table2Config) -> dict:
                     if group else math.nan
                 smooth = _values(group, "smoothness_index", True)
                 entry["median_smoothness_index"] = float(np.median(smooth)) if smooth.size else math.nan
-                entry["paper"] = PAPER_TABLE2.get((s, label.split(" +")[0])) if block == 0 else None
+                entry["paper"] = PAPER_TABLE2.get((s, planner)) if block == 0 else None
                 out[f"{s}/{label}/{config.knowledge[block]}"] = entry
     return out
 

@@ -45,6 +45,7 @@ def add_parser(bsub) -> None:
 
 def cmd_bench_table2(args: argparse.Namespace) -> int:
     from snakeplan.bench.table2 import DEFAULT_PLANNERS, SCENES, Table2Config, summary_markdown, table2_outputs
+    from snakeplan.optimize import LEVELS
     from snakeplan.planners import planner_names
 
     if args.runs < 1:
@@ -57,7 +58,7 @@ def cmd_bench_table2(args: argparse.Namespace) -> int:
     seeds = tuple(range(args.seed, args.seed + args.runs))
     if args.search:
         return _search(args, planners, scenes, seeds)
-    levels = name_list(args.optimize, ["none", "fast", "full"], "--optimize")  # optimize.LEVELS
+    levels = name_list(args.optimize, list(LEVELS), "--optimize")
     config = Table2Config(planners=planners, scenes=scenes, seeds=seeds,
                           time_limit_s=10.0 if args.time_limit is None else args.time_limit, optimize=tuple(levels))
     config.check("--planners")

@@ -26,7 +26,8 @@ def ros_args(p: argparse.ArgumentParser, what: str, live: str | None = None) -> 
     g.add_argument("--rosbag", metavar="DIR", help=f"also write {what} as a ROS 2 bag in the new folder DIR: joint "
                                                    "trajectory, /robot_description, /tf, the scene's markers, the "
                                                    "tip path (only a plan the judge accepts)")
-    g.add_argument("--storage", choices=("mcap", "sqlite3"), help="the bag's storage format (default mcap)")
+    g.add_argument("--storage", choices=("mcap", "sqlite3"),  # ros.bag.STORAGES, without importing the ros extra
+                   help="the bag's storage format (default mcap)")
     g.add_argument("--mcap", metavar="FILE", help=f"also write {what} as a Foxglove MCAP file (.mcap): the scene, "
                                                   "the arm moving, the judge's first failure marked")
     if live is not None:

@@ -8,13 +8,13 @@ stays inside the scene's bounds and passes the targets in order. Planners never 
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field, fields
 from enum import StrEnum
 
 import numpy as np
 
 from snakeplan.evaluation.metrics import curvature_profile, path_length, smoothness_index
-from snakeplan.evaluation.statics import crawl_statics
+from snakeplan.evaluation.statics import CrawlStatics, crawl_statics
 from snakeplan.geometry.polyline import validate_path
 from snakeplan.robots import Chain
 from snakeplan.scenes import Scene
@@ -93,6 +93,8 @@ class Report:
     peak_tension_section: int | None = None
     holdable: bool | None = None
     first_unholdable_depth_mm: float | None = None
+    #: Every crawl state's tensions (:class:`~snakeplan.evaluation.statics.CrawlStatics`), or None.
+    statics: CrawlStatics | None = field(default=None, repr=False)
 
     def lines(self) -> list[str]:
         """The verdict and the metrics as console lines, one per metric."""
@@ -103,8 +105,8 @@ class Report:
 
     def metrics(self) -> dict:
         """JSON-ready metrics (finite floats, or None where undefined)."""
-        skip = ("curvature_s", "curvature", "body_mm", "success", "reason")
-        out = {k: v for k, v in asdict(self).items() if k not in skip}
+        skip = ("curvature_s", "curvature", "body_mm", "success", "reason", "statics")
+        out = {f.name: getattr(self, f.name) for f in fields(self) if f.name not in skip}
         for k, v in out.items():
             if isinstance(v, float) and not np.isfinite(v):
                 out[k] = None
@@ -163,6 +165,7 @@ def evaluate(scene: Scene, robot: Chain, path, settings: JudgeSettings = JudgeSe
         peak_tension_section=peak[2],
         holdable=None if held is None else unholdable is None,
         first_unholdable_depth_mm=unholdable,
+        statics=held,
         curvature_s=s_k,
         curvature=kappa,
         body_mm=states.joints[-1],

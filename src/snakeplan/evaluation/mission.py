@@ -23,7 +23,7 @@ from snakeplan.robots import Chain
 from snakeplan.scenes import Scene
 from snakeplan.threads import single_threaded
 from snakeplan.world import ENTRANCE_TOLERANCE_MM, JUDGE, REACH_TOLERANCE_MM, FullView, ValidityChecker
-from snakeplan.world.joint_motion import JointMotionCheck, MotionFailure, interpolate
+from snakeplan.world.joint_motion import JointMotionCheck, MotionFailure
 from snakeplan.world.mission import (
     Crawl,
     InspectionSettings,
@@ -34,6 +34,7 @@ from snakeplan.world.mission import (
     points_field,
     points_prior,
     tip_poses,
+    tips_at,
 )
 
 #: The reasons a mission is refused, and its verdict when none holds.
@@ -175,31 +176,13 @@ def _motion_failure(checker: ValidityChecker, jm: JointMotionCheck, motion, inde
     return MissionFailure(index, at, str(f.kind), f.link)
 
 
-def _tip_at(jm: JointMotionCheck, motion, t: np.ndarray) -> np.ndarray:
-    """Tip positions (k, 3) mm of a motion at mission times ``t`` within it."""
-    if isinstance(motion, Crawl):
-        cum = cumulative_length(motion.path)
-        depth = motion.depth_at(t)
-        return np.stack([np.interp(depth, cum, motion.path[:, d]) for d in range(3)], axis=-1)
-    times = motion.times_s
-    out = np.empty((len(t), 3))
-    for k, tk in enumerate(t):
-        i = int(np.clip(np.searchsorted(times, tk, side="right") - 1, 0, len(times) - 1))
-        if i == len(times) - 1 or times[i + 1] == times[i]:
-            T, Q = motion.bases[i:i + 1], motion.q[i:i + 1]
-        else:
-            T, Q = interpolate(motion.bases, motion.q, i, np.array([(tk - times[i]) / (times[i + 1] - times[i])]))
-        out[k] = jm.tips(T, Q)[0]
-    return out
-
-
 def _ends(jm: JointMotionCheck, motion) -> tuple[np.ndarray, np.ndarray]:
     """The body (joint positions, mm) where a motion starts and where it ends: a crawl's at its entrance and at its
     last state (the tip alone: its body follows the path), a joint motion's whole at its first and last sample."""
     if isinstance(motion, JointMotion):
         bodies = jm.bodies(motion.bases[[0, -1]], motion.q[[0, -1]])
         return bodies[0], bodies[1]
-    tips = _tip_at(jm, motion, np.array([motion.start_s, motion.end_s]))
+    tips = tips_at(jm.robot, motion, [motion.start_s, motion.end_s])
     return tips[0][None], tips[1][None]
 
 
@@ -349,7 +332,7 @@ def replay(scene: Scene, robot: Chain, mission: Mission, settings: InspectionSet
                                    scene.entrance.direction)
             aligned = np.einsum("ij,ij->i", axes, views.directions[inside]) >= math.cos(VIEW_ANGLE_TOL_RAD)
         else:
-            tips, aligned = _tip_at(jm, motion, views.times_s[inside]), True
+            tips, aligned = tips_at(jm.robot, motion, views.times_s[inside]), True
         held[inside] |= (np.linalg.norm(tips - views.positions[inside], axis=1) <= REACH_TOLERANCE_MM) & aligned
     if failure is None and not held.all():
         k = int(np.argmin(held))

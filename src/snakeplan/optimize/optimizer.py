@@ -70,25 +70,20 @@ class Effort:
     shortcuts: bool
 
 
-EFFORT = {"fast": Effort(scales=5, reach=0.5, rounds=10, checks=28, shortcuts=False),
+EFFORT = {"none": Effort(scales=0, reach=0.0, rounds=0, checks=0, shortcuts=False),
+          "fast": Effort(scales=5, reach=0.5, rounds=10, checks=28, shortcuts=False),
           "full": Effort(scales=12, reach=1.0, rounds=16, checks=80, shortcuts=True)}
 
 
-_WARM: list[bool] = []
-
-
 def warm_up(world: KnowledgeView, robot: Chain) -> None:
-    """Load every kernel the optimiser calls once per process, before a timed plan needs them: an optimisation of a
-    short bent path from ``world``'s entrance (its crawls, tip balls, fits and smoothness indices), whatever it
-    keeps. ``world`` is a view the caller may let it sense."""
-    if _WARM:
-        return
+    """Load every kernel the optimiser calls, before a timed plan needs them: an optimisation of a short bent path
+    from ``world``'s entrance (its crawls, tip balls, fits and smoothness indices), whatever it keeps. ``world`` is
+    a view the caller may let it sense; :meth:`snakeplan.planners.Planner.warm_up` calls it once per warm key."""
     entrance, u = world.scene.entrance.position, world.scene.entrance.direction
     side = np.cross(u, [1.0, 0.0, 0.0] if abs(u[0]) < 0.9 else [0.0, 1.0, 0.0])
     side /= np.linalg.norm(side)
     bent = entrance + np.outer([0.0, 150.0, 300.0], u) + np.outer([0.0, 0.0, 40.0], side)
     optimize_path(bent, world, robot, np.zeros((0, 3)), "fast")
-    _WARM.append(True)
 
 
 def as_level(level: str) -> str:
@@ -103,8 +98,8 @@ class Optimized:
     """What the optimiser did: the path (the input when nothing better passed), the level, the candidate each round
     kept (``source:family/scale``, in order; empty when none), crawl checks made, wall time (s), and S, least
     clearance (mm; against what the planner knew) and length (mm) before; after, S, length and
-    ``clearance_bound_mm``, the margin every crawl state of the kept path clears (the judge measures its
-    clearance)."""
+    ``clearance_bound_mm``, the least clearance the returned path is known to keep (the margin its crawl cleared;
+    the input's own clearance when it is the input: the judge measures the rest)."""
 
     path: np.ndarray
     level: str
@@ -209,12 +204,10 @@ def optimize_path(path: ArrayLike, world: KnowledgeView, robot: Chain, targets: 
     s_in = path_smoothness(p, h, robot.k_ul)
     clearance = ValidityChecker(world, robot, JUDGE).crawl(p).min_clearance
     before = {"smoothness_index": s_in, "min_clearance_mm": clearance, "length_mm": path_length(p)}
-    if level == "none":
-        return Optimized(p, level, (), 0, time.perf_counter() - t0, before, dict(before))
-    effort = EFFORT[level]
     margin = max(PLANNING.margin_mm, clearance + CLEARANCE_SLACK_MM) if math.isfinite(clearance) else PLANNING.margin_mm
     checker = ValidityChecker(world, robot, Tolerances(PLANNING.step_mm, margin, PLANNING.bend_fraction))
     checks, kept, current, s_now = 0, [], p, s_in
+    effort = EFFORT[level]
     for _ in range(effort.rounds):
         if checks >= effort.checks or time.perf_counter() > deadline:
             break
@@ -225,7 +218,6 @@ def optimize_path(path: ArrayLike, world: KnowledgeView, robot: Chain, targets: 
             break
         s_now, family, scale, current = found
         kept.append(f"{family}/{scale:.4g}")
-    if not kept:
-        return Optimized(p, level, (), checks, time.perf_counter() - t0, before, dict(before))
-    after = {"smoothness_index": s_now, "clearance_bound_mm": margin, "length_mm": path_length(current)}
+    after = {"smoothness_index": s_now, "clearance_bound_mm": margin if kept else clearance,
+             "length_mm": path_length(current)}
     return Optimized(current, level, tuple(kept), checks, time.perf_counter() - t0, before, after)

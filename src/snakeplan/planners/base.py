@@ -285,6 +285,11 @@ class Planner(ABC):
     #: This instance's level; None: ``default_optimize``.
     optimize: str | None = None
 
+    @property
+    def optimize_level(self) -> str:
+        """The optimiser level this planner plans at: its own, else its class's default."""
+        return self.optimize or self.default_optimize
+
     def plan(self, problem: Problem, seed: int = 0) -> Plan:
         """Plan within ``problem.time_limit_s``; the wall time is measured here, the same way for all planners,
         with BLAS/OpenMP on one thread (:mod:`snakeplan.threads`)."""
@@ -298,9 +303,6 @@ class Planner(ABC):
             if key not in _WARM:
                 self.warm_up(fresh())
                 _WARM.add(key)
-            if (self.optimize or self.default_optimize) != "none" and problem.task is Task.REACH:
-                warm = fresh()
-                warm_optimizer(warm.world, warm.robot)
             t0 = time.perf_counter()
             refusal = input_refusal(problem)
             if refusal is not None:
@@ -319,7 +321,7 @@ class Planner(ABC):
     def _optimized(self, problem: Problem, out: Solution, deadline: float) -> Solution:
         """``out`` with its path optimised (:func:`snakeplan.optimize.optimize_path`) when it is a found reach path
         and this planner's level is not none; what the optimiser did goes in ``details["optimize"]``."""
-        level = self.optimize or self.default_optimize
+        level = self.optimize_level
         if level == "none" or problem.task is not Task.REACH or Status(out.status) is not Status.FOUND:
             return out
         done = optimize_path(out.path, problem.world, problem.robot, problem.goals, level, deadline)
@@ -333,15 +335,18 @@ class Planner(ABC):
 
     def warm_key(self) -> Hashable:
         """What a warm-up loads is the same for every planner with this key: by default the class (a planner whose
-        warm-up depends on an option, a search planner's reaching planner, adds it)."""
-        return type(self)
+        warm-up depends on an option, a search planner's reaching planner, adds it), with its optimiser level."""
+        return type(self), self.optimize_level
 
     def warm_up(self, problem: Problem) -> None:
         """Load, before a process's first plan of this class is timed, what that plan would otherwise load
         inside ``compute_time_s`` (numba kernels from the cache, trained weights): a call of each kernel on a
         tiny input. The default warms the validity checker's kernels (:meth:`ValidityChecker.warm_up`); a planner
-        with kernels of its own extends it. The problem given is a fresh copy, free to sense."""
+        with kernels of its own extends it. The problem given is a fresh copy, free to sense. A planner whose found
+        reach paths are optimised warms the optimiser too (:func:`snakeplan.optimize.warm_up`)."""
         ValidityChecker(problem.world, problem.robot, PLANNING).warm_up()
+        if self.optimize_level != "none" and problem.task is Task.REACH:
+            warm_optimizer(problem.world, problem.robot)
 
     @abstractmethod
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float) -> Solution | tuple:

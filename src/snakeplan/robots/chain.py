@@ -509,6 +509,8 @@ class Chain:
         if any(massed) and not all(massed):
             raise ValueError(f"sections: section {massed.index(False)} has no mass_kg while section "
                              f"{massed.index(True)} has one (give every section a mass, or none)")
+        self._masses = _readonly([s.mass_kg for s in self._sections]) if all(massed) else None
+        self._coms = _readonly([s.com_mm for s in self._sections]) if all(massed) else None
         self._lengths = _readonly([s.length for s in self._sections])
         self._radii = _readonly([s.radius for s in self._sections])
         self._max_bends = _readonly([s.max_bend for s in self._sections])
@@ -607,16 +609,12 @@ class Chain:
     @property
     def masses(self) -> np.ndarray | None:
         """Section masses (kg), or None when the robot states none."""
-        if self._sections[0].mass_kg is None:
-            return None
-        return _readonly([s.mass_kg for s in self._sections])
+        return self._masses
 
     @property
     def coms(self) -> np.ndarray | None:
         """Section centres of mass ``(n, 3)`` (mm, each in its section's frame from its start), or None."""
-        if self._sections[0].mass_kg is None:
-            return None
-        return _readonly([s.com_mm for s in self._sections])
+        return self._coms
 
     @property
     def radii(self) -> np.ndarray:

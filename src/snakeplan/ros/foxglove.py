@@ -35,7 +35,7 @@ from snakeplan.ros.messages import (
     view_rotation,
 )
 from snakeplan.ros.recording import Recording, scene_triangles
-from snakeplan.trajectory.documents import si_scale
+from snakeplan.trajectory.documents import ros_time, si_scale
 
 #: Width (m) of the tip path's line.
 LINE_M = 0.004
@@ -48,8 +48,9 @@ def _fg():
 
 
 def _ts(t: float):
-    ns = int(round(t * 1e9))
-    return _fg().Timestamp(sec=ns // 1_000_000_000, nsec=ns % 1_000_000_000)
+    """A Foxglove timestamp of ``t`` s (:func:`snakeplan.trajectory.documents.ros_time`)."""
+    stamp = ros_time(t)
+    return _fg().Timestamp(sec=stamp["sec"], nsec=stamp["nanosec"])
 
 
 def _colour(rgba):

@@ -16,12 +16,13 @@ import numpy as np
 
 from snakeplan import ftl
 from snakeplan.geometry.polyline import point_at
+from snakeplan.geometry.surface_points import surface_triangles
 from snakeplan.robots import Chain
 from snakeplan.scenes import Scene
 from snakeplan.trajectory import Trajectory
 from snakeplan.world import JUDGE
-from snakeplan.world.joint_motion import arm_bodies, interpolate
-from snakeplan.world.mission import Crawl, Views
+from snakeplan.world.joint_motion import arm_bodies
+from snakeplan.world.mission import Crawl, Views, tips_at
 
 
 @dataclass(frozen=True)
@@ -86,10 +87,9 @@ class Recording:
 
 
 def scene_triangles(scene: Scene) -> list[np.ndarray]:
-    """Each obstacle's surface as triangles (k, 3, 3) mm (:func:`snakeplan.geometry.tessellation.obstacle_mesh`)."""
-    from snakeplan.geometry.tessellation import obstacle_mesh
-
-    return [np.asarray(obstacle_mesh(o).triangles, dtype=float) for o in scene.obstacles]
+    """Each obstacle's surface as triangles (k, 3, 3) mm
+    (:func:`snakeplan.geometry.surface_points.surface_triangles`: a mesh's own, a primitive's tessellation)."""
+    return [surface_triangles(o) for o in scene.obstacles]
 
 
 def of_trajectory(scene: Scene, traj: Trajectory) -> Recording:
@@ -133,21 +133,6 @@ def _crawl_samples(scene: Scene, robot: Chain, crawl: Crawl) -> tuple[np.ndarray
     return t, np.broadcast_to(base, (len(t), 4, 4)), q
 
 
-def _tip_at(robot: Chain, motion, t: float) -> np.ndarray:
-    """Where the tip (3,) mm of a mission's ``motion`` is at mission time ``t``, as the judge moves it: a crawl's on
-    its path at its depth then, a joint motion's between its samples as :func:`~snakeplan.world.joint_motion.
-    interpolate` moves the base and the joints."""
-    if isinstance(motion, Crawl):
-        return point_at(motion.path, motion.depth_at(np.array([t])))[0]
-    times = motion.times_s
-    i = int(np.clip(np.searchsorted(times, t, side="right") - 1, 0, len(times) - 1))
-    if i == len(times) - 1 or times[i + 1] == times[i]:
-        bases, q = motion.bases[i:i + 1], motion.q[i:i + 1]
-    else:
-        bases, q = interpolate(motion.bases, motion.q, i, np.array([(t - times[i]) / (times[i + 1] - times[i])]))
-    return arm_bodies(robot, bases, q)[0, -1]
-
-
 def _failure_tip(scene: Scene, robot: Chain, mission, failure) -> np.ndarray:
     """Where the tip is when the judge's first failure happens: in the motion it names, or, for a failure of the
     mission as a whole (motion -1), in the motion under way then; at the entrance when there is none."""
@@ -156,7 +141,7 @@ def _failure_tip(scene: Scene, robot: Chain, mission, failure) -> np.ndarray:
         return scene.entrance.position
     k = failure.motion if failure.motion >= 0 else next(
         (i for i, m in enumerate(motions) if m.end_s >= failure.time_s), len(motions) - 1)
-    return _tip_at(robot, motions[k], failure.time_s)
+    return tips_at(robot, motions[k], failure.time_s)[0]
 
 
 def of_mission(scene: Scene, robot: Chain, mission, report) -> Recording:

@@ -9,7 +9,6 @@ reader of scene files, also checks the metadata that code reads and where the en
 from __future__ import annotations
 
 import json
-import math
 import os
 import warnings
 from dataclasses import dataclass, field, replace
@@ -21,6 +20,7 @@ import numpy as np
 from snakeplan import inputs
 from snakeplan.geometry.distance import CONTACT_RESOLUTION_MM, ObstacleSet
 from snakeplan.geometry.primitives import Mesh, Obstacle, obstacle_from_dict, open_mesh_note
+from snakeplan.robots.statics import check_gravity
 from snakeplan.scenes.inspect import InspectSpec, points_of_interest
 from snakeplan.scenes.task import Task, as_task
 
@@ -33,8 +33,7 @@ MAX_OBSTACLES = 10_000
 #: Gravity (m/s^2) of a scene that states none: the Earth's, down the scene's -z (every tank and vessel family
 #: stands with +z up).
 DEFAULT_GRAVITY = (0.0, 0.0, -9.81)
-#: The largest gravity (m/s^2) a scene may state: ten times the Earth's; more is a unit mistake.
-MAX_GRAVITY_M_S2 = 100.0
+
 
 
 class MeshWarning(UserWarning):
@@ -249,17 +248,6 @@ class Scene:
         """Parse scene JSON ``text`` (:func:`snakeplan.inputs.load_json`'s limits; ``source`` names the file in a
         message about the file as a whole; mesh files are read relative to ``base_dir``)."""
         return cls.from_dict(inputs.load_json(text, source), base_dir)
-
-
-def check_gravity(value) -> np.ndarray:
-    """``value`` as a gravity vector (m/s^2): three finite numbers, at most :data:`MAX_GRAVITY_M_S2` long
-    (ValueError naming ``gravity``)."""
-    g = inputs.vector(value, "gravity", 3, limit=math.inf, shape="[gx, gy, gz] (m/s^2)")
-    size = float(np.linalg.norm(g))
-    if size > MAX_GRAVITY_M_S2:
-        raise ValueError(f"gravity: {size:.4g} m/s^2 is implausible (at most {MAX_GRAVITY_M_S2:g} m/s^2, ten times "
-                         f"the Earth's; gravity is in m/s^2, not mm/s^2)")
-    return g
 
 
 def check_placement(scene: Scene) -> None:

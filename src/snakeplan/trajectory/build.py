@@ -9,7 +9,7 @@ from numpy.typing import ArrayLike
 
 from snakeplan import ftl
 from snakeplan.evaluation import Report, evaluate
-from snakeplan.evaluation.statics import CrawlStatics, crawl_statics
+from snakeplan.evaluation.statics import CrawlStatics
 from snakeplan.robots import Chain
 from snakeplan.robots.cables import cable_lengths
 from snakeplan.scenes import Scene
@@ -121,5 +121,5 @@ def build_trajectory(scene: Scene, robot: Chain, path: ArrayLike, provenance: di
     cables = cable_lengths(placed, q) if robot.cables is not None else None
     return Trajectory(robot, base_pose, states.s, timing, q, frames[:, -1], states.joints,
                       _inserted_deviation(states), cables, p, entrance, u, report, dict(provenance or {}),
-                      crawl_statics(scene, robot, states))
+                      report.statics)
 

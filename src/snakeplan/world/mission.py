@@ -19,10 +19,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from snakeplan import ftl
-from snakeplan.geometry.polyline import cumulative_length, validate_path
+from snakeplan.geometry.polyline import cumulative_length, point_at, validate_path
 from snakeplan.geometry.primitives import Mesh
 from snakeplan.mapping.models import DEFAULT_LENGTH_SCALE_MM, DEFAULT_SIGMA_F, CameraModel
+from snakeplan.robots import Chain
 from snakeplan.scenes import Scene
+from snakeplan.world.joint_motion import arm_bodies, interpolate
 
 #: Motion budget of a mission (s), paper 002 §4.
 BUDGET_S = 130.0
@@ -259,6 +261,25 @@ def tip_poses(path: np.ndarray, depths: ArrayLike, lengths: ArrayLike, entrance_
 
 
 Motion = JointMotion | Crawl
+
+
+def tips_at(robot: Chain, motion: Motion, t: ArrayLike) -> np.ndarray:
+    """Tip positions (k, 3) mm of ``robot`` in ``motion`` at mission times ``t`` (held at the ends), as the judge
+    moves it: a crawl's on its path at its depth then, a joint motion's between its samples as
+    :func:`~snakeplan.world.joint_motion.interpolate` moves the base and the joints."""
+    t = np.atleast_1d(np.asarray(t, dtype=float))
+    if isinstance(motion, Crawl):
+        return point_at(motion.path, motion.depth_at(t))
+    times = motion.times_s
+    out = np.empty((len(t), 3))
+    for k, tk in enumerate(t):
+        i = int(np.clip(np.searchsorted(times, tk, side="right") - 1, 0, len(times) - 1))
+        if i == len(times) - 1 or times[i + 1] == times[i]:
+            bases, q = motion.bases[i:i + 1], motion.q[i:i + 1]
+        else:
+            bases, q = interpolate(motion.bases, motion.q, i, np.array([(tk - times[i]) / (times[i + 1] - times[i])]))
+        out[k] = arm_bodies(robot, bases, q)[0, -1]
+    return out
 
 
 @dataclass(frozen=True)

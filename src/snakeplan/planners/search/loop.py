@@ -79,7 +79,7 @@ class SearchPlanner(Planner):
         return None
 
     def warm_key(self):
-        return type(self), self.reach
+        return *super().warm_key(), self.reach
 
     def warm_up(self, problem: Problem) -> None:
         """The reaching planner's kernels and weights, through a short plan of its own (which warms it up first)
