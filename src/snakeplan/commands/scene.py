@@ -62,11 +62,13 @@ def cmd_scene(args: argparse.Namespace) -> int:
 def import_parser() -> argparse.ArgumentParser:
     """The parser of ``snakeplan scene import`` (its own, --help included)."""
     p = Parser(prog="snakeplan scene import",
-               description="Make a scene/1 file from CAD meshes (STL, OBJ, PLY, GLB/GLTF, OFF): the meshes are "
-                           "referred to by their path relative to the scene file. The entrance and every target "
-                           "must lie in free space inside the bounds.")
-    p.add_argument("meshes", nargs="+", metavar="MESH", help="mesh files; closed meshes are solids, open ones "
-                                                             "shells (see --thickness)")
+               description="Make a scene/1 file from CAD meshes (STL, OBJ, PLY, GLB/GLTF, OFF) and scans (point "
+                           "clouds: PLY without faces, PCD, XYZ, NPY, LAS): the files are referred to by their path "
+                           "relative to the scene file. The entrance and every target must lie in free space "
+                           "inside the bounds.")
+    p.add_argument("files", nargs="+", metavar="FILE", help="mesh or cloud files; closed meshes are solids, open "
+                                                            "ones shells (see --thickness); a cloud's points are "
+                                                            "balls (see --radius)")
     p.add_argument("--units", required=True, choices=("m", "cm", "mm", "in"), help="the unit the files are in")
     p.add_argument("--entrance", required=True, metavar="X,Y,Z", help="where the arm enters (mm), e.g. -300,180,100")
     p.add_argument("--direction", required=True, metavar="DX,DY,DZ", help="feed direction into the scene")
@@ -75,20 +77,27 @@ def import_parser() -> argparse.ArgumentParser:
                    help="workspace box (mm), e.g. -100,-200,-200,700,700,200; auto: around the meshes, entrance and "
                         "targets with a 50 mm margin")
     p.add_argument("--thickness", type=float, help="take every mesh as a shell this thick (mm)")
+    p.add_argument("--downsample", type=float, metavar="MM",
+                   help="thin every cloud to one point per cube of this edge (mm; the mean of its points)")
+    p.add_argument("--crop", metavar="X0,Y0,Z0,X1,Y1,Z1", help="keep only the clouds' points inside this box (mm, "
+                                                               "after --units)")
+    p.add_argument("--radius", type=float, metavar="MM",
+                   help="every cloud point a ball of this radius (mm; default 1.5 times the cloud's spacing), "
+                        "to cover the scan's noise and gaps")
     p.add_argument("--obstacle", action="append", default=[], metavar="JSON",
                    help="a primitive beside the meshes, as a scene/1 obstacle object (mm), e.g. a floor: "
                         "'{\"type\": \"box\", \"center\": [0, 0, -510], \"size\": [3000, 3000, 20]}'; may be "
                         "repeated")
-    p.add_argument("--name", help="scene name (default: the first mesh's file name)")
+    p.add_argument("--name", help="scene name (default: the first file's name)")
     p.add_argument("-o", "--out", required=True, help="the scene JSON file to write")
     return p
 
 
 def cmd_scene_import(argv: list[str]) -> int:
-    """``snakeplan scene import MESH... -o scene.json``: check everything, then write the scene atomically."""
+    """``snakeplan scene import FILE... -o scene.json``: check everything, then write the scene atomically."""
     from snakeplan.files import atomic_write
     from snakeplan.inputs import length, load_json, unit
-    from snakeplan.scenes.importing import import_scene, parse_bounds, parse_triple
+    from snakeplan.scenes.importing import import_scene, parse_bounds, parse_crop, parse_triple
 
     args = import_parser().parse_args(argv)
     check_output(args.out, "-o", (".json",))
@@ -97,11 +106,19 @@ def cmd_scene_import(argv: list[str]) -> int:
     targets = [parse_triple(t, f"--target[{i}]") for i, t in enumerate(args.target)]
     thickness = None if args.thickness is None else length(args.thickness, "--thickness")
     primitives = [load_json(text, f"--obstacle[{i}]") for i, text in enumerate(args.obstacle)]
-    scene = import_scene(args.meshes, args.units, entrance, direction, targets, args.out,
-                         parse_bounds(args.bounds), args.name, thickness, primitives)
+    voxel = None if args.downsample is None else length(args.downsample, "--downsample")
+    radius = None if args.radius is None else length(args.radius, "--radius")
+    crop = None if args.crop is None else parse_crop(args.crop)
+    scene = import_scene(args.files, args.units, entrance, direction, targets, args.out,
+                         parse_bounds(args.bounds), args.name, thickness, primitives, crop, voxel, radius)
     atomic_write(args.out, scene.to_json(indent=1) + "\n")
     triangles = sum(len(o.faces) for o in scene.obstacles if hasattr(o, "faces"))
     meshes = sum(1 for o in scene.obstacles if hasattr(o, "faces"))
+    clouds = [o for o in scene.obstacles if hasattr(o, "points")]
+    if clouds:
+        points = sum(len(o.points) for o in clouds)
+        radii = ", ".join(f"{o.radius:.3g}" for o in clouds)
+        sys.stdout.write(f"{_count(len(clouds), 'cloud', 'clouds')}: {points} points, balls of {radii} mm\n")
     sys.stdout.write(f"wrote {args.out}: {_count(meshes, 'mesh', 'meshes')}, {triangles} triangles, "
                      f"{_count(len(scene.targets), 'target', 'targets')}, bounds {scene.bounds_min.round(1).tolist()} .. "
                      f"{scene.bounds_max.round(1).tolist()} mm\n")

@@ -22,6 +22,7 @@ from typing import Protocol
 import numpy as np
 
 from snakeplan.geometry import bvh
+from snakeplan.geometry.cloud_distance import cloud_sdf, cloud_segment
 from snakeplan.geometry.mesh_distance import (
     mesh_inside,
     mesh_ray,
@@ -35,7 +36,7 @@ from snakeplan.jit import inlined, kernel, leaf
 #: The packed row of an obstacle (:meth:`Obstacle.pack` writes it, the kernels below read it):
 #: ``[kind, center(3), R row-major(9), params...]``, its kinds, and where the type-specific parameters start.
 PACK_WIDTH = 24
-KIND_BOX, KIND_SPHERE, KIND_CYLINDER, KIND_PLATE, KIND_PIPE, KIND_MESH = range(6)
+KIND_BOX, KIND_SPHERE, KIND_CYLINDER, KIND_PLATE, KIND_PIPE, KIND_MESH, KIND_POINTS = range(7)
 _P = 13
 
 #: Accuracy (mm) of the minimum clearance reported for a segment.
@@ -130,6 +131,8 @@ def _sdf_row(row, W, p, walk):
     if kind == KIND_MESH:
         k = int(row[_P + 1])
         return mesh_sdf(W[2], W[4], W[5], W[6], W[3][k, 2], row[_P + 2], p, walk[1])
+    if kind == KIND_POINTS:
+        return cloud_sdf(W[11], W[12], W[13], W[14][int(row[_P + 1]), 2], row[_P], p, walk[1])
     # local = R^T (p - c); R stored row-major at row[4:13]
     lx = row[4] * dx + row[7] * dy + row[10] * dz
     ly = row[5] * dx + row[8] * dy + row[11] * dz
@@ -274,7 +277,9 @@ def _grid_sdf(W, which, origin, spacing, nx, ny, k0, k1, cap, out, stats):
                         side = 0.0
                         continue  # outside its box, the obstacle is at least as far as the box
                     stats[0] += 1
-                    if mesh:
+                    if int(row[0]) == KIND_POINTS:
+                        d = cloud_sdf(W[11], W[12], W[13], W[14][int(row[_P + 1]), 2], row[_P], p, walk[1], cap)
+                    elif mesh:
                         root, half = ranges[int(row[_P + 1]), 2], row[_P + 2]
                         reach = cap + half if half > 0.0 else side_reach
                         d = mesh_sdf(W[2], W[4], W[5], W[6], root, half, p, walk[1], reach)
@@ -294,8 +299,8 @@ def _grid_sdf(W, which, origin, spacing, nx, ny, k0, k1, cap, out, stats):
 @leaf
 def _candidates(W, a, b, cutoff, work, stats):
     """Obstacles that may come within ``cutoff`` of segment ab; returns their count in ``work[0]``. A primitive
-    is evaluated at the midpoint and kept when that value allows; a mesh whose box is near enough is a candidate
-    without a distance evaluation (its exact segment search, :func:`_meshes_exact`, decides).
+    is evaluated at the midpoint and kept when that value allows; a mesh or a cloud whose box is near enough is a
+    candidate without a distance evaluation (its exact segment search, :func:`_meshes_exact`, decides).
 
     The obstacle tree culls every box that the segment's bounding ball lies outside of and farther than
     ``cutoff`` from, so a link only evaluates obstacles near it, whatever the size of the scene.
@@ -328,7 +333,7 @@ def _candidates(W, a, b, cutoff, work, stats):
             outside = bvh.box_distance(boxes[k], mid)
             if outside > 0.0 and outside - half >= cutoff:
                 continue
-            if int(rows[k, 0]) == KIND_MESH:
+            if int(rows[k, 0]) >= KIND_MESH:
                 cand[n] = k
                 n += 1
                 continue
@@ -348,7 +353,7 @@ def _meshes_exact(W, a, b, n, bound, work, stats):
     front of the candidate list. A segment that does not touch a closed mesh's surface lies wholly on one side:
     outside when its closest surface point says so, or, with no surface within ``bound``, when the inside test
     of one of its points says so; then its least distance is the exact one (or >= ``bound``). A shell is always
-    settled (unsigned distance - half thickness)."""
+    settled (unsigned distance - half thickness), and so is a cloud (distance to its nearest point - radius)."""
     rows, ranges = W[0], W[3]
     cand, _, walk, point = work
     best = bound
@@ -356,6 +361,13 @@ def _meshes_exact(W, a, b, n, bound, work, stats):
     for j in range(n):
         k = cand[j]
         row = rows[k]
+        if int(row[0]) == KIND_POINTS:
+            stats[0] += 1
+            radius = row[_P]
+            d = cloud_segment(W[11], W[12], W[13], W[14][int(row[_P + 1]), 2], a, b, max(best + radius, 1e-9),
+                              walk[1])
+            best = min(best, d - radius)
+            continue
         if int(row[0]) != KIND_MESH:
             cand[keep] = k
             keep += 1
@@ -661,7 +673,8 @@ _MESH_GRIDS_LOCK = threading.Lock()
 
 class Packable(Protocol):
     """What an :class:`ObstacleSet` uses of an obstacle (:class:`~snakeplan.geometry.primitives.Obstacle`): its
-    kind, its packed row and its world box; a mesh (``KIND_MESH``) also its triangles' data and a digest."""
+    kind, its packed row and its world box; a mesh (``KIND_MESH``) also its triangles' data and a digest, a cloud
+    (``KIND_POINTS``) its points' hierarchy and a digest."""
 
     kind: int
 
@@ -669,19 +682,20 @@ class Packable(Protocol):
 
     def aabb(self) -> tuple[np.ndarray, np.ndarray]: ...
 
-    def distance_data(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]: ...
+    def distance_data(self) -> tuple[np.ndarray, ...]: ...
 
     def fingerprint(self) -> str: ...
 
 
 def _split_meshes(obstacles: Sequence[Packable]) -> tuple[np.ndarray, np.ndarray]:
-    """(the indices of the meshes among ``obstacles``, the indices of the rest)."""
-    is_mesh = np.array([o.kind == KIND_MESH for o in obstacles], dtype=bool)
+    """(the indices of the meshes and clouds among ``obstacles``, the indices of the rest)."""
+    is_mesh = np.array([o.kind in (KIND_MESH, KIND_POINTS) for o in obstacles], dtype=bool)
     return np.flatnonzero(is_mesh), np.flatnonzero(~is_mesh)
 
 
 def _mesh_grid(obstacles: ObstacleSet, meshes: np.ndarray, query: tuple) -> np.ndarray:
-    """The clamped grid field (:meth:`ObstacleSet.grid_distance`) of the meshes ``meshes`` of ``obstacles`` alone,
+    """The clamped grid field (:meth:`ObstacleSet.grid_distance`) of the meshes and clouds ``meshes`` of
+    ``obstacles`` alone,
     read-only, kept per the meshes' content (:meth:`Mesh.fingerprint`) and the grid, the least recently used
     dropped past :data:`MESH_GRID_CELLS` cells in all: a later job in the same structure reuses it."""
     origin, spacing, nx, ny, k0, k1, cap = query
@@ -713,8 +727,22 @@ class ObstacleSet:
         self.obstacles = tuple(obstacles)
         rows = [o.pack() for o in self.obstacles]
         tris, normals, nodes, links, ranges = [], [], [], [], []
-        tri_start = node_start = 0
+        cloud_pts, cloud_nodes, cloud_links, cloud_ranges = [], [], [], []
+        tri_start = node_start = point_start = cloud_node_start = 0
         for o, row in zip(self.obstacles, rows):
+            if o.kind == KIND_POINTS:
+                pts, nd, lk = o.distance_data()
+                lk = lk.copy()
+                inner = lk[:, 1] > 0
+                lk[inner] += cloud_node_start
+                lk[~inner, 0] += point_start
+                row[_P + 1] = len(cloud_ranges)
+                cloud_ranges.append((point_start, point_start + len(pts), cloud_node_start))
+                cloud_pts.append(pts)
+                cloud_nodes.append(nd)
+                cloud_links.append(lk)
+                point_start += len(pts)
+                cloud_node_start += len(nd)
             if o.kind == KIND_MESH:
                 t, nrm, nd, lk = o.distance_data()
                 lk = lk.copy()
@@ -739,7 +767,11 @@ class ObstacleSet:
                         np.concatenate(normals) if normals else np.zeros((0, 7, 3)),
                         np.concatenate(nodes) if nodes else np.zeros((0, 6)),
                         np.concatenate(links) if links else np.zeros((0, 2), dtype=np.int64),
-                        onodes, olinks, order, triangle_balls(all_tris))
+                        onodes, olinks, order, triangle_balls(all_tris),
+                        np.concatenate(cloud_pts) if cloud_pts else np.zeros((0, 3)),
+                        np.concatenate(cloud_nodes) if cloud_nodes else np.zeros((0, 6)),
+                        np.concatenate(cloud_links) if cloud_links else np.zeros((0, 2), dtype=np.int64),
+                        np.array(cloud_ranges, dtype=np.int64).reshape(len(cloud_ranges), 3))
         self._split = _split_meshes(self.obstacles)
         #: Point-to-obstacle distance evaluations made by this set's queries so far (a cost measure for tests and
         #: benchmarks, independent of the machine's speed; a kept mesh grid field costs none).
@@ -759,7 +791,7 @@ class ObstacleSet:
         out._boxes = np.ascontiguousarray(self._boxes[keep])
         order, onodes, olinks = bvh.build(out._boxes)
         W = self._packed
-        out._packed = (out._rows, out._boxes, *W[2:7], onodes, olinks, order, W[10])
+        out._packed = (out._rows, out._boxes, *W[2:7], onodes, olinks, order, *W[10:])
         out._split = _split_meshes(out.obstacles)
         out.evaluations = np.zeros(1, dtype=np.int64)
         return out
@@ -777,7 +809,8 @@ class ObstacleSet:
     def packed(self) -> tuple[np.ndarray, ...]:
         """The packed arrays jitted kernels take as one argument, as :func:`chain_hit` (with a :func:`workspace`):
         (rows, boxes, triangles, mesh ranges (first triangle, stop, root node), triangle normals, triangle tree
-        nodes and links, obstacle tree nodes, links and order, triangle balls)."""
+        nodes and links, obstacle tree nodes, links and order, triangle balls, cloud points, cloud tree nodes and
+        links, cloud ranges (first point, stop, root node))."""
         return self._packed
 
     def signed_distance(self, points, cap: float = math.inf) -> np.ndarray:

@@ -1,10 +1,11 @@
-"""Obstacle primitives with exact signed distances (mm): box, sphere, cylinder, plate with a hole, pipe, mesh.
+"""Obstacle primitives with exact signed distances (mm): box, sphere, cylinder, plate with a hole, pipe, mesh,
+point cloud.
 
 Each primitive is a small frozen dataclass that round-trips through the ``snakeplan.scene/1`` JSON of
 docs/ARCHITECTURE.md (``to_dict`` / :func:`obstacle_from_dict`) and packs itself into a fixed-width float row
 (:meth:`Obstacle.pack`, the layout of :mod:`snakeplan.geometry.distance`) so that its numba kernels can evaluate
 whole scenes without Python in the loop. Signed distance is negative inside the material. A mesh given by a CAD
-file is read by :mod:`snakeplan.geometry.mesh_files`.
+file is read by :mod:`snakeplan.geometry.mesh_files`, a cloud's by :mod:`snakeplan.geometry.cloud_files`.
 """
 
 from __future__ import annotations
@@ -17,7 +18,8 @@ from typing import Any, ClassVar
 import numpy as np
 
 from snakeplan import inputs
-from snakeplan.geometry import mesh_distance
+from snakeplan.geometry import cloud_distance, mesh_distance
+from snakeplan.geometry.cloud_files import read_cloud_spec
 from snakeplan.geometry.distance import (
     _P,
     KIND_BOX,
@@ -25,6 +27,7 @@ from snakeplan.geometry.distance import (
     KIND_MESH,
     KIND_PIPE,
     KIND_PLATE,
+    KIND_POINTS,
     KIND_SPHERE,
     PACK_WIDTH,
     ObstacleSet,
@@ -382,6 +385,90 @@ class Mesh(Obstacle):
         return out
 
 
+#: A cloud's points are balls of this many times its spacing (the median distance to the nearest other point) in
+#: radius unless ``radius_mm`` says: a ball this size reaches past the middle of the widest gap of a regular grid of
+#: that spacing (its diagonal half, 0.71 spacings) with room for range noise of a quarter spacing either way.
+DEFAULT_RADIUS_SPACINGS = 1.5
+
+
+@dataclass(frozen=True, eq=False)
+class Points(Obstacle):
+    """A point cloud, a scan of a space: every point (mm) a solid ball of one radius. ``radius_mm`` is the
+    inflation that covers the scan's noise and the gaps between its points (default
+    :data:`DEFAULT_RADIUS_SPACINGS` times its spacing, :func:`cloud_distance.spacing`). ``source`` is the file form
+    it was loaded from (:mod:`snakeplan.geometry.cloud_files`), written back by :meth:`to_dict`."""
+
+    points: np.ndarray
+    radius_mm: float | None = None
+    source: dict | None = field(default=None, compare=False)
+    type: ClassVar[str] = "points"
+    kind: ClassVar[int] = KIND_POINTS
+
+    def __post_init__(self) -> None:
+        P = inputs.rows(self.points, "points.points", 3, min_rows=1)
+        P.setflags(write=False)
+        object.__setattr__(self, "points", P)
+        prepared = cloud_distance.prepare(P)
+        object.__setattr__(self, "_distance_data", prepared)
+        if self.radius_mm is not None:
+            radius = inputs.length(self.radius_mm, "points.radius_mm")
+        else:
+            spacing = cloud_distance.spacing(prepared)
+            if not math.isfinite(spacing):
+                raise ValueError("points.radius_mm: a cloud of one place has no spacing to take a radius from; "
+                                 "give radius_mm")
+            radius = DEFAULT_RADIUS_SPACINGS * spacing
+        object.__setattr__(self, "radius", radius)
+
+    def __getstate__(self) -> dict:
+        """Pickled as its defining fields; the hierarchy is rebuilt on loading."""
+        return {"points": self.points, "radius_mm": self.radius_mm, "source": self.source}
+
+    def __setstate__(self, state: dict) -> None:
+        for name in ("points", "radius_mm", "source"):
+            object.__setattr__(self, name, state.get(name))
+        self.__post_init__()
+
+    @property
+    def center(self) -> np.ndarray:  # type: ignore[override]
+        return (self.points.min(axis=0) + self.points.max(axis=0)) / 2
+
+    def fingerprint(self) -> str:
+        """A digest of the cloud's points and radius (as :meth:`Mesh.fingerprint`)."""
+        key = self.__dict__.get("_fingerprint")
+        if key is None:
+            h = hashlib.sha1(repr((self.points.shape, self.radius)).encode())
+            h.update(self.points.tobytes())
+            key = h.hexdigest()
+            object.__setattr__(self, "_fingerprint", key)
+        return key
+
+    def distance_data(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(points in leaf order, nodes, links) of :func:`cloud_distance.prepare`."""
+        return self.__dict__["_distance_data"]
+
+    def sample(self, most: int) -> np.ndarray:
+        """At most ``most`` of the points (mm), every k-th: what a picture or a page draws."""
+        return self.points[::max(1, -(-len(self.points) // most))]
+
+    def _pack_params(self, row: np.ndarray) -> None:
+        row[_P] = self.radius
+
+    def bounding_radius(self) -> float:
+        return float(np.max(np.linalg.norm(self.points - self.center, axis=1))) + self.radius
+
+    def aabb(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.points.min(axis=0) - self.radius, self.points.max(axis=0) + self.radius
+
+    def to_dict(self) -> dict:
+        if self.source is not None:
+            return {"type": "points", **self.source}
+        out = {"type": "points", "points": _list(self.points)}
+        if self.radius_mm is not None:
+            out["radius_mm"] = self.radius_mm
+        return out
+
+
 def open_mesh_note(mesh: Mesh) -> str | None:
     """What the loader warns about a mesh (None for a closed one, or an open one given its ``thickness``)."""
     if mesh.closed or mesh.thickness is not None:
@@ -390,12 +477,12 @@ def open_mesh_note(mesh: Mesh) -> str | None:
             f"(give \"thickness\" in mm to choose)")
 
 
-OBSTACLE_TYPES: dict[str, type[Obstacle]] = {c.type: c for c in (Box, Sphere, Cylinder, Pipe, Plate, Mesh)}
+OBSTACLE_TYPES: dict[str, type[Obstacle]] = {c.type: c for c in (Box, Sphere, Cylinder, Pipe, Plate, Mesh, Points)}
 
 
 def obstacle_from_dict(d: Any, where: str = "obstacle", base_dir: str | None = None) -> Obstacle:
     """Build an obstacle from its ``snakeplan.scene/1`` dict; ValueError names the bad field's JSON path. A mesh
-    given by ``file`` is read relative to ``base_dir`` (default: the working directory)."""
+    or a cloud given by ``file`` is read relative to ``base_dir`` (default: the working directory)."""
     d = inputs.mapping(d, where, required=("type",))
     kind = d["type"]
     if not isinstance(kind, str):
@@ -410,6 +497,13 @@ def obstacle_from_dict(d: Any, where: str = "obstacle", base_dir: str | None = N
         except ValueError as exc:
             msg = str(exc)
             raise ValueError(f"{where}.file: {msg.split(': ', 1)[1] if ': ' in msg else msg}") from None
+    if cls is Points and "file" in d:
+        points, source = read_cloud_spec(d, where, base_dir)
+        try:
+            return Points(points, source.get("radius_mm"), source=source)
+        except ValueError as exc:
+            msg = str(exc)
+            raise ValueError(f"{where}.{msg.split('.', 1)[1] if msg.startswith('points.') else msg}") from None
     names = [f.name for f in fields(cls) if f.name != "source"]
     required = tuple(f.name for f in fields(cls) if f.default is MISSING and f.default_factory is MISSING)
     inputs.mapping(d, where, required=required, allowed=("type", *names))

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from snakeplan.geometry.distance import ObstacleSet
-from snakeplan.geometry.primitives import Mesh, Obstacle
+from snakeplan.geometry.primitives import Mesh, Obstacle, Points
 
 #: How deep (mm) a sample may lie inside another obstacle and still count as surface.
 BURIED_MM = 1.0
@@ -54,10 +54,18 @@ class SurfacePoints:
                              self.spacing_mm)
 
 
+#: Most points of a cloud whose splats :func:`surface_triangles` gives.
+SPLAT_POINTS = 20_000
+
+
 def surface_triangles(obstacle: Obstacle) -> np.ndarray:
-    """The triangles (t, 3, 3) mm of an obstacle's surface: a mesh's own, a primitive's tessellation."""
+    """The triangles (t, 3, 3) mm of an obstacle's surface: a mesh's own, a primitive's tessellation; a cloud's,
+    one splat per point (at most :data:`SPLAT_POINTS`): a triangle about the point, its corners a radius away."""
     if isinstance(obstacle, Mesh):
         return obstacle.triangles()
+    if isinstance(obstacle, Points):
+        corners = obstacle.radius * (np.eye(3) - 1.0 / 3.0) * math.sqrt(1.5)
+        return obstacle.sample(SPLAT_POINTS)[:, None, :] + corners[None]
     from snakeplan.geometry.tessellation import obstacle_mesh
 
     return np.asarray(obstacle_mesh(obstacle).triangles, dtype=float)
@@ -81,17 +89,17 @@ def _gradient(obstacle: Obstacle, p: np.ndarray) -> tuple[np.ndarray, np.ndarray
 
 
 def sample_surfaces(obstacles: Sequence[Obstacle], which: Sequence[int], spacing_mm: float,
-                    region: tuple[np.ndarray, np.ndarray], seed: int = 0) -> SurfacePoints:
+                    region: tuple[np.ndarray, np.ndarray], seed: int = 0, most: int = MAX_DRAWN) -> SurfacePoints:
     """Area-uniform points of interest on the surfaces of ``obstacles[k]`` for k in ``which``, one per
     ``spacing_mm``² of area on average, inside the box ``region`` (lo, hi) mm; see the module. The same inputs give
-    the same points. ValueError naming ``spacing_mm`` for a spacing that would draw over :data:`MAX_DRAWN`."""
+    the same points. ValueError naming ``spacing_mm`` for a spacing that would draw over ``most`` points."""
     tris = [surface_triangles(obstacles[k]) for k in which]
     areas = [_areas(t) for t in tris]
     total = float(sum(a.sum() for a in areas))
     drawn = math.ceil(total / spacing_mm**2) if total > 0 else 0
-    if drawn > MAX_DRAWN:
+    if drawn > most:
         raise ValueError(f"spacing_mm: {spacing_mm:g} mm draws {drawn} points on {total / 1e6:.3g} m² of surface "
-                         f"(at most {MAX_DRAWN}); use at least {math.sqrt(total / MAX_DRAWN):.3g} mm")
+                         f"(at most {most}); use at least {math.sqrt(total / most):.3g} mm")
     empty = SurfacePoints(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, dtype=np.int64), np.zeros(0), spacing_mm)
     if drawn == 0:
         return empty

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from snakeplan.geometry.primitives import Mesh
+from snakeplan.geometry.primitives import Mesh, Points
 from snakeplan.robots import Chain
 from snakeplan.scenes.scene import Scene
 
@@ -22,12 +22,13 @@ def scale_warnings(scene: Scene, robot: Chain) -> list[str]:
         out.append(f"scene: {scene.name} spans {span:.3g} mm, less than one section of {robot.name} "
                    f"({section:.3g} mm); are its coordinates in mm?")
     for i, o in enumerate(scene.obstacles):
-        if isinstance(o, Mesh):
-            extent = float(np.max(np.ptp(o.vertices, axis=0)))
+        if isinstance(o, (Mesh, Points)):
+            extent = float(np.max(np.ptp(o.vertices if isinstance(o, Mesh) else o.points, axis=0)))
             if extent < section:
                 units = (o.source or {}).get("units")
                 read = f" (read in {units!r})" if units else ""
-                out.append(f"obstacles[{i}]: the mesh spans {extent:.3g} mm{read}, less than one section of "
+                what = "mesh" if isinstance(o, Mesh) else "cloud"
+                out.append(f"obstacles[{i}]: the {what} spans {extent:.3g} mm{read}, less than one section of "
                            f"{robot.name} ({section:.3g} mm); are its units right?")
     if scene.obstacles:
         gap = float(scene.signed_distance(scene.entrance.position[None])[0])

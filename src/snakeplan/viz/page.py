@@ -26,6 +26,8 @@ from snakeplan.viz.crawl import CrawlFrames
 OBSTACLE_HEX, OBSTACLE_EDGE_HEX = "#8c99ad", "#5a6a85"
 PATH_HEX, ENTRANCE_HEX, TARGET_HEX = "#1f77b4", "#9467bd", "#2ca02c"
 COLLISION_HEX, CLOSEST_HEX = "#ff0000", "#ffb000"
+#: Most points of a cloud a page carries (an even subsample): 200,000 points are 2.4 MB of the page.
+PAGE_CLOUD_POINTS = 200_000
 #: Points sampled along a link to place the closest-approach marker.
 LINK_SAMPLES = 21
 
@@ -44,14 +46,17 @@ def _hex(rgba) -> str:
 
 
 def scene_glb(scene: Scene) -> bytes:
-    """The scene's obstacles as one glTF binary (mm, scene frame; trimesh's exporter)."""
+    """The scene's obstacles as one glTF binary (mm, scene frame; trimesh's exporter); a point cloud as points, at
+    most :data:`PAGE_CLOUD_POINTS` of them."""
     import trimesh
 
+    from snakeplan.geometry.primitives import Points
     from snakeplan.geometry.tessellation import obstacle_mesh
 
     tm = trimesh.Scene()
     for i, o in enumerate(scene.obstacles):
-        tm.add_geometry(obstacle_mesh(o), node_name=f"obstacle-{i}", geom_name=f"obstacle-{i}")
+        shape = trimesh.PointCloud(o.sample(PAGE_CLOUD_POINTS)) if isinstance(o, Points) else obstacle_mesh(o)
+        tm.add_geometry(shape, node_name=f"obstacle-{i}", geom_name=f"obstacle-{i}")
     return tm.export(file_type="glb") if scene.obstacles else b""
 
 
@@ -191,9 +196,11 @@ function loadObstacles(done) {
   const faces = new THREE.MeshLambertMaterial({color: D.colors.obstacle, transparent: true, opacity: 0.10,
     depthWrite: false, side: THREE.DoubleSide});
   const edges = new THREE.LineBasicMaterial({color: D.colors.edge});
+  const dots = new THREE.PointsMaterial({color: D.colors.edge, size: 2, sizeAttenuation: false});
   new THREE.GLTFLoader().load('data:application/octet-stream;base64,' + D.glb, function (gltf) {
     gltf.scene.traverse(function (o) {
       if (o.isMesh) { o.material = faces; o.add(new THREE.LineSegments(new THREE.EdgesGeometry(o.geometry, 25), edges)); }
+      if (o.isPoints) { o.material = dots; }
     });
     scene.add(gltf.scene); done();
   }, undefined, function (err) { console.error('snakeplan: cannot load the scene: ' + err); });

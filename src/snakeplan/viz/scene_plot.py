@@ -7,11 +7,13 @@ from matplotlib.axes import Axes
 from matplotlib.ticker import MaxNLocator
 from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection
 
-from snakeplan.geometry.primitives import Box, Cylinder, Mesh, Obstacle, Pipe, Plate, Sphere
+from snakeplan.geometry.primitives import Box, Cylinder, Mesh, Obstacle, Pipe, Plate, Points, Sphere
 from snakeplan.scenes import Scene
 from snakeplan.geometry.tessellation import obstacle_mesh
 
 OBSTACLE_COLOR = (0.55, 0.6, 0.68)
+#: Most points of a cloud a picture draws (an even subsample): more hide the arm and slow matplotlib's 3-D sort.
+DRAWN_CLOUD_POINTS = 20_000
 BODY_COLOR = "tab:orange"
 PATH_COLOR = "tab:blue"
 ENTRANCE_COLOR = "tab:purple"
@@ -68,10 +70,18 @@ def obstacle_outline(o: Obstacle) -> tuple[list[np.ndarray], list[np.ndarray]]:
 
 def draw_obstacles(ax: Axes, obstacles, alpha: float = 0.18) -> None:
     """Add the obstacles to a 3-D axes as one collection of translucent faces and one of outlines: a scene of
-    10,000 obstacles is two artists, not 10,000."""
+    10,000 obstacles is two artists, not 10,000. A point cloud is drawn as its points (at most
+    :data:`DRAWN_CLOUD_POINTS`)."""
     faces: list[np.ndarray] = []
     lines: list[np.ndarray] = []
+    clouds = [o.sample(DRAWN_CLOUD_POINTS) for o in obstacles if isinstance(o, Points)]
+    if clouds:
+        pts = np.concatenate(clouds)
+        ax.scatter(*pts.T, s=0.6, color=OBSTACLE_COLOR, alpha=min(1.0, 3 * alpha), depthshade=False, linewidths=0,
+                   gid="obstacles")
     for o in obstacles:
+        if isinstance(o, Points):
+            continue
         f, ln = obstacle_outline(o)
         faces += f
         lines += ln

@@ -1,0 +1,228 @@
+"""Point clouds read from scan files (PLY, PCD, XYZ, NPY, LAS), in a stated unit and pose, cropped and thinned:
+the points (mm) of which :mod:`snakeplan.geometry.primitives` makes the :class:`Points` obstacle.
+
+The scene form is ``{"type": "points", "file": "scan.ply", "units": "m", "transform": 4x4, "radius_mm": r,
+"crop": [x0, y0, z0, x1, y1, z1], "downsample_mm": v}``: the file is read relative to the scene file's folder, its
+coordinates scaled to mm by ``units`` and moved by the rigid ``transform``; then the points outside ``crop`` (mm,
+scene frame) are dropped, and ``downsample_mm`` keeps one point per cube of that edge (the mean of the points in
+it). The original file stays the source, so the scene says how its cloud was made.
+
+Readers, each a well-kept library or NumPy alone: PLY through trimesh (already read meshes here; a PLY with faces
+is taken by its vertices), PCD through pypcd4 (PCL's ASCII, binary and compressed forms; small, pure Python, where
+Open3D is hundreds of MB for one reader), LAS through laspy (the ASPRS format of survey scanners, scaled and offset
+as stored), XYZ as text (whitespace- or comma-separated, the first three columns x, y, z, the rest colours or
+intensities), NPY as an ``(n, 3)`` array. Every problem is a one-line ValueError naming the field.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from snakeplan import inputs
+from snakeplan.geometry.mesh_files import MESH_SPAN_MM, UNITS_MM, rigid_transform
+
+#: File name endings read as clouds.
+CLOUD_SUFFIXES = (".ply", ".pcd", ".xyz", ".npy", ".las")
+#: Largest cloud file (bytes): 10 million points as text is about 400 MB.
+MAX_CLOUD_FILE_BYTES = 1024 * 2**20
+#: Most points a cloud may keep after cropping and thinning. Memory: about 100 bytes a point at the peak of
+#: loading (the points, their copy in leaf order, the hierarchy and its build), 1 million points in about 1 s on
+#: the 2-core machine (``snakeplan bench cloud``).
+MAX_CLOUD_POINTS = 4_000_000
+#: Size range (mm, the box diagonal after scaling) a cloud must fall in: outside it, the units are wrong.
+CLOUD_SPAN_MM = MESH_SPAN_MM
+
+
+def _shown(path: str | os.PathLike) -> str:
+    return str(path) if str(path).isprintable() else repr(str(path))
+
+
+def _text_columns(path: Path, field: str, shown: str) -> np.ndarray:
+    """The first three columns of an XYZ text file (ValueError naming ``field`` for fewer or ragged ones)."""
+    with open(path, "rb") as f:
+        head = b""
+        for line in f:
+            if line.strip() and not line.lstrip().startswith(b"#"):
+                head = line
+                break
+    delimiter = "," if b"," in head else None
+    try:
+        data = np.loadtxt(path, comments="#", delimiter=delimiter, ndmin=2, dtype=float)
+    except ValueError as exc:
+        raise ValueError(f"{field}: {shown}: not rows of numbers x y z ({str(exc).splitlines()[0]})") from None
+    if data.shape[0] and data.shape[1] < 3:
+        raise ValueError(f"{field}: {shown}: expected at least 3 columns x y z, got {data.shape[1]}")
+    return data[:, :3]
+
+
+def _read_raw(path: Path, field: str, shown: str) -> np.ndarray:
+    """The points of a cloud file in its own units, ``(n, 3)``."""
+    suffix = path.suffix.lower()
+    if suffix == ".npy":
+        try:
+            data = np.load(path, allow_pickle=False)
+        except (ValueError, OSError) as exc:
+            raise ValueError(f"{field}: cannot read {shown} as a NumPy array ({exc.__class__.__name__})") from None
+        if data.ndim != 2 or data.shape[1] != 3 or not np.issubdtype(data.dtype, np.number):
+            raise ValueError(f"{field}: {shown}: expected an array of n rows x, y, z, got shape {data.shape} "
+                             f"of {data.dtype}")
+        return np.asarray(data, dtype=float)
+    if suffix == ".xyz":
+        return _text_columns(path, field, shown)
+    if suffix == ".pcd":
+        from pypcd4 import PointCloud
+
+        try:
+            cloud = PointCloud.from_path(path)
+        except Exception as exc:  # pypcd4 raises many kinds for a malformed file
+            raise ValueError(f"{field}: cannot read {shown} as a PCD file ({exc.__class__.__name__})") from None
+        missing = [c for c in "xyz" if c not in cloud.fields]
+        if missing:
+            raise ValueError(f"{field}: {shown}: a PCD file needs fields x, y, z; it has {', '.join(cloud.fields)}")
+        return np.asarray(cloud.numpy(("x", "y", "z")), dtype=float).reshape(-1, 3)
+    if suffix == ".las":
+        import laspy
+
+        try:
+            las = laspy.read(path)
+        except Exception as exc:  # laspy raises many kinds for a malformed file
+            raise ValueError(f"{field}: cannot read {shown} as a LAS file ({exc.__class__.__name__})") from None
+        return np.column_stack([np.asarray(las.x, dtype=float), np.asarray(las.y, dtype=float),
+                                np.asarray(las.z, dtype=float)])
+    import trimesh
+
+    try:
+        loaded = trimesh.load(str(path), process=False)
+    except Exception as exc:  # trimesh raises many kinds for a malformed file
+        raise ValueError(f"{field}: cannot read {shown} as a PLY file ({exc.__class__.__name__})") from None
+    return np.asarray(getattr(loaded, "vertices", np.zeros((0, 3))), dtype=float).reshape(-1, 3)
+
+
+def is_cloud_file(path: str | os.PathLike) -> bool:
+    """Whether ``path`` names a cloud: a PCD, XYZ, NPY or LAS file, or a PLY file whose header declares no faces
+    (a PLY with faces is a mesh)."""
+    suffix = Path(path).suffix.lower()
+    if suffix != ".ply":
+        return suffix in CLOUD_SUFFIXES
+    try:
+        with open(path, "rb") as f:
+            header = f.read(4096).split(b"end_header", 1)[0]
+    except OSError:
+        return False
+    for line in header.splitlines():
+        words = line.split()
+        if len(words) == 3 and words[0] == b"element" and words[1] == b"face":
+            return words[2] == b"0"
+    return True
+
+
+def read_cloud_file(path: str | os.PathLike, field: str, units: str = "mm") -> np.ndarray:
+    """The points (mm) of a cloud file. ValueError (``field: ...``) when it cannot be read, is over
+    :data:`MAX_CLOUD_FILE_BYTES`, holds no points or points that are not finite, or ``units`` makes it implausibly
+    small or large."""
+    if units not in UNITS_MM:
+        raise ValueError(f"{field}: units must be one of {', '.join(UNITS_MM)}, got {inputs.show(units)}")
+    p = Path(path)
+    shown = _shown(path)
+    if p.suffix.lower() not in CLOUD_SUFFIXES:
+        raise ValueError(f"{field}: {shown}: not a point cloud file (known endings: {', '.join(CLOUD_SUFFIXES)})")
+    try:
+        size = p.stat().st_size
+    except OSError:
+        raise ValueError(f"{field}: file not found: {shown}") from None
+    if size > MAX_CLOUD_FILE_BYTES:
+        raise ValueError(f"{field}: {shown} is larger than the {MAX_CLOUD_FILE_BYTES // 2**20} MiB limit; thin it "
+                         f"first")
+    points = _read_raw(p, field, shown)
+    if len(points) == 0:
+        raise ValueError(f"{field}: {shown} holds no points")
+    bad = ~np.isfinite(points).all(axis=1)
+    if bad.any():
+        raise ValueError(f"{field}: {shown} has {int(bad.sum())} points that are not finite numbers (the first is "
+                         f"point {int(np.argmax(bad))}); drop them before import")
+    points = points * UNITS_MM[units]
+    span = float(np.linalg.norm(points.max(axis=0) - points.min(axis=0)))
+    lo, hi = CLOUD_SPAN_MM
+    if not lo <= span <= hi:
+        guess = "m" if span < lo else "mm"
+        raise ValueError(f"{field}: in {units!r} the cloud spans {span:.3g} mm, outside {lo:g} mm .. {hi / 1e3:g} m; "
+                         f"are its units {guess!r}?")
+    return points
+
+
+def crop_box(value: Any, name: str) -> np.ndarray:
+    """``[x0, y0, z0, x1, y1, z1]`` (mm) with each low corner below its high one."""
+    v = inputs.vector(value, name, 6, shape="[x0, y0, z0, x1, y1, z1]")
+    lo, hi = inputs.corners(v[:3], v[3:], name)
+    return np.concatenate([lo, hi])
+
+
+def downsample(points: np.ndarray, voxel_mm: float) -> np.ndarray:
+    """One point per cube of edge ``voxel_mm`` (mm; the cubes of the grid through the origin) that holds any: the
+    mean of its points (a voxel filter, as PCL's VoxelGrid), in the order of the cubes' first points."""
+    keys = np.floor(points / voxel_mm).astype(np.int64)
+    _, first, inverse, counts = np.unique(keys, axis=0, return_index=True, return_inverse=True, return_counts=True)
+    sums = np.zeros((len(counts), 3))
+    np.add.at(sums, inverse.reshape(-1), points)
+    means = sums / counts[:, None]
+    return means[np.argsort(first)]
+
+
+def thin(points: np.ndarray, field: str, crop: np.ndarray | None = None, voxel_mm: float | None = None
+         ) -> np.ndarray:
+    """``points`` (mm) inside ``crop`` (``[x0, y0, z0, x1, y1, z1]``), then :func:`downsample`'d; ValueError naming
+    ``field`` when none are left or more than :data:`MAX_CLOUD_POINTS`."""
+    if crop is not None:
+        points = points[np.all((points >= crop[:3]) & (points <= crop[3:]), axis=1)]
+        if len(points) == 0:
+            raise ValueError(f"{field}: no point of the cloud lies inside the crop box {crop.tolist()}")
+    if voxel_mm is not None:
+        points = downsample(points, voxel_mm)
+    if len(points) > MAX_CLOUD_POINTS:
+        raise ValueError(f"{field}: the cloud keeps {len(points)} points, more than the {MAX_CLOUD_POINTS} limit; "
+                         f"thin it (downsample_mm, snakeplan scene import --downsample MM) or crop it")
+    return points
+
+
+def read_cloud_spec(d: dict, where: str, base_dir: str | os.PathLike | None) -> tuple[np.ndarray, dict[str, Any]]:
+    """(points in mm, source) of a scene's ``{"type": "points", "file": ...}`` object (see the module): the file
+    read, moved, cropped and thinned; ``source`` is the object as written back (the file's absolute path and the
+    fields given)."""
+    d = inputs.mapping(d, where, required=("type", "file", "units"),
+                       allowed=("type", "file", "units", "transform", "radius_mm", "crop", "downsample_mm"))
+    file = d["file"]
+    if not isinstance(file, str) or not file:
+        raise ValueError(f"{where}.file: expected a file name, got {inputs.show(file)}")
+    units = d["units"]
+    if not isinstance(units, str) or units not in UNITS_MM:
+        raise ValueError(f"{where}.units: expected one of {', '.join(UNITS_MM)}, got {inputs.show(units)}")
+    T = rigid_transform(d["transform"], f"{where}.transform") if "transform" in d else None
+    crop = crop_box(d["crop"], f"{where}.crop") if "crop" in d else None
+    voxel = inputs.length(d["downsample_mm"], f"{where}.downsample_mm") if "downsample_mm" in d else None
+    radius = inputs.length(d["radius_mm"], f"{where}.radius_mm") if "radius_mm" in d else None
+    path = Path(base_dir or ".") / file
+    try:
+        points = read_cloud_file(path, f"{where}.file", units)
+    except ValueError as exc:
+        msg = str(exc)
+        if "are its units" in msg:
+            raise ValueError(f"{where}.units:{msg.split(':', 1)[1]}") from None
+        raise
+    source: dict[str, Any] = {"file": str(path.resolve()), "units": units}
+    if T is not None:
+        points = points @ T[:3, :3].T + T[:3, 3]
+        if not np.all(np.abs(points) <= inputs.MAX_MM):
+            raise ValueError(f"{where}.transform: moves the cloud beyond {inputs.MAX_MM:g} mm")
+        source["transform"] = T.tolist()
+    points = thin(points, f"{where}.file", crop, voxel)
+    if crop is not None:
+        source["crop"] = crop.tolist()
+    if voxel is not None:
+        source["downsample_mm"] = voxel
+    if radius is not None:
+        source["radius_mm"] = radius
+    return points, source
