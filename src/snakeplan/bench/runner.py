@@ -11,7 +11,8 @@ A results folder ``DIR`` holds::
     DIR/.lock               held (flock) while a runner writes the folder
 
 A row names its run (scene, seed, robot, planner and options, time limit, knowledge), the judge's verdict and
-metrics, the plan's status, details and compute time, the path, and its provenance (snakeplan version, git commit
+metrics (and, for a family made from another, a scan, the verdict in that family's scene: ``made_from``), the
+plan's status, details and compute time, the path, and its provenance (snakeplan version, git commit
 when the package runs from a checkout, Python, platform, the host that planned it, the invocation's start time
 and settings). Its ``key`` is a digest of the run's identity: a rerun of the same command skips every key the
 folder holds (resume), and a torn last line (a writer killed mid-line) is cut off before anything is appended.
@@ -300,7 +301,22 @@ def run_chunk(task: list[Run], stamp: dict) -> list[dict]:
         problem = Problem(run.make_scene(), robot, run.time_limit_s, knowledge=run.knowledge, task=run.task)
         episode = run_episode(problem, planner, seed=run.seed)
         rows.append(make_row(run, episode, {**stamp, **host, "kernels_compiled": compiled}))
+        source = "" if run.scene_json else _spec(run.scene, "").made_from
+        if source:
+            rows[-1]["made_from"] = judged_in_source(source, run, episode.plan.path)
     return rows
+
+
+def judged_in_source(source: str, run: Run, path) -> dict:
+    """The judge's verdict on a reach plan of a family made from ``source`` (a scan of it), in ``source``'s own
+    scene of the run's seed: ``{scene, success, reason}`` (no path: not a success, no reason)."""
+    from snakeplan.evaluation import evaluate
+    from snakeplan.scenes import make_scene
+
+    if path is None or run.task != "reach":
+        return {"scene": source, "success": False, "reason": None}
+    report = evaluate(make_scene(source, run.seed), run.arm(), np.asarray(path, dtype=float))
+    return {"scene": source, "success": bool(report.success), "reason": report.reason}
 
 
 def _row(run: Run, status: str, why: str, success: bool, reason: str | None, compute_time_s: float,

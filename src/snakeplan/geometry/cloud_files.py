@@ -29,9 +29,9 @@ from snakeplan.geometry.mesh_files import MESH_SPAN_MM, UNITS_MM, rigid_transfor
 CLOUD_SUFFIXES = (".ply", ".pcd", ".xyz", ".npy", ".las")
 #: Largest cloud file (bytes): 10 million points as text is about 400 MB.
 MAX_CLOUD_FILE_BYTES = 1024 * 2**20
-#: Most points a cloud may keep after cropping and thinning. Memory: about 100 bytes a point at the peak of
-#: loading (the points, their copy in leaf order, the hierarchy and its build), 1 million points in about 1 s on
-#: the 2-core machine (``snakeplan bench cloud``).
+#: Most points a cloud may keep after cropping and thinning. A million points load in 2.4 s with a peak of 319 MB
+#: (100 MB of it Python, NumPy and snakeplan; ``snakeplan bench cloud speed``, 2-core machine), so this many take
+#: about 10 s and 1 GB.
 MAX_CLOUD_POINTS = 4_000_000
 #: Size range (mm, the box diagonal after scaling) a cloud must fall in: outside it, the units are wrong.
 CLOUD_SPAN_MM = MESH_SPAN_MM

@@ -42,6 +42,8 @@ BUILTIN_SCENES = {
     "pipework": "snakeplan.scenes.mesh_families:pipework",
     "vessel": "snakeplan.scenes.mesh_families:vessel",
     "engine": "snakeplan.scenes.mesh_families:engine",
+    **{f"{of}-scan": f"snakeplan.scenes.scan:{of.replace('-', '_')}_scan"
+       for of in ("confined", "fuel-tank", "oil-tank", "pipe", "concentric-pipe", "pipework", "vessel", "engine")},
 }
 
 
@@ -53,6 +55,8 @@ class SceneSpec:
     none is named (an inspection planner for ``task="inspect"``). ``task``: one of :data:`snakeplan.scenes.task.TASKS`.
     ``policies``: planner name -> the trained policy file that ships for this family, as ``"package:path"``
     (a path inside an installed package, e.g. ``"snakeplan:rl/data/fuel-tank-sac-her.npz"``).
+    ``made_from``: the family this one is made from, seed for seed (a scan of it), where a plan is also judged
+    (:mod:`snakeplan.scenes.scan`); empty for a family of its own.
     ``generator`` is None for a scene read from a file whose family is not registered.
     """
 
@@ -62,6 +66,7 @@ class SceneSpec:
     planner: str = ""
     task: Task = Task.REACH
     policies: Mapping[str, str] = field(default_factory=dict)
+    made_from: str = ""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "task", as_task(self.task))
@@ -98,12 +103,13 @@ SCENES: Registry[SceneSpec] = Registry("scene", BUILTIN_SCENES, load=_as_spec)
 
 
 def register_scene(name: str, *, robot: str = DEFAULT_ROBOT, planner: str = "", task: Task | str = Task.REACH,
-                   policies: Mapping[str, str] | None = None) -> Callable[[SceneGenerator], SceneGenerator]:
+                   policies: Mapping[str, str] | None = None, made_from: str = ""
+                   ) -> Callable[[SceneGenerator], SceneGenerator]:
     """Decorator that registers a generator under ``name`` with its spec (see :class:`SceneSpec`; names are
     unique)."""
 
     def wrap(fn: SceneGenerator) -> SceneGenerator:
-        SCENES.register(name, SceneSpec(name, fn, robot, planner, task, policies or {}), describe(fn))
+        SCENES.register(name, SceneSpec(name, fn, robot, planner, task, policies or {}, made_from), describe(fn))
         return fn
 
     return wrap

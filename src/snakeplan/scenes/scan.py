@@ -8,6 +8,10 @@ obstacle) at one point per ``spacing_mm``² on average, each point moved by isot
 misses: shadows, dark or shiny patches). The cloud is one :class:`~snakeplan.geometry.primitives.Points` obstacle
 of the default radius (:data:`~snakeplan.geometry.primitives.DEFAULT_RADIUS_SPACINGS` spacings), known in advance
 like a scan taken before the job; entrance, targets and bounds are the scene's.
+
+Every reach family ``F`` has a scanned family ``F-scan`` (:data:`SCANNED`): seed ``s`` is the scan (seeded ``s``,
+default :class:`ScanSettings`) of ``F``'s seed ``s``, for the same robot, and its spec says it is ``made_from``
+``F``, so the benchmark runner also judges its plans in the exact scene.
 """
 
 from __future__ import annotations
@@ -19,6 +23,7 @@ import numpy as np
 from snakeplan import inputs
 from snakeplan.geometry.primitives import Points
 from snakeplan.geometry.surface_points import sample_surfaces
+from snakeplan.scenes.registry import make_scene, register_scene, scene_spec
 from snakeplan.scenes.scene import Scene
 
 #: Most points a scan of a scene may hold.
@@ -69,3 +74,22 @@ def scan_scene(scene: Scene, settings: ScanSettings = ScanSettings(), seed: int 
     meta = {k: v for k, v in scene.metadata.items() if k not in ("field", "mesh")}
     meta["scan"] = {**asdict(settings), "seed": seed, "of": scene.name}
     return replace(scene, name=f"{scene.name}-scan", obstacles=(Points(points),), discovered=(), metadata=meta)
+
+
+#: The families with a scanned family ``<family>-scan``.
+SCANNED = ("confined", "fuel-tank", "oil-tank", "pipe", "concentric-pipe", "pipework", "vessel", "engine")
+
+
+def _scanned(of: str):
+    """The generator of ``of``'s scanned family, registered as ``<of>-scan``."""
+
+    def generate(seed: int) -> Scene:
+        return scan_scene(make_scene(of, seed), seed=seed)
+
+    generate.__name__ = generate.__qualname__ = f"{of.replace('-', '_')}_scan"
+    generate.__doc__ = f"The scan of {of}'s scene of ``seed`` (:func:`scan_scene`, seeded ``seed``)."
+    return register_scene(f"{of}-scan", robot=scene_spec(of).robot, made_from=of)(generate)
+
+
+for _of in SCANNED:
+    globals()[f"{_of.replace('-', '_')}_scan"] = _scanned(_of)
