@@ -232,3 +232,64 @@ def test_a_scan_of_a_real_cad_mesh_is_planned_and_the_plan_holds_in_the_mesh():
     episode = run_episode(Problem(scan, robot, time_limit_s=20.0), "as-rrt", seed=3)
     assert episode.success, episode.plan.why
     assert evaluate(exact, robot, episode.plan.path).success
+
+
+def _depth_folder(folder, scene, poses, w=64, h=48, f=40.0, scale=0.0002):
+    """Depth PNGs (16-bit, ``scale`` m a count) of ``scene`` from camera ``poses`` (mm, camera to scene, OpenCV
+    axes), cast with the scene's own ray queries, and their camera.json (metres)."""
+    from PIL import Image
+
+    folder.mkdir()
+    u, v = np.meshgrid(np.arange(w, dtype=float), np.arange(h, dtype=float))
+    local = np.stack([(u - w / 2) / f, (v - h / 2) / f, np.ones_like(u)], axis=-1).reshape(-1, 3)
+    frames = []
+    for i, T in enumerate(poses):
+        dirs = local @ T[:3, :3].T
+        t = scene.obstacle_set.raycast(np.broadcast_to(T[:3, 3], dirs.shape), dirs, 3000.0, 1e-6)
+        z = t / np.linalg.norm(local, axis=1) / 1000.0  # along the ray (mm) -> along the camera's z (m)
+        counts = np.where(np.isfinite(z), np.round(z / scale), 0).astype(np.uint16).reshape(h, w)
+        Image.fromarray(counts).save(folder / f"{i}.png")
+        pose = T.copy()
+        pose[:3, 3] /= 1000.0
+        frames.append({"depth": f"{i}.png", "pose": pose.tolist()})
+    (folder / "camera.json").write_text(json.dumps({"width": w, "height": h, "fx": f, "fy": f, "cx": w / 2,
+                                                    "cy": h / 2, "depth_scale": scale, "frames": frames}))
+
+
+def test_depth_images_with_poses_fuse_into_a_cloud_on_the_surfaces_they_saw(tmp_path, capsys):
+    """Three 16-bit depth PNGs of a plate, cast from known poses: ``scene import`` of their folder gives a cloud
+    whose every point lies on the plate's surface to the PNGs' quantisation (0.2 mm counts), and the plan through
+    the cloud is valid in the exact scene."""
+    from snakeplan.evaluation import evaluate
+    from snakeplan.geometry.primitives import Plate
+    from snakeplan.robots import get_robot
+    from snakeplan.scenes import Scene
+    from snakeplan.scenes.scene import Entrance
+
+    plate = Plate([0.0, 0.0, 600.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0], (1200.0, 1200.0), 20.0)
+    exact = Scene("plate", None, [-1000.0, -1000.0, -100.0], [1000.0, 1000.0, 1200.0],
+                  Entrance([-400.0, 0.0, 0.0], [0.0, 0.0, 1.0]), [[900.0, 0.0, 900.0]], (plate,))
+    poses = []
+    for x in (-400.0, 0.0, 400.0):  # looking up (+z) from below the plate
+        T = np.eye(4)
+        T[:3, 3] = [x, 0.0, 0.0]
+        poses.append(T)
+    _depth_folder(tmp_path / "views", exact, poses)
+    out = tmp_path / "scene.json"
+    assert main(["scene", "import", str(tmp_path / "views"), "--units", "m", "--entrance", "-400,0,0", "--direction",
+                 "0,0,1", "--bounds", "-1000,-1000,-100,1000,1000,1200", "--target", "900,0,900", "--radius", "15",
+                 "-o", str(out)]) == 0, capsys.readouterr().err
+    scene = Scene.from_json(out.read_text(), base_dir=tmp_path)
+    pts = scene.obstacles[0].points
+    assert len(pts) > 7000  # the rays that meet the plate of 3 x 64 x 48
+    assert np.abs(plate.signed_distance(pts)).max() <= 0.2
+    capsys.readouterr()
+    assert main(["plan", "--scene-file", str(out), "--planner", "as-rrt", "--json"]) == 0
+    plan = json.loads(capsys.readouterr().out)
+    assert plan["success"] and evaluate(exact, get_robot("sjtu-snake-iii"), np.asarray(plan["path"])).success
+    (tmp_path / "views" / "camera.json").write_text(json.dumps({"width": 64, "height": 48, "fx": 40, "fy": 40,
+                                                                "cx": 32, "cy": 24, "frames": [{"depth": "0.png"}]}))
+    assert main(["scene", "import", str(tmp_path / "views"), "--units", "m", "--entrance", "-400,0,0", "--direction",
+                 "0,0,1", "--target", "900,0,900", "-o", str(tmp_path / "bad.json")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "frames[0]" in err and "pose" in err and not (tmp_path / "bad.json").exists()

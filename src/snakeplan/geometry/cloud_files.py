@@ -1,5 +1,6 @@
-"""Point clouds read from scan files (PLY, PCD, XYZ, NPY, LAS), in a stated unit and pose, cropped and thinned:
-the points (mm) of which :mod:`snakeplan.geometry.primitives` makes the :class:`Points` obstacle.
+"""Point clouds read from scan files (PLY, PCD, XYZ, NPY, LAS) or fused from depth images (a depth folder,
+:mod:`snakeplan.geometry.depth_files`), in a stated unit and pose, cropped and thinned: the points (mm) of which
+:mod:`snakeplan.geometry.primitives` makes the :class:`Points` obstacle.
 
 The scene form is ``{"type": "points", "file": "scan.ply", "units": "m", "transform": 4x4, "radius_mm": r,
 "crop": [x0, y0, z0, x1, y1, z1], "downsample_mm": v}``: the file is read relative to the scene file's folder, its
@@ -23,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from snakeplan import inputs
+from snakeplan.geometry.depth_files import is_depth_folder, read_depth_folder
 from snakeplan.geometry.mesh_files import MESH_SPAN_MM, UNITS_MM, rigid_transform
 
 #: File name endings read as clouds.
@@ -103,8 +105,10 @@ def _read_raw(path: Path, field: str, shown: str) -> np.ndarray:
 
 
 def is_cloud_file(path: str | os.PathLike) -> bool:
-    """Whether ``path`` names a cloud: a PCD, XYZ, NPY or LAS file, or a PLY file whose header declares no faces
-    (a PLY with faces is a mesh)."""
+    """Whether ``path`` names a cloud: a PCD, XYZ, NPY or LAS file, a PLY file whose header declares no faces (a
+    PLY with faces is a mesh), or a depth folder."""
+    if is_depth_folder(path):
+        return True
     suffix = Path(path).suffix.lower()
     if suffix != ".ply":
         return suffix in CLOUD_SUFFIXES
@@ -128,16 +132,20 @@ def read_cloud_file(path: str | os.PathLike, field: str, units: str = "mm") -> n
         raise ValueError(f"{field}: units must be one of {', '.join(UNITS_MM)}, got {inputs.show(units)}")
     p = Path(path)
     shown = _shown(path)
-    if p.suffix.lower() not in CLOUD_SUFFIXES:
-        raise ValueError(f"{field}: {shown}: not a point cloud file (known endings: {', '.join(CLOUD_SUFFIXES)})")
-    try:
-        size = p.stat().st_size
-    except OSError:
-        raise ValueError(f"{field}: file not found: {shown}") from None
-    if size > MAX_CLOUD_FILE_BYTES:
-        raise ValueError(f"{field}: {shown} is larger than the {MAX_CLOUD_FILE_BYTES // 2**20} MiB limit; thin it "
-                         f"first")
-    points = _read_raw(p, field, shown)
+    if is_depth_folder(p):
+        points = read_depth_folder(p, field)
+    else:
+        if p.suffix.lower() not in CLOUD_SUFFIXES:
+            raise ValueError(f"{field}: {shown}: not a point cloud file (known endings: {', '.join(CLOUD_SUFFIXES)}, "
+                             f"or a depth folder)")
+        try:
+            size = p.stat().st_size
+        except OSError:
+            raise ValueError(f"{field}: file not found: {shown}") from None
+        if size > MAX_CLOUD_FILE_BYTES:
+            raise ValueError(f"{field}: {shown} is larger than the {MAX_CLOUD_FILE_BYTES // 2**20} MiB limit; thin "
+                             f"it first")
+        points = _read_raw(p, field, shown)
     if len(points) == 0:
         raise ValueError(f"{field}: {shown} holds no points")
     bad = ~np.isfinite(points).all(axis=1)
