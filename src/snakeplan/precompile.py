@@ -43,8 +43,9 @@ WORKLOAD_SEED = 1
 
 def workload(scenes: list[str] | None = None) -> list[list[str]]:
     """The commands whose kernels are compiled: each scene family's default plan (also with sensed knowledge where
-    its planner takes it) and, where fuel-tank is among ``scenes`` (default: all families), every registered planner
-    that reaches, on it."""
+    its planner takes it; of the scanned families, fuel-tank-scan's alone) and, where fuel-tank is among ``scenes``
+    (default: all families), every registered planner that reaches, on it, and as-rrt and sac-her through the depth
+    camera."""
     from snakeplan.planners import planner_names
     from snakeplan.planners.registry import PLANNERS
     from snakeplan.scenes import scene_names, scene_spec
@@ -52,6 +53,8 @@ def workload(scenes: list[str] | None = None) -> list[list[str]]:
     names = scene_names() if scenes is None else scenes
     commands = []
     for name in names:
+        if scene_spec(name).made_from and name != "fuel-tank-scan":
+            continue  # a scan's kernels are its family's and a cloud's: one scanned family records them all
         spec = scene_spec(name)
         plan = ["plan", "--scene", name, "--seed", str(WORKLOAD_SEED)]
         sensed = spec.task == "reach" and not PLANNERS.get(spec.planner).needs_full_scene
@@ -59,6 +62,8 @@ def workload(scenes: list[str] | None = None) -> list[list[str]]:
     if "fuel-tank" in names:
         commands += [["plan", "--scene", "fuel-tank", "--seed", str(WORKLOAD_SEED), "--planner", planner]
                      for planner in planner_names("reach")]
+        commands += [["plan", "--scene", "fuel-tank", "--seed", str(WORKLOAD_SEED), "--planner", planner,
+                      "--knowledge", "sensed", "--sensor", "depth"] for planner in ("as-rrt", "sac-her")]
     return commands
 
 

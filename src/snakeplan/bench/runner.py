@@ -89,11 +89,15 @@ class Run:
     config: str = ""
     task: str = "reach"
     robot_json: str = ""
+    sensor: str = "exact"
 
     def identity(self) -> dict:
-        """What makes this run this run (the key's preimage; a scene file and a robot file count by content)."""
+        """What makes this run this run (the key's preimage; a scene file and a robot file count by content; a
+        sensed run's sensor when it is not the exact one)."""
         ident = {"scene": self.scene, "seed": self.seed, "robot": self.robot, "planner": self.planner,
                  "options": dict(self.options), "time_limit_s": self.time_limit_s, "knowledge": self.knowledge}
+        if self.sensor != "exact":
+            ident["sensor"] = self.sensor
         if self.scene_json:
             ident["scene_sha256"] = hashlib.sha256(self.scene_json.encode()).hexdigest()
         if self.robot_json:
@@ -168,6 +172,7 @@ class Sweep:
     task: str = ""
     stateful: Callable[[str, dict], bool] | None = field(default=None, compare=False)
     include: Callable[[str, str, dict], bool] | None = field(default=None, compare=False)
+    sensor: str = "exact"
 
     def runs(self) -> list[Run]:
         """Every run, scene by scene, planner by planner, seed by seed; a planner runs only in the scenes whose
@@ -192,7 +197,8 @@ class Sweep:
                         out.append(Run(family, seed, planner, robot, self.time_limit_s,
                                        tuple(sorted(options.items())), knowledge, text,
                                        self.stateful is not None and self.stateful(planner, options),
-                                       self.name, task, robot_json))
+                                       self.name, task, robot_json,
+                                       self.sensor if knowledge == "sensed" else "exact"))
         idle = [p for p, _ in self.planners if p not in fitted]
         if idle:
             raise ValueError(f"planners: {', '.join(idle)} can do none of these scenes' tasks "
@@ -285,20 +291,22 @@ def run_chunk(task: list[Run], stamp: dict) -> list[dict]:
     for run in task:
         robot = run.arm()
         options = dict(run.options)
-        warm = (run.scene, run.scene_json, run.robot, run.robot_json, run.planner, run.options, run.knowledge)
+        warm = (run.scene, run.scene_json, run.robot, run.robot_json, run.planner, run.options, run.knowledge,
+                run.sensor)
         compiled = 0
         if warm not in _WARM:
             before = compilations()
             run_episode(Problem(run.make_scene(WARMUP_SEED), robot, min(run.time_limit_s, WARMUP_TIME_LIMIT_S),
-                                knowledge=run.knowledge, task=run.task), get_planner(run.planner, **options),
-                        seed=WARMUP_SEED)
+                                knowledge=run.knowledge, task=run.task, sensor=run.sensor),
+                        get_planner(run.planner, **options), seed=WARMUP_SEED)
             compiled = compilations() - before
             _WARM.add(warm)
         if run.stateful:
             planner = shared.setdefault((run.planner, run.options, run.knowledge), get_planner(run.planner, **options))
         else:
             planner = get_planner(run.planner, **options)
-        problem = Problem(run.make_scene(), robot, run.time_limit_s, knowledge=run.knowledge, task=run.task)
+        problem = Problem(run.make_scene(), robot, run.time_limit_s, knowledge=run.knowledge, task=run.task,
+                          sensor=run.sensor)
         episode = run_episode(problem, planner, seed=run.seed)
         rows.append(make_row(run, episode, {**stamp, **host, "kernels_compiled": compiled}))
         source = "" if run.scene_json else _spec(run.scene, "").made_from
@@ -324,6 +332,7 @@ def _row(run: Run, status: str, why: str, success: bool, reason: str | None, com
     """A ``snakeplan.run/1`` row: the run, the outcome (the planner's status and why, the judge's verdict), the
     path (mm) with its hash, provenance."""
     row = {"schema": SCHEMA, "key": run.key, "config": run.config, "task": run.task, "scene": run.scene,
+           "sensor": run.sensor,
            "seed": run.seed,
            "robot": run.robot, "planner": run.planner, "options": dict(run.options),
            "time_limit_s": run.time_limit_s, "knowledge": run.knowledge,

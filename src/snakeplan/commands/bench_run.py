@@ -30,6 +30,8 @@ def add_parsers(bsub) -> None:
     p.add_argument("--time-limit", type=finite, default=10.0, help="budget per plan in seconds (default 10)")
     p.add_argument("--knowledge", choices=("full", "sensed"), default="full",
                    help="what the planners may know (sensed: a planner that needs the whole scene still has it)")
+    p.add_argument("--sensor", choices=("exact", "depth"), default="exact",
+                   help="the tip sensor of the sensed runs: exact, or a depth camera (default exact)")
     p.add_argument("--task", choices=("reach", "inspect"),
                    help="the task every scene is given (default: each scene's own; inspect a tank with coverage)")
     p.add_argument("--name", default="run", help="configuration name recorded in every row (default run)")
@@ -93,7 +95,7 @@ def cmd_bench_run(args: argparse.Namespace) -> int:
     if args.robot:
         check_robot(args.robot, "--robot")
     sweep = Sweep(args.name, scenes, seed_list(args.seeds, "--seeds"), tuple((p, options) for p in planners),
-                  args.time_limit, args.robot or "", args.knowledge, args.task or "")
+                  args.time_limit, args.robot or "", args.knowledge, args.task or "", sensor=args.sensor)
     try:
         runs = sweep.runs()
     except KeyError as exc:

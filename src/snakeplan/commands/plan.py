@@ -49,6 +49,9 @@ def add_parser(sub) -> None:
     p.add_argument("--knowledge", choices=("full", "sensed"),
                    help="what the planner may know: the whole scene, or what its sensor revealed (default: full; "
                         "sensed for a search)")
+    p.add_argument("--sensor", choices=("exact", "depth"), default="exact",  # planners.SENSORS, without importing them
+                   help="with --knowledge sensed, the tip sensor: exact (whole obstacles revealed within range) or "
+                        "depth (a depth camera's noisy returns, with dropouts, kept as points; default exact)")
     p.add_argument("--task", choices=("reach", "inspect", "search"),  # scenes.TASKS, without importing the scenes
                    help="reach the scene's targets, inspect its surface, or search for its targets, hidden until the "
                         "tip camera sees them (default: the scene's task)")
@@ -95,11 +98,12 @@ def cmd_plan(args: argparse.Namespace) -> int:
         raise UsageError(f"{blame}: {str(exc).removeprefix('task: ')}; scene {scene.name}'s task is "
                          f"{spec.task}") from None
     try:
-        problem = Problem(scene, robot, time_limit_s=args.time_limit, knowledge=knowledge, task=task)
+        problem = Problem(scene, robot, time_limit_s=args.time_limit, knowledge=knowledge, task=task,
+                          sensor=args.sensor)
     except ValueError as exc:
         if args.task and str(exc).startswith(("scene:", "task:")):
             raise UsageError(f"--task: {str(exc).split(': ', 1)[1]}") from None
-        if str(exc).startswith("knowledge:"):
+        if str(exc).startswith(("knowledge:", "sensor:")):
             raise UsageError(f"--{exc}") from None
         raise
     for line in scale_warnings(scene, robot):

@@ -46,9 +46,12 @@ from snakeplan.world import (
     view_for,
 )
 from snakeplan.world import mission as missions
+from snakeplan.world.depth import DepthCamera, DepthView
 from snakeplan.world.mission import InspectionSettings, Mission, inspected_surface
 from snakeplan.world.search import TargetSight, hide_targets
 
+#: The tip sensors of a sensed plan: exact whole-obstacle reveals, or a depth camera.
+SENSORS = ("exact", "depth")
 #: Default planning budget (s), the same for every planner in a comparison.
 DEFAULT_TIME_LIMIT_S = 30.0
 
@@ -108,8 +111,11 @@ class Problem:
     search for its targets (sensed knowledge only; the planner finds them through ``sight``, a
     :class:`~snakeplan.world.search.TargetSight` built from the scene, with the tip camera of ``inspection``); None
     takes the task of the scene's family (:func:`spec_for`).
-    ``knowledge`` says what the planner may use: ``"full"`` the whole scene, ``"sensed"`` only obstacles within
-    ``sensor_range_mm`` of where the tip has been. ``world`` is the knowledge view that says it
+    ``knowledge`` says what the planner may use: ``"full"`` the whole scene, ``"sensed"`` only what the tip sensor
+    has sensed within ``sensor_range_mm`` of where the tip has been; ``sensor`` (:data:`SENSORS`) is that sensor:
+    ``"exact"`` reveals whole obstacles exactly (:class:`~snakeplan.world.SensedView`), ``"depth"`` is a depth
+    camera whose noisy returns are what is known (:class:`~snakeplan.world.depth.DepthView`, its default camera at
+    that range). ``world`` is the knowledge view that says it
     (:mod:`snakeplan.world.knowledge`; built from ``knowledge`` when not given): the only way a planner reaches
     obstacles. ``scene`` supplies the structure (bounds, entrance, targets).
     """
@@ -123,6 +129,7 @@ class Problem:
     task: Task | None = None
     inspection: InspectionSettings | None = None
     sight: TargetSight | None = None
+    sensor: str = "exact"
 
     def __post_init__(self) -> None:
         if not _positive(self.time_limit_s):
@@ -158,7 +165,13 @@ class Problem:
                                                           self.inspection.camera))
         if not _positive(self.sensor_range_mm):
             raise ValueError(f"sensor_range_mm: must be a positive number of mm, got {self.sensor_range_mm!r}")
-        if self.world is None:
+        if self.sensor not in SENSORS:
+            raise ValueError(f"sensor: must be one of {', '.join(SENSORS)}, got {self.sensor!r}")
+        if self.sensor == "depth" and self.knowledge is not Knowledge.SENSED:
+            raise ValueError("sensor: a depth camera senses; plan with knowledge 'sensed'")
+        if self.world is None and self.sensor == "depth":
+            object.__setattr__(self, "world", DepthView.of(self.scene, DepthCamera(range_mm=self.sensor_range_mm)))
+        elif self.world is None:
             object.__setattr__(self, "world", view_for(self.scene, self.knowledge, self.sensor_range_mm))
         elif self.world.kind != self.knowledge:
             raise ValueError(f"world: a {self.world.kind} view does not match knowledge={self.knowledge!r}")

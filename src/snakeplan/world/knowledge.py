@@ -17,6 +17,7 @@ handed a guarded scene and a sensed view can only plan honestly.
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass, fields
@@ -63,12 +64,72 @@ class UnsensedObstacleError(RuntimeError):
 class Sensor(NamedTuple):
     """What a compiled roll-out senses with: the packed obstacles (:attr:`ObstacleSet.packed`), one flag per
     obstacle, True once known (updated in place by :func:`sense_at`), the sensor's range (mm; inf: no limit) and
-    the evaluation counter of the packed set."""
+    the evaluation counter of the packed set. A depth camera (:class:`snakeplan.world.depth.DepthView`) adds its
+    frame's unit rays ``(m, 3)`` (none: no camera), its ``params`` (:func:`depth_frame`), the buffer its frames'
+    returns go to (``hits (cap, 3)``, mm) and its ``state`` (returns so far, the last frame's position, whether
+    there was one), both updated in place."""
 
     packed: tuple
     known: np.ndarray
     range_mm: float
     stats: np.ndarray
+    frame_rays: np.ndarray = np.zeros((0, 3))
+    params: np.ndarray = np.zeros(5)
+    hits: np.ndarray = np.zeros((0, 3))
+    state: np.ndarray = np.zeros(5)
+
+
+#: ``Sensor.params`` of a depth camera: range noise (mm, standard deviation), the chance a pixel has no return,
+#: the seed of both, the least distance (mm) between frames, and a ray's stopping tolerance (mm).
+NOISE, DROPOUT, SEED, SPACING, EPS = range(5)
+
+
+@leaf
+def _uniform(x, y, z, i, seed, k):
+    """A number in (0, 1) that depends on a position (to 1 um), an index, a seed and a draw ``k`` alone:
+    splitmix64 of their bits, so a camera's noise is the same wherever the same frame is taken (compiled or from
+    Python) and needs no random state."""
+    h = np.uint64(seed) ^ np.uint64(0x9E3779B97F4A7C15)
+    for v in (np.int64(round(x * 1000.0)), np.int64(round(y * 1000.0)), np.int64(round(z * 1000.0)), np.int64(i),
+              np.int64(k)):
+        h = (h ^ np.uint64(v)) * np.uint64(0xBF58476D1CE4E5B9)
+        h ^= h >> np.uint64(31)
+        h *= np.uint64(0x94D049BB133111EB)
+        h ^= h >> np.uint64(29)
+    return (float(h >> np.uint64(11)) + 0.5) / 9007199254740992.0
+
+
+@leaf
+def camera_reading(t, origin, i, params):
+    """What a depth camera's pixel ``i`` reads (mm) for an exact range ``t`` from ``origin``: no return (inf) with
+    probability ``params[DROPOUT]``, else ``t`` plus Gaussian noise of ``params[NOISE]`` (Box-Muller), never
+    negative; inf stays inf."""
+    if _uniform(origin[0], origin[1], origin[2], i, params[SEED], 0) < params[DROPOUT] or t == np.inf:
+        return np.inf
+    u1 = _uniform(origin[0], origin[1], origin[2], i, params[SEED], 1)
+    u2 = _uniform(origin[0], origin[1], origin[2], i, params[SEED], 2)
+    return max(t + params[NOISE] * math.sqrt(-2.0 * math.log(u1)) * math.cos(2.0 * math.pi * u2), 0.0)
+
+
+@leaf
+def depth_frame(W, known, range_mm, origin, rays, params, hits, state, work, stats) -> None:
+    """One depth frame from ``origin``, unless one was taken within ``params[SPACING]`` of it: every ray of
+    ``rays`` read (:func:`camera_reading`) against the obstacles flagged in ``known``, each return within range
+    written to ``hits`` (while there is room) and counted in ``state[0]``; ``state[1:4]`` the frame's position."""
+    if rays.shape[0] == 0:
+        return
+    if state[4] > 0.0:
+        gap = math.sqrt((origin[0] - state[1]) ** 2 + (origin[1] - state[2]) ** 2 + (origin[2] - state[3]) ** 2)
+        if gap < params[SPACING]:
+            return
+    state[1], state[2], state[3], state[4] = origin[0], origin[1], origin[2], 1.0
+    for i in range(rays.shape[0]):
+        t = camera_reading(ray_into(W, known, origin, rays[i], range_mm, params[EPS], work, stats), origin, i, params)
+        c = int(state[0])
+        if t <= range_mm and c < hits.shape[0]:
+            for a in range(3):
+                hits[c, a] = origin[a] + t * rays[i, a]
+            state[0] = c + 1
 
 
 @leaf
@@ -85,14 +146,20 @@ def sense_at(W, known, range_mm, p, walk) -> bool:
 
 
 @leaf
-def sensor_rays(W, known, range_mm, origin, dirs, max_dist, eps, out, work, stats) -> None:
+def sensor_rays(W, known, range_mm, origin, dirs, max_dist, eps, out, work, stats, frame_rays, params, hits,
+                state) -> None:
     """The range sensor at ``origin``: it senses there (:func:`sense_at`), then reads into ``out`` the distance
     (mm) along each unit direction of ``dirs`` to the first known surface, inf when none within ``max_dist`` or
-    the sensor's range."""
+    the sensor's range. With a depth camera (``frame_rays``, :class:`Sensor`), ``dirs`` are pixels of it, read
+    with its noise and dropouts, and it takes a frame there (:func:`depth_frame`)."""
     sense_at(W, known, range_mm, origin, work[2])
     reach = min(max_dist, range_mm)
+    camera = frame_rays.shape[0] > 0
     for i in range(dirs.shape[0]):
         out[i] = ray_into(W, known, origin, dirs[i], reach, eps, work, stats)
+        if camera:
+            out[i] = camera_reading(out[i], origin, frame_rays.shape[0] + i, params)
+    depth_frame(W, known, range_mm, origin, frame_rays, params, hits, state, work, stats)
 
 
 @kernel

@@ -252,10 +252,11 @@ def _follow(points, arc, target_arc, target, s, step_mm, tip):
 @kernel
 def _roll(mode, lookahead, residual, step_mm, max_turn, capture_mm, tank_scale, total_length, lo, hi, targets,
           direction, rays, points, arc, target_arc, has_graph, glo, ghi, gcentre, gnormal, gnext, gafter, weights,
-          biases, shapes, W, known, sense_range, stats, noise, path):
+          biases, shapes, W, known, sense_range, stats, frame_rays, params, hits, state, noise, path):
     """A whole planning roll-out, compiled: the crawl of :class:`Crawler` (``check_body`` off) driven by the actor
     (:func:`_actor`, plus ``noise[step]``) from ``path[0]`` heading ``direction``, sensing through the view's
-    :class:`~snakeplan.world.knowledge.Sensor` (``W, known, sense_range, stats``; ``known`` is updated).
+    :class:`~snakeplan.world.knowledge.Sensor` (``W, known, sense_range, stats``, a depth camera's ``frame_rays,
+    params, hits, state``; ``known``, ``hits`` and ``state`` are updated).
     Returns (points written to ``path``, outcome code into :data:`ROLL_OUTCOMES`); at most ``len(noise)`` steps."""
     adim = noise.shape[1]
     n_rays, n_targets = rays.shape[0], targets.shape[0]
@@ -282,7 +283,8 @@ def _roll(mode, lookahead, residual, step_mm, max_turn, capture_mm, tank_scale, 
                 for b in range(3):
                     dirs[k, b] = rays[k, 0] * frame[0, b] + rays[k, 1] * frame[1, b] + rays[k, 2] * frame[2, b]
                 _unit_into(dirs[k], dirs[k])
-            sensor_rays(W, known, sense_range, tip, dirs, RAY_RANGE_MM, RAY_EPS_MM, ranges, work, stats)
+            sensor_rays(W, known, sense_range, tip, dirs, RAY_RANGE_MM, RAY_EPS_MM, ranges, work, stats, frame_rays,
+                        params, hits, state)
         _observe(mode, lookahead, tip, frame, ranges, prev, depth / total_length, tank_scale, targets, target, points,
                  arc, s, end, obs)
         _actor_input(mode, obs, tip, goal, has_graph, glo, ghi, gcentre, gnormal, gnext, gafter, x)

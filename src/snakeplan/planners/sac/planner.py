@@ -84,7 +84,7 @@ def rollout(policy: NumpyPolicy, scene: Scene, robot: Chain, deadline: float = m
                            crawler.targets, np.array(scene.entrance.direction, dtype=float), crawler.rays,
                            *crawler.guide_arrays, policy.graph is not None, *route_tables(policy.graph),
                            policy.weights, policy.biases, policy.shapes,
-                           sensor.packed, sensor.known, sensor.range_mm, sensor.stats, shake, path)
+                           *sensor, shake, path)
     if noise > 0.0:  # leave ``rng`` where drawing each step's noise as it is taken would (the same plans)
         rng.bit_generator.state = start
         rng.standard_normal((count - 1, adim))
