@@ -184,9 +184,9 @@ def speed(folder: Path, repeats: int = 3) -> dict:
     t = time.perf_counter()
     argv = ["scene", "import", str(huge), "--units", "mm", "--entrance", "2000,2000,-100", "--direction", "0,0,1",
             "--target", "2000,2000,100", "-o", str(folder / "ten-million.json")]
-    done = subprocess.run([sys.executable, "-c", f"import sys\nfrom snakeplan.cli import main\nsys.exit(main({argv!r}))"],
-                          capture_output=True, text=True)
-    out["ten_million"] = {"exit": done.returncode, "stderr": done.stderr.strip(), "s": round(time.perf_counter() - t, 2),
-                          "written": (folder / "ten-million.json").exists()}
+    code = f"import sys\nfrom snakeplan.cli import main\nsys.exit(main({argv!r}))"
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    out["ten_million"] = {"exit": done.returncode, "stderr": done.stderr.strip(),
+                          "s": round(time.perf_counter() - t, 2), "written": (folder / "ten-million.json").exists()}
     huge.unlink()
     return out
