@@ -145,15 +145,26 @@ def _mesh_runs(out: Path, mesh: Path, seeds: int, planners: tuple[str, ...], bac
                                  "units": "mm", "radius_mm": cloud.radius}]
             scene_file.write_text(json.dumps(doc))
         runs += Sweep("cloud-mesh", (str(scene_file),), (seed,), tuple((p, {}) for p in planners), time_limit).runs()
+    exact_doc = json.loads(exact.to_json())
+    exact_doc["obstacles"][0]["file"] = str(Path(mesh).resolve())
+    (out / "exact.json").write_text(json.dumps(exact_doc))
+    runs += Sweep("cloud-mesh-baseline", (str(out / "exact.json"),), tuple(range(seeds)),
+                  tuple((p, {}) for p in planners), time_limit).runs()
     run_sweep(Sweep("cloud-mesh", (), (), ()), out, backend, runs=runs)
+    baseline: dict = {}
     for r in read_rows(out):
+        if r["config"] == "cloud-mesh-baseline":
+            baseline.setdefault(r["planner"], []).append(r["success"])
         if r["config"] != "cloud-mesh":
             continue
         path = row_path(out, r)
         key = (r["seed"], r["planner"])
         judged[key] = path is not None and evaluate(exact, robot, path).success
         rows.append(r)
-    return _summary(rows, lambda r: f"{mesh.stem} (mesh)", lambda r: judged[(r["seed"], r["planner"])])
+    table = _summary(rows, lambda r: f"{mesh.stem} (mesh)", lambda r: judged[(r["seed"], r["planner"])])
+    for planner, entry in table.get(f"{mesh.stem} (mesh)", {}).items():
+        entry["baseline_success_pct"] = 100.0 * float(np.mean(baseline.get(planner, [np.nan])))
+    return table
 
 
 def _load_child(code: str) -> dict:
