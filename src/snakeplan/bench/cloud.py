@@ -12,12 +12,13 @@ and in the exact scene.
 ``speed``: a scan of about a million points saved as an NPY file, then loaded as a scene by a fresh Python
 process (wall time and peak resident memory, beside the same process importing snakeplan alone); capsule
 clearance and collision queries on one crawl's states in the fuel tank as primitives, as one closed mesh and as
-its scan; and a ten-million-point file refused in one line.
+its scan; and a ten-million-point file refused in one line; the machine's load averages before and after.
 """
 
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 import time
@@ -189,7 +190,7 @@ def speed(folder: Path, repeats: int = 3) -> dict:
     folder.mkdir(parents=True, exist_ok=True)
     robot = get_robot(GENERALIST_ARM)
     prim, mesh = fuel_tank_mesh()
-    out: dict = {}
+    out: dict = {"loadavg_before": list(os.getloadavg())}
     dense = scan_points(prim, ScanSettings(spacing_mm=3.6), seed=0)
     big = folder / "fuel-tank-1m.npy"
     np.save(big, dense[:SPEED_POINTS])
@@ -231,4 +232,5 @@ def speed(folder: Path, repeats: int = 3) -> dict:
     out["ten_million"] = {"exit": done.returncode, "stderr": done.stderr.strip(),
                           "s": round(time.perf_counter() - t, 2), "written": (folder / "ten-million.json").exists()}
     huge.unlink()
+    out["loadavg_after"] = list(os.getloadavg())
     return out
