@@ -36,7 +36,7 @@ ALLOWED: dict[str, frozenset[str] | None] = {
     "snakeplan.planners": frozenset({"planner_names", "Problem", "Plan"}),
     "snakeplan.scenes": None,
     "snakeplan.scenes.registry": None,
-    "snakeplan.scenes.importing": frozenset({"import_scene", "parse_bounds", "parse_triple"}),
+    "snakeplan.scenes.importing": frozenset({"import_scene", "parse_bounds", "parse_crop", "parse_triple"}),
     "snakeplan.robots": frozenset({"load_robot", "robot_names"}),
     "snakeplan.episode": None,
 }

@@ -199,7 +199,7 @@ def test_sensor_rays_see_what_the_known_obstacles_alone_show(seed):
     sensor = view.sensor()
     out = np.empty(13)
     sensor_rays(sensor.packed, sensor.known, sensor.range_mm, origin, unit, 400.0, 0.5, out,
-                workspace(sensor.packed), sensor.stats)
+                workspace(sensor.packed), sensor.stats, sensor.frame_rays, sensor.params, sensor.hits, sensor.state)
     assert sensor.known is view.known and len(view.obstacle_set) == int(view.known.sum())
     expect = ObstacleSet([o for o, k in zip(scene.obstacles, view.known) if k]).raycast(np.tile(origin, (13, 1)),
                                                                                        dirs, 300.0, 0.5)

@@ -78,11 +78,11 @@ def test_listing_names_imports_no_planner_or_generator_module():
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           env={**os.environ, "PYTHONPATH": str(SRC)})
     out = json.loads(proc.stdout)
-    assert len(out["names"]) == 7 + 4 + 2 + 10  # reach, inspect and search planners; scene families
+    assert len(out["names"]) == 7 + 4 + 2 + 10 + 8  # reach, inspect and search planners; scene families, scanned
     plugins = ["planners.rrt_star", "planners.sp_rrt", "planners.as_rrt", "planners.sac", "planners.sscc",
                "planners.coverage", "planners.informative", "planners.random_views", "planners.iris",
                "planners.search.explore_reach", "planners.search.frontier", "scenes.fuel_tank", "scenes.oil_tank",
-               "scenes.pipe", "scenes.station", "scenes.mesh_families"]
+               "scenes.pipe", "scenes.station", "scenes.mesh_families", "scenes.scan"]
     assert not [m for m in plugins if f"snakeplan.{m}" in out["modules"]]
 
 

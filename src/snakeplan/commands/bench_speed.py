@@ -128,7 +128,7 @@ def cmd_bench_mesh(args: argparse.Namespace) -> int:
 
 def cmd_bench_cloud(args: argparse.Namespace) -> int:
     from snakeplan.bench import cloud
-    from snakeplan.scenes.scan import SCANNED
+    from snakeplan.scenes import scene_names, scene_spec
 
     if not Path(args.out).parent.is_dir():
         raise UsageError(f"--out: folder {str(Path(args.out).parent)!r} does not exist (create it first)")
@@ -137,7 +137,8 @@ def cmd_bench_cloud(args: argparse.Namespace) -> int:
     else:
         if args.seeds < 1:
             raise UsageError(f"--seeds: expected a positive integer, got {args.seeds}")
-        families = name_list(args.families, list(SCANNED), "--families") if args.families else None
+        scanned = [scene_spec(n).made_from for n in scene_names() if scene_spec(n).made_from]
+        families = name_list(args.families, scanned, "--families") if args.families else None
         mesh = None
         if args.mesh:
             mesh = Path(args.mesh)
