@@ -31,8 +31,8 @@ from snakeplan.geometry.mesh_files import MESH_SPAN_MM, UNITS_MM, rigid_transfor
 CLOUD_SUFFIXES = (".ply", ".pcd", ".xyz", ".npy", ".las")
 #: Largest cloud file (bytes): 10 million points as text is about 400 MB.
 MAX_CLOUD_FILE_BYTES = 1024 * 2**20
-#: Most points a cloud may keep after cropping and thinning. A million points load in 2.4 s with a peak of 319 MB
-#: (100 MB of it Python, NumPy and snakeplan; ``snakeplan bench cloud speed``, 2-core machine), so this many take
+#: Most points a cloud may keep after cropping and thinning. A million points load in 2.1 s with a peak of 320 MB
+#: (101 MB of it Python, NumPy and snakeplan; ``snakeplan bench cloud speed``, 2-core machine), so this many take
 #: about 10 s and 1 GB.
 MAX_CLOUD_POINTS = 4_000_000
 #: Size range (mm, the box diagonal after scaling) a cloud must fall in: outside it, the units are wrong.
