@@ -33,9 +33,10 @@ def prepare(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 @leaf
-def cloud_nearest2(pts, nodes, links, root, p, bound2, stack):
+def cloud_nearest2(pts, nodes, links, root, p, bound2, stack, others=False):
     """Squared distance from ``p`` to the nearest point of the cloud whose hierarchy starts at ``root``, when
-    less than ``bound2``; else ``bound2``. Nearer child first, every box no nearer than the best pruned."""
+    less than ``bound2``; else ``bound2``; with ``others``, points at ``p`` itself are passed over. Nearer child
+    first, every box no nearer than the best pruned."""
     best = bound2
     stack[0] = root
     top = 1
@@ -52,7 +53,7 @@ def cloud_nearest2(pts, nodes, links, root, p, bound2, stack):
                 dy = pts[j, 1] - p[1]
                 dz = pts[j, 2] - p[2]
                 d2 = dx * dx + dy * dy + dz * dz
-                if d2 < best:
+                if d2 < best and not (others and d2 == 0.0):
                     best = d2
             continue
         dl = bvh.box_distance2(nodes[first], p)
@@ -119,30 +120,7 @@ def _spacings(pts, nodes, links, which):
     stack = np.empty(bvh.STACK_SIZE, dtype=np.int64)
     out = np.empty(which.shape[0])
     for i in range(which.shape[0]):
-        p = pts[which[i]]
-        best = np.inf
-        stack[0] = 0
-        top = 1
-        while top > 0:
-            top -= 1
-            node = stack[top]
-            if bvh.box_distance2(nodes[node], p) >= best:
-                continue
-            first = links[node, 0]
-            second = links[node, 1]
-            if second < 0:
-                for j in range(first, first - second):
-                    dx = pts[j, 0] - p[0]
-                    dy = pts[j, 1] - p[1]
-                    dz = pts[j, 2] - p[2]
-                    d2 = dx * dx + dy * dy + dz * dz
-                    if 0.0 < d2 < best:
-                        best = d2
-                continue
-            stack[top] = first
-            stack[top + 1] = second
-            top += 2
-        out[i] = math.sqrt(best)
+        out[i] = math.sqrt(cloud_nearest2(pts, nodes, links, 0, pts[which[i]], np.inf, stack, True))
     return out
 
 

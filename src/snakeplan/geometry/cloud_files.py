@@ -25,7 +25,7 @@ import numpy as np
 
 from snakeplan import inputs
 from snakeplan.geometry.depth_files import is_depth_folder, read_depth_folder
-from snakeplan.geometry.mesh_files import MESH_SPAN_MM, UNITS_MM, rigid_transform
+from snakeplan.geometry.mesh_files import UNITS_MM, check_span, rigid_transform
 
 #: File name endings read as clouds.
 CLOUD_SUFFIXES = (".ply", ".pcd", ".xyz", ".npy", ".las")
@@ -35,8 +35,6 @@ MAX_CLOUD_FILE_BYTES = 1024 * 2**20
 #: (101 MB of it Python, NumPy and snakeplan; ``snakeplan bench cloud speed``, 2-core machine), so this many take
 #: about 10 s and 1 GB.
 MAX_CLOUD_POINTS = 4_000_000
-#: Size range (mm, the box diagonal after scaling) a cloud must fall in: outside it, the units are wrong.
-CLOUD_SPAN_MM = MESH_SPAN_MM
 
 
 def _shown(path: str | os.PathLike) -> str:
@@ -152,14 +150,7 @@ def read_cloud_file(path: str | os.PathLike, field: str, units: str = "mm") -> n
     if bad.any():
         raise ValueError(f"{field}: {shown} has {int(bad.sum())} points that are not finite numbers (the first is "
                          f"point {int(np.argmax(bad))}); drop them before import")
-    points = points * UNITS_MM[units]
-    span = float(np.linalg.norm(points.max(axis=0) - points.min(axis=0)))
-    lo, hi = CLOUD_SPAN_MM
-    if not lo <= span <= hi:
-        guess = "m" if span < lo else "mm"
-        raise ValueError(f"{field}: in {units!r} the cloud spans {span:.3g} mm, outside {lo:g} mm .. {hi / 1e3:g} m; "
-                         f"are its units {guess!r}?")
-    return points
+    return check_span(points * UNITS_MM[units], field, units, "cloud")
 
 
 def crop_box(value: Any, name: str) -> np.ndarray:

@@ -716,6 +716,16 @@ def _mesh_grid(obstacles: ObstacleSet, meshes: np.ndarray, query: tuple) -> np.n
     return field
 
 
+def _shifted(links: np.ndarray, first_node: int, first_item: int) -> np.ndarray:
+    """A tree's links (:mod:`snakeplan.geometry.bvh`) once its nodes and items are stored after others: inner nodes'
+    children moved by ``first_node``, leaves' first items by ``first_item``."""
+    out = links.copy()
+    inner = out[:, 1] > 0
+    out[inner] += first_node
+    out[~inner, 0] += first_item
+    return out
+
+
 class ObstacleSet:
     """A packed, immutable set of obstacles with batched exact queries (mm).
 
@@ -732,29 +742,21 @@ class ObstacleSet:
         for o, row in zip(self.obstacles, rows):
             if o.kind == KIND_POINTS:
                 pts, nd, lk = o.distance_data()
-                lk = lk.copy()
-                inner = lk[:, 1] > 0
-                lk[inner] += cloud_node_start
-                lk[~inner, 0] += point_start
                 row[_P + 1] = len(cloud_ranges)
                 cloud_ranges.append((point_start, point_start + len(pts), cloud_node_start))
                 cloud_pts.append(pts)
                 cloud_nodes.append(nd)
-                cloud_links.append(lk)
+                cloud_links.append(_shifted(lk, cloud_node_start, point_start))
                 point_start += len(pts)
                 cloud_node_start += len(nd)
             if o.kind == KIND_MESH:
                 t, nrm, nd, lk = o.distance_data()
-                lk = lk.copy()
-                inner = lk[:, 1] > 0
-                lk[inner] += node_start
-                lk[~inner, 0] += tri_start
                 row[_P + 1] = len(ranges)
                 ranges.append((tri_start, tri_start + len(t), node_start))
                 tris.append(t)
                 normals.append(nrm)
                 nodes.append(nd)
-                links.append(lk)
+                links.append(_shifted(lk, node_start, tri_start))
                 tri_start += len(t)
                 node_start += len(nd)
         width = rows[0].shape[0] if rows else PACK_WIDTH

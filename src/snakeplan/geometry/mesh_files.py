@@ -61,14 +61,19 @@ def read_mesh_file(path: str | os.PathLike, field: str, units: str = "mm") -> tu
                          f"decimate it in CAD")
     if not np.all(np.isfinite(vertices)):
         raise ValueError(f"{field}: {shown} has vertices that are not finite numbers")
-    vertices = vertices * UNITS_MM[units]
-    span = float(np.linalg.norm(vertices.max(axis=0) - vertices.min(axis=0)))
+    return check_span(vertices * UNITS_MM[units], field, units, "mesh"), faces
+
+
+def check_span(points: np.ndarray, field: str, units: str, what: str) -> np.ndarray:
+    """``points`` (mm, read in ``units``), unless their box's diagonal is outside :data:`MESH_SPAN_MM`: then a
+    ValueError naming ``field`` that asks whether the units are right."""
+    span = float(np.linalg.norm(points.max(axis=0) - points.min(axis=0)))
     lo, hi = MESH_SPAN_MM
     if not lo <= span <= hi:
         guess = "m" if span < lo else "mm"
-        raise ValueError(f"{field}: in {units!r} the mesh spans {span:.3g} mm, outside {lo:g} mm .. {hi / 1e3:g} m; "
+        raise ValueError(f"{field}: in {units!r} the {what} spans {span:.3g} mm, outside {lo:g} mm .. {hi / 1e3:g} m; "
                          f"are its units {guess!r}?")
-    return vertices, faces
+    return points
 
 
 def rigid_transform(value: Any, name: str) -> np.ndarray:
