@@ -204,24 +204,37 @@ def read_cloud_spec(d: dict, where: str, base_dir: str | os.PathLike | None) -> 
     voxel = inputs.length(d["downsample_mm"], f"{where}.downsample_mm") if "downsample_mm" in d else None
     radius = inputs.length(d["radius_mm"], f"{where}.radius_mm") if "radius_mm" in d else None
     path = Path(base_dir or ".") / file
+    points = read_cloud(path, f"{where}.file", units, f"{where}.units:", T, f"{where}.transform", crop, voxel)
+    return points, cloud_source(str(path.resolve()), units, T, crop, voxel, radius)
+
+
+def read_cloud(path: str | os.PathLike, field: str, units: str, units_field: str, transform: np.ndarray | None = None,
+               transform_field: str = "transform", crop: np.ndarray | None = None, voxel_mm: float | None = None
+               ) -> np.ndarray:
+    """The points (mm) of a cloud file read in ``units`` (:func:`read_cloud_file`; implausible units blamed on
+    ``units_field``, a prefix), moved by the rigid ``transform``, cropped and thinned (:func:`thin`): what a scene's
+    cloud and ``snakeplan scene import`` both load."""
     try:
-        points = read_cloud_file(path, f"{where}.file", units)
+        points = read_cloud_file(path, field, units)
     except ValueError as exc:
         msg = str(exc)
         if "are its units" in msg:
-            raise ValueError(f"{where}.units:{msg.split(':', 1)[1]}") from None
+            raise ValueError(f"{units_field}{msg.split(':', 1)[1]}") from None
         raise
-    source: dict[str, Any] = {"file": str(path.resolve()), "units": units}
-    if T is not None:
-        points = points @ T[:3, :3].T + T[:3, 3]
+    if transform is not None:
+        points = points @ transform[:3, :3].T + transform[:3, 3]
         if not np.all(np.abs(points) <= inputs.MAX_MM):
-            raise ValueError(f"{where}.transform: moves the cloud beyond {inputs.MAX_MM:g} mm")
-        source["transform"] = T.tolist()
-    points = thin(points, f"{where}.file", crop, voxel)
-    if crop is not None:
-        source["crop"] = crop.tolist()
-    if voxel is not None:
-        source["downsample_mm"] = voxel
-    if radius is not None:
-        source["radius_mm"] = radius
-    return points, source
+            raise ValueError(f"{transform_field}: moves the cloud beyond {inputs.MAX_MM:g} mm")
+    return thin(points, field, crop, voxel_mm)
+
+
+def cloud_source(file: str, units: str, transform: np.ndarray | None = None, crop: np.ndarray | None = None,
+                 voxel_mm: float | None = None, radius_mm: float | None = None) -> dict[str, Any]:
+    """A cloud's scene/1 file form: the file, its units and whichever of its transform, crop box, voxel and radius
+    were given."""
+    source: dict[str, Any] = {"file": file, "units": units}
+    for key, value in (("transform", transform), ("crop", crop), ("downsample_mm", voxel_mm),
+                       ("radius_mm", radius_mm)):
+        if value is not None:
+            source[key] = value.tolist() if isinstance(value, np.ndarray) else value
+    return source

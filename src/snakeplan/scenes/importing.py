@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from snakeplan import inputs
-from snakeplan.geometry.cloud_files import crop_box, is_cloud_file, read_cloud_file, thin
+from snakeplan.geometry.cloud_files import cloud_source, crop_box, is_cloud_file, read_cloud
 from snakeplan.geometry.mesh_files import read_mesh_file
 from snakeplan.geometry.primitives import Mesh, Points, obstacle_from_dict
 from snakeplan.scenes.scene import Entrance, Scene, check_placement
@@ -49,21 +49,8 @@ def parse_bounds(text: str) -> tuple[np.ndarray, np.ndarray] | None:
 def _cloud(file: str, field: str, units: str, here: Path, crop: np.ndarray | None, voxel: float | None,
            radius: float | None) -> Points:
     """The :class:`Points` of a cloud file, cropped and thinned, its source relative to ``here``."""
-    try:
-        points = read_cloud_file(file, field, units)
-    except ValueError as exc:
-        msg = str(exc)
-        if "are its units" in msg:
-            raise ValueError(f"--units: {file}:{msg.split(':', 1)[1]}") from None
-        raise
-    points = thin(points, field, crop, voxel)
-    source: dict = {"file": os.path.relpath(Path(file).resolve(), here), "units": units}
-    if crop is not None:
-        source["crop"] = crop.tolist()
-    if voxel is not None:
-        source["downsample_mm"] = voxel
-    if radius is not None:
-        source["radius_mm"] = radius
+    points = read_cloud(file, field, units, f"--units: {file}:", crop=crop, voxel_mm=voxel)
+    source = cloud_source(os.path.relpath(Path(file).resolve(), here), units, None, crop, voxel, radius)
     try:
         return Points(points, radius, source=source)
     except ValueError as exc:

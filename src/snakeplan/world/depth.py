@@ -46,6 +46,7 @@ from snakeplan.world.knowledge import (
     Sensor,
     depth_frame,
     guarded,
+    prior_flags,
 )
 
 #: Returns a view's buffer holds between readings: a frame of 24 x 24 x 6 pixels returns at most 3,456, a roll-out of
@@ -133,9 +134,7 @@ class DepthView(KnowledgeView):
         self.camera = camera
         self.sensor_range_mm = camera.range_mm
         count = len(self._truth_set)
-        self._prior = np.zeros(count, dtype=bool) if prior is None else np.array(prior, dtype=bool)
-        if self._prior.shape != (count,):
-            raise ValueError(f"prior: expected {count} flags, got {self._prior.shape}")
+        self._prior = prior_flags(prior, count)
         self._rays = camera_rays(camera.pixels)
         self._params = camera.params()
         self._all = np.ones(count, dtype=bool)

@@ -243,6 +243,15 @@ class FullView(KnowledgeView):
         return FullView(self.scene.with_targets(targets), self._set)
 
 
+def prior_flags(prior: Sequence[bool] | None, count: int) -> np.ndarray:
+    """One flag per obstacle of a sensed view's truth, True where it is known before the job (``prior``; None:
+    none); ValueError naming ``prior`` for the wrong count."""
+    flags = np.zeros(count, dtype=bool) if prior is None else np.array(prior, dtype=bool)
+    if flags.shape != (count,):
+        raise ValueError(f"prior: expected {count} flags, got {flags.shape}")
+    return flags
+
+
 class SensedView(KnowledgeView):
     """Prior obstacles plus those revealed within ``sensor_range_mm`` of the points the tip has visited.
 
@@ -257,10 +266,7 @@ class SensedView(KnowledgeView):
         super().__init__(scene if isinstance(scene, GuardedScene) else guarded(scene))  # structure only
         self._truth_set = ObstacleSet(truth) if truth_set is None else truth_set
         self.sensor_range_mm = float(sensor_range_mm)
-        count = len(self._truth_set)
-        self._prior = np.zeros(count, dtype=bool) if prior is None else np.array(prior, dtype=bool)
-        if self._prior.shape != (count,):
-            raise ValueError(f"prior: expected {count} flags, got {self._prior.shape}")
+        self._prior = prior_flags(prior, len(self._truth_set))
         self.known = self._prior.copy()
         self._set: ObstacleSet | None = None
         self._set_of = self.known.copy()
