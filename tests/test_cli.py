@@ -122,8 +122,9 @@ def test_console_script_exit_code_and_no_traceback():
 
 def test_demo_writes_picture_and_metrics(capsys, tmp_path):
     png = tmp_path / "demo.png"
-    code, out, _ = run(capsys, "demo", "--out", str(png))
-    assert code == 0 and "smoothness_index" in out and png.exists()
+    code, out, err = run(capsys, "demo", "--out", str(png))
+    assert code == 0, err
+    assert "smoothness_index" in out and png.exists()
 
 
 @pytest.mark.parametrize("planner", ["rrt-star", "sp-rrt", "as-rrt"])
