@@ -113,3 +113,32 @@ def test_a_scene_of_ten_thousand_obstacles_is_drawn_as_a_few_collections(tmp_pat
             assert len(lines) == 1 and len(lines[0].get_segments()) == 2 * len(plates)  # edge and hole
     finally:
         matplotlib.pyplot.close(fig)
+
+
+def test_obstacles_of_three_and_four_corners_scale_the_axes_to_themselves_alone(monkeypatch):
+    """The demo failed one CI run in two ("Axis limits cannot be NaN or Inf"): matplotlib pads a ragged list of
+    polygons (a sphere's triangles beside a box's quads) with uninitialised memory and scales the axes to it.
+    Memory poisoned with 1e300 makes that certain; the obstacles' own corners must set the limits."""
+    import matplotlib.pyplot as plt
+
+    from snakeplan.geometry.primitives import Box, Sphere
+    from snakeplan.viz.scene_plot import draw_obstacles
+
+    empty = np.empty
+
+    def poisoned(*args, **kwargs):
+        out = empty(*args, **kwargs)
+        if out.dtype.kind == "f":
+            out.fill(1e300)
+        return out
+
+    monkeypatch.setattr(np, "empty", poisoned)
+    fig = plt.figure()
+    try:
+        ax = fig.add_subplot(projection="3d")
+        draw_obstacles(ax, [Box(np.array([0.0, 0.0, 0.0]), np.array([100.0, 100.0, 100.0])),
+                            Sphere(np.array([0.0, 0.0, 300.0]), 50.0)])
+        lo, hi = ax.get_zlim()
+        assert -200.0 < lo < -50.0 and 350.0 < hi < 500.0
+    finally:
+        plt.close(fig)

@@ -57,7 +57,8 @@ def obstacle_outline(o: Obstacle) -> tuple[list[np.ndarray], list[np.ndarray]]:
     if isinstance(o, Plate):
         side, up = o.side, o.up
         w, h = o.size
-        rect = o.center + np.array([[-1, -1], [1, -1], [1, 1], [-1, 1], [-1, -1]]) @ np.stack([side * w / 2, up * h / 2])
+        corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1], [-1, -1]])
+        rect = o.center + corners @ np.stack([side * w / 2, up * h / 2])
         lines = [rect]
         if o.hole is not None:
             c = o.center + o.hole["offset"][0] * side + o.hole["offset"][1] * up
@@ -66,6 +67,13 @@ def obstacle_outline(o: Obstacle) -> tuple[list[np.ndarray], list[np.ndarray]]:
     if isinstance(o, Mesh):
         return list(o.triangles()), []
     raise TypeError(f"cannot draw obstacle type {type(o).__name__}")
+
+
+def _padded(faces: list[np.ndarray]) -> np.ndarray:
+    """Polygons of different vertex counts as one array ``(n, most, 3)``, each padded by repeating its last vertex
+    (the same polygon drawn): matplotlib pads a ragged list with uninitialised memory and scales the axes to it."""
+    most = max(len(f) for f in faces)
+    return np.stack([np.concatenate([f, np.repeat(f[-1:], most - len(f), axis=0)]) for f in map(np.asarray, faces)])
 
 
 def draw_obstacles(ax: Axes, obstacles, alpha: float = 0.18) -> None:
@@ -86,7 +94,7 @@ def draw_obstacles(ax: Axes, obstacles, alpha: float = 0.18) -> None:
         faces += f
         lines += ln
     if faces:
-        ax.add_collection3d(Poly3DCollection(faces, facecolor=OBSTACLE_COLOR, edgecolor=(0.4, 0.4, 0.45, 0.25),
+        ax.add_collection3d(Poly3DCollection(_padded(faces), facecolor=OBSTACLE_COLOR, edgecolor=(0.4, 0.4, 0.45, 0.25),
                                              linewidths=0.2, alpha=alpha, gid="obstacles"))
     if lines:
         ax.add_collection3d(Line3DCollection(lines, colors=[OBSTACLE_COLOR], linewidths=0.8, gid="obstacles"))
