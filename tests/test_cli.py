@@ -352,7 +352,7 @@ def test_check_judges_a_plan_with_the_arm_it_was_made_with(tmp_path, capsys):
     """A plan made for one's own (thinner) arm is judged with that arm, says so, and refuses another --robot."""
     from snakeplan.evaluation import evaluate
     from snakeplan.robots import get_robot
-    from snakeplan.scenes import make_scene
+    from snakeplan.scenes.sizing import arm_sizing, sized_scene
 
     arm = get_robot("sjtu-snake-iii").to_dict()
     arm["name"] = "thin-arm"
@@ -365,9 +365,12 @@ def test_check_judges_a_plan_with_the_arm_it_was_made_with(tmp_path, capsys):
     plan_file.write_text(out)
     code, out, err = run(capsys, "check", "--seed", "2", str(plan_file))
     assert out.splitlines()[0] == "arm: thin-arm (the plan's)"
-    scene, path = make_scene("fuel-tank", 2), np.asarray(json.loads(plan_file.read_text())["path"])
+    thin = get_robot("sjtu-snake-iii").__class__.from_dict(arm)
+    scene = sized_scene("fuel-tank", 2, arm_sizing("fuel-tank", thin))  # the fuel tank sized to the thinner arm
+    assert scene.metadata["sizing"]["inflate_mm"] == pytest.approx(14.5)
+    path = np.asarray(json.loads(plan_file.read_text())["path"])
     judged = float(out.split("min_clearance_mm")[1].split()[0])
-    ours = evaluate(scene, get_robot("sjtu-snake-iii").__class__.from_dict(arm), path).min_clearance_mm
+    ours = evaluate(scene, thin, path).min_clearance_mm
     theirs = evaluate(scene, get_robot("sjtu-snake-iii"), path).min_clearance_mm
     assert judged == pytest.approx(ours, abs=1e-3) and abs(ours - theirs) > 10.0
     code, out, err = run(capsys, "check", "--seed", "2", "--robot", "sjtu-snake-iii", str(plan_file))

@@ -684,7 +684,7 @@ def test_prefetch_keeps_a_window_and_leaves_to_the_caller_what_a_worker_cannot_m
     from snakeplan.scenes import prefetch
 
     monkeypatch.setattr(prefetch, "WINDOW", 2)
-    keys = [("no-such-family", 1)] + [("fuel-tank", 1_000_000 + k) for k in range(3)]
+    keys = [("no-such-family", 1, ())] + [("fuel-tank", 1_000_000 + k, ()) for k in range(3)]
     ahead = prefetch.ScenePrefetch(keys, 1).start()
     made = []
     try:
@@ -692,7 +692,7 @@ def test_prefetch_keeps_a_window_and_leaves_to_the_caller_what_a_worker_cannot_m
         wait(list(ahead._futures.values()))
         assert ahead.take("no-such-family", 1) is None  # its worker failed: the caller makes it, and is told once
         assert capsys.readouterr().err.count("could not make no-such-family 1") == 1
-        for family, seed in keys[1:]:
+        for family, seed, _ in keys[1:]:
             assert len(ahead._futures) <= 2
             wait(list(ahead._futures.values()))
             made.append(ahead.take(family, seed))
@@ -700,7 +700,7 @@ def test_prefetch_keeps_a_window_and_leaves_to_the_caller_what_a_worker_cannot_m
     finally:
         ahead.close()
     assert prefetch.made_ahead("fuel-tank", 1_000_001) is None  # closed: nothing is made ahead
-    assert [m.to_dict() for m in made] == [make_scene(f, s).to_dict() for f, s in keys[1:]]
+    assert [m.to_dict() for m in made] == [make_scene(f, s).to_dict() for f, s, _ in keys[1:]]
 
 
 def test_scenes_made_ahead_train_the_same_weights(tmp_path, monkeypatch):
@@ -712,8 +712,8 @@ def test_scenes_made_ahead_train_the_same_weights(tmp_path, monkeypatch):
 
     delivered = []
 
-    def counted(family, seed):
-        scene = made_ahead(family, seed)
+    def counted(family, seed, params=()):
+        scene = made_ahead(family, seed, params)
         delivered.append(scene is not None)
         return scene
 

@@ -109,12 +109,14 @@ class Run:
         return _arm(self.robot, self.robot_json)
 
     def make_scene(self, seed: int | None = None):
-        """The run's scene: its file's, or its family's at its seed (or at ``seed``)."""
-        from snakeplan.scenes import Scene, make_scene
+        """The run's scene: its file's, or its family's at its seed (or at ``seed``) sized to the run's arm
+        (:mod:`snakeplan.scenes.sizing`)."""
+        from snakeplan.scenes import Scene
+        from snakeplan.scenes.sizing import arm_sizing, sized_scene
 
         if self.scene_json:
             return Scene.from_json(self.scene_json, "scenes")
-        return make_scene(self.scene, self.seed if seed is None else seed)
+        return sized_scene(self.scene, self.seed if seed is None else seed, arm_sizing(self.scene, self.arm()))
 
     @property
     def key(self) -> str:

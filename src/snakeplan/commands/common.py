@@ -128,5 +128,9 @@ def optimize_line(plan) -> str:
 
 
 def where(scene) -> str:
-    """A scene as the console names it: "fuel-tank (seed 3)", or a file scene's name alone (it has no seed)."""
-    return scene.name if scene.seed is None else f"{scene.name} (seed {scene.seed})"
+    """A scene as the console names it: "fuel-tank (seed 3)", "confined (seed 3, sized to a 1920 mm arm)" (see
+    :mod:`snakeplan.scenes.sizing`), or a file scene's name alone (it has no seed)."""
+    if scene.seed is None:
+        return scene.name
+    sized = scene.metadata.get("sizing")
+    return f"{scene.name} (seed {scene.seed}" + (f", sized to a {sized['arm_length_mm']:g} mm arm)" if sized else ")")

@@ -52,6 +52,17 @@ def scene_dir(filename: str) -> Path:
     return Path(".") if filename == "-" else Path(filename).parent
 
 
+def sized_to(args: argparse.Namespace, scene, robot):
+    """A generated scene (--scene, or the one a plan file names) sized to the arm planned or judged in it
+    (:mod:`snakeplan.scenes.sizing`: the family's own arm gets it unchanged); a --scene-file as it is."""
+    from snakeplan.scenes import arm_sizing, sized_scene
+
+    if getattr(args, "scene_file", None) or scene.seed is None:
+        return scene
+    params = arm_sizing(scene.name, robot)
+    return sized_scene(scene.name, scene.seed, params) if params else scene
+
+
 def robot_for(args: argparse.Namespace, scene):
     """The robot named by --robot (a preset or a robot file), else the one the scene's spec says it is sized for."""
     from snakeplan.scenes import spec_for

@@ -39,9 +39,10 @@ from snakeplan.rl.rewards import (
     local_reward,
 )
 from snakeplan.robots import Chain, get_robot
-from snakeplan.scenes import Scene, make_scene
+from snakeplan.scenes import Scene
 from snakeplan.scenes.prefetch import made_ahead
 from snakeplan.scenes.routes.guide import RouteGuide
+from snakeplan.scenes.sizing import arm_sizing, sized_scene
 from snakeplan.world import KnowledgeView, view_for
 
 #: Truncation horizon H (steps), paper 000 §4.1.
@@ -108,7 +109,7 @@ class SnakeEnv(gym.Env):
 
     def scene_for(self, seed: int) -> Scene:
         """The scene for ``seed`` of its family (generated once per process: see :func:`scene_of`)."""
-        return scene_of(self.family, seed)
+        return scene_of(self.family, seed, self.robot)
 
     def _start(self, generated: bool) -> None:
         """Put the crawler at the scene's entrance with a fresh view (and, for the guide design, the scene's
@@ -117,7 +118,8 @@ class SnakeEnv(gym.Env):
         world: KnowledgeView = view_for(self.scene, self.knowledge)
         guide = None
         if self.crawler.mode == "guide" and generated:
-            guide = scene_guide(self.scene.name, self.scene.seed, self.knowledge, float(np.max(self.robot.radii)))
+            guide = scene_guide(self.scene.name, self.scene.seed, self.knowledge, float(np.max(self.robot.radii)),
+                                arm_sizing(self.scene.name, self.robot))
         elif self.crawler.mode == "guide":  # a scene of the caller's: its guide made once while it is reused
             if self._own_guide is None or self._own_guide[0] is not self.scene:
                 self._own_guide = (self.scene, self.crawler.route_guide(self.scene, world))
@@ -181,9 +183,11 @@ def family_of(scene: str, seed: int) -> str:
     return names[seed % len(names)]
 
 
-def scene_of(scene: str, seed: int) -> Scene:
-    """The scene of ``seed`` in ``scene``'s families (:func:`family_of`, :func:`family_scene`)."""
-    return family_scene(family_of(scene, seed), int(seed))
+def scene_of(scene: str, seed: int, robot: Chain | None = None) -> Scene:
+    """The scene of ``seed`` in ``scene``'s families (:func:`family_of`, :func:`family_scene`), sized to ``robot``
+    (:mod:`snakeplan.scenes.sizing`; None: the family's own arm)."""
+    family = family_of(scene, seed)
+    return family_scene(family, int(seed), arm_sizing(family, robot) if robot is not None else ())
 
 
 def upcoming(envs, draws: int) -> list[int]:
@@ -200,19 +204,19 @@ def upcoming(envs, draws: int) -> list[int]:
 
 
 @lru_cache(maxsize=SCENE_CACHE)
-def family_scene(family: str, seed: int) -> Scene:
-    """A family's scene for ``seed``, generated once per process and shared by every environment in it (a vector
-    of environments meets the same training scenes); made ahead by a worker while a training run prefetches
-    (:mod:`snakeplan.scenes.prefetch`)."""
-    scene = made_ahead(family, seed)
-    return make_scene(family, seed) if scene is None else scene
+def family_scene(family: str, seed: int, params: tuple = ()) -> Scene:
+    """A family's scene for ``seed`` with sizing ``params`` (:func:`snakeplan.scenes.sizing.sized_scene`),
+    generated once per process and shared by every environment in it (a vector of environments meets the same
+    training scenes); made ahead by a worker while a training run prefetches (:mod:`snakeplan.scenes.prefetch`)."""
+    scene = made_ahead(family, seed, params)
+    return sized_scene(family, seed, params) if scene is None else scene
 
 
 @lru_cache(maxsize=SCENE_CACHE)
-def scene_guide(family: str, seed: int, knowledge: str, radius_mm: float) -> RouteGuide:
+def scene_guide(family: str, seed: int, knowledge: str, radius_mm: float, params: tuple = ()) -> RouteGuide:
     """The route guide of :func:`family_scene` through what a fresh ``knowledge`` view of it knows, for an arm of
     body radius ``radius_mm`` (:func:`snakeplan.planners.sac.guide_for`); made once per process."""
-    scene = family_scene(family, seed)
+    scene = family_scene(family, seed, params)
     return guide_for(scene, view_for(scene, knowledge), radius_mm)
 
 

@@ -64,10 +64,10 @@ from snakeplan.files import atomic_path, atomic_write
 from snakeplan.interrupt import StopRequest
 from snakeplan.parallel import ProgressDisplay, usable_cores
 from snakeplan.planners import Problem
-from snakeplan.planners.sac.crawler import CAPTURE_STEPS, TURN_RADIUS_MM
+from snakeplan.planners.sac.crawler import CAPTURE_STEPS, TURN_RADIUS_MM, turn_radius_for
 from snakeplan.planners.sac.observation import RoomGraph
 from snakeplan.planners.sac.planner import SacPlanner
-from snakeplan.planners.sac.policy import NumpyPolicy
+from snakeplan.planners.sac.policy import NumpyPolicy, arm_record, fits_arm
 from snakeplan.rl.agents import (
     AUTODIFF,
     EPSILON_DECAY,
@@ -91,9 +91,10 @@ from snakeplan.rl.per import ALPHA, BETA_START, PerSAC, PrioritizedDictReplayBuf
 from snakeplan.rl.policy import from_sb3
 from snakeplan.rl.resumable import Best, CheckpointCallback, ResumableRun
 from snakeplan.rl.rewards import GUIDE_WEIGHT
-from snakeplan.robots import get_robot
+from snakeplan.robots import Chain, get_robot, load_robot
 from snakeplan.scenes import make_scene, scene_names, scene_spec
 from snakeplan.scenes.prefetch import ScenePrefetch
+from snakeplan.scenes.sizing import arm_sizing
 from snakeplan.world import Knowledge
 
 ALGORITHMS = ("sac-her", "sac-per", "sac")
@@ -108,8 +109,8 @@ class TrainConfig:
     """Hyper-parameters and bookkeeping of one training run (steps are environment steps summed over envs)."""
 
     observation: str = "local"
-    #: The robot preset trained (any name :func:`snakeplan.robots.get_robot` knows); empty: the one the scene
-    #: family's spec names.
+    #: The robot trained: a preset name or a robot file (:func:`snakeplan.robots.load_robot`); empty: the one the
+    #: scene family's spec names. Its scenes are sized to it (:mod:`snakeplan.scenes.sizing`).
     robot: str = ""
     net_arch: tuple[int, ...] = (128, 128)
     learning_rate: float = 3e-4
@@ -186,18 +187,29 @@ def robot_for(scene: str, config: TrainConfig) -> str:
     return config.robot or scene_spec(families(scene)[0]).robot
 
 
-def judge_policy(policy: NumpyPolicy, scene_name: str, seeds, robot_name: str = "", knowledge: str = "full") -> dict:
+def arm_for(scene: str, config: TrainConfig) -> Chain:
+    """The arm of :func:`robot_for`: a preset, or read from its robot file (ValueError naming ``--robot``)."""
+    try:
+        return load_robot(robot_for(scene, config))
+    except (KeyError, ValueError) as exc:
+        raise ValueError(f"--robot: {exc.args[0]}") from None
+
+
+def judge_policy(policy: NumpyPolicy, scene_name: str, seeds, robot: str | Chain = "",
+                 knowledge: str = "full") -> dict:
     """Plan with ``policy``'s deterministic roll-out alone (one attempt, no smoothing) on the scenes ``seeds`` (of
     ``scene_name``'s families, see :func:`families`) with ``knowledge`` and judge each path: success rate, median
-    plan time (s), mean smoothness index of the successes, and the per-seed verdicts. ``robot_name``: default the
-    family's (its spec)."""
-    robot = get_robot(robot_name or robot_for(scene_name, DEFAULT_CONFIG))
+    plan time (s), mean smoothness index of the successes, and the per-seed verdicts. ``robot``: a preset or robot
+    file name, or an arm; default the family's (its spec); the scenes are sized to it."""
+    if not isinstance(robot, Chain):
+        robot = load_robot(robot or robot_for(scene_name, DEFAULT_CONFIG))
     planner = SacPlanner(policy=policy, attempts=1, smoothing=())
     runs = []
     for seed in seeds:
-        episode = run_episode(Problem(scene_of(scene_name, int(seed)), robot, knowledge=knowledge), planner)
+        episode = run_episode(Problem(scene_of(scene_name, int(seed), robot), robot, knowledge=knowledge), planner)
         report = episode.report
-        runs.append({"seed": int(seed), "scene": episode.problem.scene.name, "success": episode.success, "reason": episode.reason,
+        runs.append({"seed": int(seed), "scene": episode.problem.scene.name, "success": episode.success,
+                     "reason": episode.reason,
                      "outcome": episode.plan.details.get("outcome"), "time_s": episode.plan.compute_time_s,
                      "smoothness_index": report.smoothness_index if report else math.nan,
                      "path_length_mm": report.path_length_mm if report else math.nan})
@@ -209,9 +221,10 @@ def judge_policy(policy: NumpyPolicy, scene_name: str, seeds, robot_name: str = 
 
 
 def make_env(scene: str, config: TrainConfig):
-    """A factory of training environments for ``scene`` with ``config``'s crawl and observation settings."""
+    """A factory of training environments for ``scene`` with ``config``'s arm, crawl and observation settings."""
     seeds = (TRAIN_SEED, TRAIN_SEED + config.train_scenes)
-    return lambda: SnakeEnv(scene, observation=config.observation, robot=robot_for(scene, config), seeds=seeds,
+    arm = arm_for(scene, config)
+    return lambda: SnakeEnv(scene, observation=config.observation, robot=arm, seeds=seeds,
                             turn_radius_mm=config.turn_radius_mm, capture_steps=config.capture_steps,
                             lookahead=config.lookahead, knowledge=config.knowledge, residual=config.residual,
                             guide_weight=config.guide_weight)
@@ -283,6 +296,7 @@ class _Run(ResumableRun):
                          config.checkpoint_every or checkpoint_interval(steps))
         self.scene, self.algorithm, self.steps, self.seed, self.out = scene, algorithm, steps, seed, out
         self.config, self.progress, self.command = config, progress, command
+        self.arm = arm_for(scene, config)
         self.history: list[dict] = []
         self.episodes: deque[bool] = deque(maxlen=ROLLING_EPISODES)
         self.last_eval = 0
@@ -296,7 +310,7 @@ class _Run(ResumableRun):
     def meta(self, n: int) -> dict:
         crawler = self.model.env.envs[0].crawler
         return {"name": f"{self.scene}-{self.algorithm}", "scene": self.scene, "algorithm": self.algorithm,
-                "robot": self.config.robot,
+                "robot": self.arm.name, "arm": arm_record(self.arm),
                 "observation": self.config.observation, "step_mm": crawler.step_mm,
                 "turn_radius_mm": crawler.step_mm / crawler.max_turn,
                 "capture_steps": round(crawler.capture_mm / crawler.step_mm), "lookahead": crawler.lookahead,
@@ -311,7 +325,7 @@ class _Run(ResumableRun):
 
     def validate(self, n: int) -> None:
         policy = self.export(n)
-        result = judge_policy(policy, self.scene, self.seeds, self.config.robot, self.config.knowledge)
+        result = judge_policy(policy, self.scene, self.seeds, self.arm, self.config.knowledge)
         rolling = float(np.mean(self.episodes)) if self.episodes else 0.0
         self.history.append({"env_steps": n, "updates": int(self.model._n_updates), "wall_s": self.wall,
                              "success": result["success_rate"], "train_success": rolling,
@@ -383,7 +397,8 @@ class _Run(ResumableRun):
         draws = (self.steps - n) // (len(envs) * PREFETCH_EPISODE_STEPS) + 1
         seeds = upcoming(envs, draws)
         seeds = seeds[:len(self.seeds)] + list(self.seeds) + seeds[len(self.seeds):]
-        keys = [(family_of(self.scene, seed), seed) for seed in seeds]
+        families_of = [family_of(self.scene, seed) for seed in seeds]
+        keys = [(f, seed, arm_sizing(f, self.arm)) for f, seed in zip(families_of, seeds)]
         self._prefetch = ScenePrefetch(keys, workers).start()
 
     def stop_prefetch(self) -> None:
@@ -468,7 +483,9 @@ def train(scene: str, algorithm: str, steps: int, seed: int, out_dir: str | Path
     if not (math.isfinite(config.guide_weight) and config.guide_weight >= 0.0):
         raise ValueError(f"--guide-weight: must be a finite number >= 0, got {config.guide_weight}")
     config = replace(config, robot=robot_for(scene, config))
-    get_robot(config.robot)
+    arm, own = arm_for(scene, config), get_robot(scene_spec(families(scene)[0]).robot)
+    if config.turn_radius_mm == DEFAULT_CONFIG.turn_radius_mm and not fits_arm(arm_record(own), arm):
+        config = replace(config, turn_radius_mm=turn_radius_for(arm))  # another arm turns on its own radius
     th.set_num_threads(config.torch_threads)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -10,7 +10,8 @@ from snakeplan.scenes.registry import (
 )
 from snakeplan.scenes.scale import scale_warnings
 from snakeplan.scenes.scene import Entrance, Scene
+from snakeplan.scenes.sizing import arm_sizing, sized_scene
 from snakeplan.scenes.task import TASKS, Task, as_task
 
 __all__ = ["Entrance", "Scene", "SceneSpec", "TASKS", "Task", "as_task", "make_scene", "register_scene",
-           "scale_warnings", "scene_names", "scene_spec", "spec_for"]
+           "arm_sizing", "scale_warnings", "scene_names", "scene_spec", "sized_scene", "spec_for"]

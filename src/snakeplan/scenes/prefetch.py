@@ -3,8 +3,8 @@
 A training run generates each of its scenes once (:func:`snakeplan.rl.envs.family_scene`); a fuel-tank scene
 takes about 90 ms, as long as seven training steps, and early in a run nearly every episode meets a new scene,
 while torch trains on one thread and the other cores idle. The draws are known in advance
-(:func:`snakeplan.rl.envs.upcoming`). :class:`ScenePrefetch` makes the scenes of given ``(family, seed)`` keys in
-worker processes, in the order given, at most ``WINDOW`` ahead of those taken (so memory stays bounded);
+(:func:`snakeplan.rl.envs.upcoming`). :class:`ScenePrefetch` makes the scenes of given ``(family, seed, sizing)``
+keys in worker processes, in the order given, at most ``WINDOW`` ahead of those taken (so memory stays bounded);
 :func:`made_ahead` hands one over, waiting if it is queued for a worker or being made. A scene no worker has
 started, or one a worker could not make (a family registered in this process alone: a warning says so once), is
 made by the caller. The scenes are the same either way (the same generator and seed).
@@ -15,8 +15,8 @@ from __future__ import annotations
 import sys
 from concurrent.futures import Future
 
-from snakeplan.scenes.registry import make_scene
 from snakeplan.scenes.scene import Scene
+from snakeplan.scenes.sizing import sized_scene
 
 #: Most scenes submitted and not yet taken (about 20 s of a worker's time for fuel-tank scenes).
 WINDOW = 256
@@ -24,20 +24,24 @@ WINDOW = 256
 _active: ScenePrefetch | None = None
 
 
-def _make(key: tuple[str, int]) -> Scene:
-    return make_scene(*key)
+#: A scene's key: its family, seed and sizing parameters (:func:`snakeplan.scenes.sizing.arm_sizing`).
+Key = tuple[str, int, tuple]
+
+
+def _make(key: Key) -> Scene:
+    return sized_scene(*key)
 
 
 class ScenePrefetch:
     """Scenes ``keys`` being made by ``workers`` processes; while started, :func:`made_ahead` takes from it."""
 
-    def __init__(self, keys: list[tuple[str, int]], workers: int):
+    def __init__(self, keys: list[Key], workers: int):
         from snakeplan.parallel import submit_all
 
         self._keys = list(dict.fromkeys(keys))
         self._next = min(WINDOW, len(self._keys))
         self._pool, futures = submit_all(_make, self._keys[:self._next], workers)
-        self._futures: dict[tuple[str, int], Future] = dict(zip(self._keys, futures))
+        self._futures: dict[Key, Future] = dict(zip(self._keys, futures))
         self._taken: set[tuple[str, int]] = set()
         self._warned = False
 
@@ -46,10 +50,10 @@ class ScenePrefetch:
         _active = self
         return self
 
-    def take(self, family: str, seed: int) -> Scene | None:
+    def take(self, family: str, seed: int, params: tuple = ()) -> Scene | None:
         """The scene, once a worker has made it (waiting if it is queued for a worker or being made); None if no
         worker started it (none will) or its worker failed."""
-        key = (family, seed)
+        key = (family, seed, params)
         self._taken.add(key)
         future = self._futures.pop(key, None)
         self._top_up()
@@ -80,6 +84,6 @@ class ScenePrefetch:
         self._pool.shutdown(wait=False, cancel_futures=True)
 
 
-def made_ahead(family: str, seed: int) -> Scene | None:
-    """``family``'s scene for ``seed`` from the running prefetch, or None (make it here)."""
-    return None if _active is None else _active.take(family, seed)
+def made_ahead(family: str, seed: int, params: tuple = ()) -> Scene | None:
+    """``family``'s scene for ``seed`` with sizing ``params`` from the running prefetch, or None (make it here)."""
+    return None if _active is None else _active.take(family, seed, params)

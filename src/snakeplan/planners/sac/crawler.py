@@ -43,6 +43,15 @@ STEP_MM = 35.0
 #: oil-tank policy turns down to 130 mm (its file's ``turn_radius_mm``): its targets a cell apart need turns
 #: sharper than any arc the bend limits allow over a whole section, which short ones may take.
 TURN_RADIUS_MM = 240.0
+#: Another arm's default turning radius: the least on which a chord of each section's length bends this fraction
+#: of the section's limit (SJTU-Snake III's 43 of 50.7 deg on ``TURN_RADIUS_MM``).
+TURN_BEND_FRACTION = 0.85
+
+
+def turn_radius_for(robot: Chain) -> float:
+    """The smallest turning radius (mm, to 0.1 mm) on which every section's chord bends at most
+    :data:`TURN_BEND_FRACTION` of its limit: ``max(L / (2 sin(f * limit / 2)))`` (241.6 mm for SJTU-Snake III)."""
+    return round(float(np.max(robot.lengths / (2.0 * np.sin(TURN_BEND_FRACTION * robot.max_bends / 2.0)))), 1)
 #: Goal capture (local design): a goal within this many steps that an arc no tighter than the turning radius
 #: reaches is steered to by pure pursuit, overriding the action (0 disables it).
 CAPTURE_STEPS = 4

@@ -80,9 +80,35 @@ def _check_meta(meta) -> dict:
         for key in ("name", "scene", "algorithm", "robot"):
             if key in meta:
                 inputs.text(meta[key], f"meta.{key}")
+        if "arm" in meta:
+            _check_arm(meta["arm"])
     except ValueError as exc:
         raise _bad(str(exc)) from None
     return meta
+
+
+#: Most sections a policy file's ``meta.arm`` may list.
+MAX_ARM_SECTIONS = 1000
+
+
+def _check_arm(record) -> None:
+    """``meta.arm`` (:func:`arm_record`): a name and, per section, a length and radius (mm) and a bend limit (rad)
+    in lists of one size; ValueError naming the field."""
+    inputs.mapping(record, "meta.arm", required=("name", "lengths", "radii", "max_bends"), what="a JSON object")
+    inputs.text(record["name"], "meta.arm.name")
+    sizes = set()
+    for key in ("lengths", "radii", "max_bends"):
+        values = record[key]
+        if not isinstance(values, list) or not 0 < len(values) <= MAX_ARM_SECTIONS:
+            raise ValueError(f"meta.arm.{key}: expected a list of 1 to {MAX_ARM_SECTIONS} numbers")
+        for i, v in enumerate(values):
+            if key == "max_bends" and not 0.0 < inputs.real(v, f"meta.arm.{key}[{i}]") <= math.pi:
+                raise ValueError(f"meta.arm.{key}[{i}]: a bend limit must lie in (0, pi] rad, got {v!r}")
+            if key != "max_bends":
+                inputs.length(v, f"meta.arm.{key}[{i}]")
+        sizes.add(len(values))
+    if len(sizes) > 1:
+        raise ValueError("meta.arm: lengths, radii and max_bends must list the same sections")
 
 
 def _parse_meta(raw: np.ndarray | None) -> dict:
@@ -169,9 +195,9 @@ class NumpyPolicy:
     :data:`OBSERVATIONS`) and ``hidden_layers`` (0 to ``MAX_HIDDEN_LAYERS``); optionally ``step_mm`` and
     ``turn_radius_mm`` (lengths as :func:`snakeplan.inputs.length` takes them; a step turns by at most half a
     turn), ``capture_steps`` (0 to ``MAX_CAPTURE_STEPS``), boolean ``lookahead``, and names ``name``, ``scene``,
-    ``algorithm``, ``robot``; other keys are free-form. The layers chain from the
-    input :func:`policy_input` makes for the design (and look-ahead) to :func:`action_dim` outputs, with real,
-    finite weights within ``MAX_WEIGHT``; route tables: see :func:`_check_graph`.
+    ``algorithm``, ``robot``, and the trained ``arm`` (:func:`_check_arm`); other keys are free-form. The layers
+    chain from the input :func:`policy_input` makes for the design (and look-ahead) to :func:`action_dim`
+    outputs, with real, finite weights within ``MAX_WEIGHT``; route tables: see :func:`_check_graph`.
     """
 
     def __init__(self, layers: list[tuple[np.ndarray, np.ndarray]], mu: tuple[np.ndarray, np.ndarray], meta: dict,
@@ -276,16 +302,49 @@ def trained_robot(policy: NumpyPolicy) -> str | None:
         return None
 
 
+def arm_record(robot: Chain) -> dict:
+    """What a policy file records of the arm it was trained for (its ``meta.arm``): name, and each section's length
+    (mm), radius (mm) and bend limit (rad)."""
+    return {"name": robot.name, "lengths": robot.lengths.tolist(), "radii": robot.radii.tolist(),
+            "max_bends": robot.max_bends.tolist()}
+
+
+def fits_arm(record: dict, robot: Chain) -> bool:
+    """Whether ``robot`` is the arm of ``record`` (:func:`arm_record`): the same sections, lengths, radii and bend
+    limits (to 1e-6); the record is checked when its policy is made (:func:`_check_arm`)."""
+    mine = {k: np.asarray(record[k], dtype=float) for k in ("lengths", "radii", "max_bends")}
+    theirs = {"lengths": robot.lengths, "radii": robot.radii, "max_bends": robot.max_bends}
+    return all(mine[k].shape == theirs[k].shape and np.allclose(mine[k], theirs[k], rtol=0.0, atol=1e-6)
+               for k in mine)
+
+
+def _describe(record: dict) -> str:
+    """An arm in a line: its name, sections, length, thickest radius and tightest bend limit."""
+    lengths = np.asarray(record["lengths"], dtype=float)
+    return (f"{record['name']} ({lengths.size} sections, {lengths.sum():g} mm, radius {max(record['radii']):g} mm, "
+            f"bend limit {math.degrees(min(record['max_bends'])):.3g} deg)")
+
+
 def check_policy_fits(policy: NumpyPolicy, scene: Scene, robot: Chain) -> None:
     """The rule for planning with a policy outside what it was trained for.
 
-    Another arm is refused (ValueError ``policy: ...``): the observation (inserted fraction), the step and the
-    crawl depend on the arm, so the planning robot must have the section count and lengths of the trained robot
-    (see :func:`trained_robot`; when that is no registered preset, its name), and be longer than one step. A policy
+    Another arm is refused (ValueError ``policy: ...`` naming both): the observation (inserted fraction), the
+    step and the crawl depend on the arm, so the planning robot must be the arm the file records (``meta.arm``,
+    :func:`fits_arm`), or, in files from before it was recorded, have the section count and lengths of the
+    trained robot (see :func:`trained_robot`; when that is no registered preset, its name), and be longer than
+    one step. A policy
     that names no robot or family is not checked for it. Another scene family is accepted with a
     :class:`PolicyTransferWarning` (a policy may transfer; its route tables stay those of its own family).
     """
-    trained = trained_robot(policy)
+    if "arm" in policy.meta:
+        record = policy.meta["arm"]
+        if not fits_arm(record, robot):
+            raise _bad(f"trained for {_describe(record)}, planning with {_describe(arm_record(robot))}: a policy "
+                       f"plans for the arm it was trained on (train one for this arm: snakeplan train rl ... "
+                       f"--robot FILE)")
+        trained = None
+    else:
+        trained = trained_robot(policy)
     if trained is not None:
         try:
             theirs = get_robot(trained)

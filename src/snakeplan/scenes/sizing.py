@@ -1,0 +1,53 @@
+"""Scenes sized to an arm: a family's scene for another arm than the one its spec names (mm).
+
+The room-scale and pipe generators (fuel-tank, oil-tank, confined, pipe, concentric-pipe) are parametric in the
+arm they are made for: they accept a target only where its geodesic tour from the entrance is within
+``reach_fraction`` of ``arm_length_mm``, along a free space eroded by ``inflate_mm`` (the arm's body with a
+margin). Sized to an arm, a family's scene keeps its rooms and draws its targets for that arm:
+
+- ``arm_length_mm``: the arm's length (the sum of its sections);
+- ``inflate_mm``: the family's inflation plus the difference of the arm's thickest radius from that of the
+  family's arm (SJTU-Snake III, 27.5 mm, in 30 mm for the tanks: the same 2.5 mm margin for every arm);
+- ``target_clearance_mm``: the family's, or the inflation where that is larger (a target lies in free space).
+
+The family's own arm, or any of its length and thickness, gets the family's scenes unchanged. A family whose
+generator takes no ``arm_length_mm`` (meshes, scans, the station) is the same for every arm.
+"""
+
+from __future__ import annotations
+
+import inspect
+from dataclasses import replace
+
+import numpy as np
+
+from snakeplan.robots import Chain, get_robot
+from snakeplan.scenes.registry import make_scene, scene_spec
+from snakeplan.scenes.scene import Scene
+
+#: The generator parameters that size a family to an arm.
+SIZED = ("arm_length_mm", "inflate_mm", "target_clearance_mm")
+
+
+def arm_sizing(family: str, robot: Chain) -> tuple[tuple[str, float], ...]:
+    """The generator parameters (name, value) that size ``family`` to ``robot`` (see the module); empty where the
+    family takes none or ``robot`` has the length and thickest radius of the family's own arm."""
+    spec = scene_spec(family)
+    params = inspect.signature(spec.generator).parameters
+    if not all(k in params for k in SIZED):
+        return ()
+    own = get_robot(spec.robot)
+    length, radius = float(np.sum(robot.lengths)), float(np.max(robot.radii))
+    if np.isclose(length, float(np.sum(own.lengths))) and np.isclose(radius, float(np.max(own.radii))):
+        return ()
+    inflate = float(params["inflate_mm"].default) + radius - float(np.max(own.radii))
+    clearance = max(float(params["target_clearance_mm"].default), inflate)
+    return (("arm_length_mm", round(length, 6)), ("inflate_mm", round(inflate, 6)),
+            ("target_clearance_mm", round(clearance, 6)))
+
+
+def sized_scene(family: str, seed: int, params: tuple[tuple[str, float], ...] = ()) -> Scene:
+    """``family``'s scene of ``seed`` made with the sizing ``params`` (:func:`arm_sizing`; empty: the family's own
+    arm), which a sized scene records in ``metadata["sizing"]``."""
+    scene = make_scene(family, seed, **dict(params))
+    return replace(scene, metadata={**scene.metadata, "sizing": dict(params)}) if params else scene
