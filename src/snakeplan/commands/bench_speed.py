@@ -68,12 +68,25 @@ def add_parsers(bsub) -> None:
     backend_args(p)
     p.set_defaults(func=cmd_bench_cloud)
 
-    p = bsub.add_parser("rl", help="training throughput of the learned planners",
+    p = bsub.add_parser("rl", help="training throughput of the learned planners; --arms: the arm-conditioned "
+                                   "generalist on held-out arms",
                         description="Environment steps, SAC-HER training steps and actor calls per second, each "
-                                    "against a baseline in the same process; medians over repeats.")
+                                    "against a baseline in the same process; medians over repeats. With --arms: the "
+                                    "arm-conditioned generalist on arms it never saw, beside policies trained for "
+                                    "each arm alone (--train-steps), judged on sensed plans in families sized to "
+                                    "each arm.")
     p.add_argument("--repeats", type=int, default=5, help="timed repeats (default 5)")
     p.add_argument("--seed", type=seed, default=0, help="seed for scenes and actions (default 0)")
     p.add_argument("--json", action="store_true", help="print the figures as JSON")
+    p.add_argument("--arms", nargs="?", const="held-out", default=None,
+                   help="comma-separated presets or robot files (default: the three held-out arms)")
+    p.add_argument("--seeds", type=int, default=100, help="--arms: seeds per family (default 100)")
+    p.add_argument("--scenes", default="confined,fuel-tank", help="--arms: families (default confined,fuel-tank)")
+    p.add_argument("--train-steps", type=int, default=0,
+                   help="--arms: train a policy for each arm alone for this many environment steps (default 0: none)")
+    p.add_argument("--time-limit", type=finite, default=10.0, help="--arms: budget per plan in seconds (default 10)")
+    p.add_argument("--out", default="bench-arms", help="--arms: output folder (default bench-arms)")
+    backend_args(p)
     p.set_defaults(func=cmd_bench_rl)
 
 
@@ -154,6 +167,8 @@ def cmd_bench_cloud(args: argparse.Namespace) -> int:
 
 def cmd_bench_rl(args: argparse.Namespace) -> int:
     require_training("bench rl")
+    if args.arms is not None:
+        return _bench_arms(args)
     from snakeplan.bench.rl import rl_markdown, run_rl_bench
 
     if args.repeats < 1:
@@ -163,4 +178,31 @@ def cmd_bench_rl(args: argparse.Namespace) -> int:
         print_json(result)
     else:
         sys.stdout.write(rl_markdown(result) + "\n")
+    return EXIT_OK
+
+
+def _bench_arms(args: argparse.Namespace) -> int:
+    from snakeplan.bench import arms
+    from snakeplan.bench.runner import check_robot
+    from snakeplan.scenes import scene_names
+
+    chosen = arms.HELD_OUT if args.arms == "held-out" else tuple(a.strip() for a in args.arms.split(",") if a.strip())
+    for arm in chosen:
+        try:
+            check_robot(arms.arm_source(arm), "--arms")
+        except ValueError as exc:
+            raise UsageError(str(exc.args[0])) from None
+    if args.seeds < 1 or args.train_steps < 0:
+        raise UsageError(f"--seeds, --train-steps: expected a positive and a non-negative integer, got {args.seeds} "
+                         f"and {args.train_steps}")
+    scenes = name_list(args.scenes, scene_names(), "--scenes")
+    if not Path(args.out).parent.is_dir():
+        raise UsageError(f"--out: folder {str(Path(args.out).parent)!r} does not exist (create it first)")
+    Path(args.out).mkdir(exist_ok=True)
+    check_output(Path(args.out) / "summary.json", "--out")
+    result = arms.run(Path(args.out), chosen, args.seeds, scenes, args.train_steps, args.time_limit, backend(args))
+    if args.json:
+        print_json(result)
+    else:
+        sys.stdout.write(arms.markdown(result))
     return EXIT_OK

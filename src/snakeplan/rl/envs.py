@@ -39,6 +39,7 @@ from snakeplan.rl.rewards import (
     local_reward,
 )
 from snakeplan.robots import Chain, get_robot
+from snakeplan.robots.arm_range import sample_arm
 from snakeplan.scenes import Scene
 from snakeplan.scenes.prefetch import made_ahead
 from snakeplan.scenes.routes.guide import RouteGuide
@@ -64,7 +65,9 @@ class SnakeEnv(gym.Env):
     seeded scenes from ``seeds`` (a half-open range), or one fixed :class:`Scene`. ``reset(options={"scene_seed":
     s})`` or ``{"scene": Scene}`` picks an episode's scene. ``knowledge``: what the crawler's rays and route guide
     know (``"sensed"``: the prior obstacles and what the tip has sensed, a fresh view each episode); the reward's
-    line of sight to the target is the environment's, from the whole scene.
+    line of sight to the target is the environment's, from the whole scene. ``arm_conditioned``: each generated
+    scene's episode crawls the arm its seed draws from the distribution of arms (:meth:`arm_of`), in the scene
+    sized to it, observing the arm's features; ``robot`` crawls the caller's scenes.
     """
 
     metadata: ClassVar[dict] = {"render_modes": []}
@@ -74,7 +77,7 @@ class SnakeEnv(gym.Env):
                  turn_radius_mm: float = TURN_RADIUS_MM, max_steps: int = MAX_STEPS,
                  seeds: tuple[int, int] = (TRAIN_SEED, TRAIN_SEED + TRAIN_SCENES), capture_steps: int = CAPTURE_STEPS,
                  lookahead: bool = False, knowledge: str = "full", residual: bool = False,
-                 guide_weight: float = GUIDE_WEIGHT):
+                 guide_weight: float = GUIDE_WEIGHT, arm_conditioned: bool = False):
         self.family = scene if isinstance(scene, str) else scene.name
         self.families = families(self.family)
         self.fixed_scene = None if isinstance(scene, str) else scene
@@ -82,15 +85,17 @@ class SnakeEnv(gym.Env):
         self.guide_weight = float(guide_weight)
         self._own_guide: tuple[Scene, RouteGuide] | None = None
         self.robot = get_robot(robot) if isinstance(robot, str) else robot
+        self.arm_conditioned = arm_conditioned
         self.crawler = Crawler(self.robot, observation, step_mm, turn_radius_mm, capture_steps=capture_steps,
-                               lookahead=lookahead, residual=residual)
+                               lookahead=lookahead, residual=residual, arm_conditioned=arm_conditioned)
         self.mode = observation
         self.max_steps = int(max_steps)
         self.seed_range = (int(seeds[0]), int(seeds[1]))
         self.action_space = spaces.Box(-1.0, 1.0, (action_dim(observation),), np.float32)
         goal_box = spaces.Box(-OBS_BOUND, OBS_BOUND, (3,), np.float32)
         self.observation_space = spaces.Dict({
-            "observation": spaces.Box(-OBS_BOUND, OBS_BOUND, (observation_dim(observation, lookahead),), np.float32),
+            "observation": spaces.Box(-OBS_BOUND, OBS_BOUND,
+                                      (observation_dim(observation, lookahead, arm_conditioned),), np.float32),
             "achieved_goal": goal_box,
             "desired_goal": goal_box,
         })
@@ -104,22 +109,31 @@ class SnakeEnv(gym.Env):
         state.setdefault("knowledge", "full")
         state.setdefault("guide_weight", GUIDE_WEIGHT)
         state.setdefault("_own_guide", None)
+        state.setdefault("arm_conditioned", False)
         state.pop("_cache", None)
         self.__dict__.update(state)
 
+    def arm_of(self, seed: int) -> Chain:
+        """The arm an episode in the scene of ``seed`` crawls: the environment's, or, arm-conditioned, the seed's
+        arm of the distribution (:func:`distribution_arm`)."""
+        return distribution_arm(seed) if self.arm_conditioned else self.robot
+
     def scene_for(self, seed: int) -> Scene:
-        """The scene for ``seed`` of its family (generated once per process: see :func:`scene_of`)."""
-        return scene_of(self.family, seed, self.robot)
+        """The scene for ``seed`` of its family sized to its arm (generated once per process: see
+        :func:`scene_of`)."""
+        return scene_of(self.family, seed, self.arm_of(seed))
 
     def _start(self, generated: bool) -> None:
         """Put the crawler at the scene's entrance with a fresh view (and, for the guide design, the scene's
         route guide: for a ``generated`` scene, one of the family's by seed, made once per process, see
         :func:`scene_guide`)."""
         world: KnowledgeView = view_for(self.scene, self.knowledge)
+        arm = self.arm_of(self.scene.seed) if generated else self.robot
+        self.crawler.set_arm(arm)
         guide = None
         if self.crawler.mode == "guide" and generated:
-            guide = scene_guide(self.scene.name, self.scene.seed, self.knowledge, float(np.max(self.robot.radii)),
-                                arm_sizing(self.scene.name, self.robot))
+            guide = scene_guide(self.scene.name, self.scene.seed, self.knowledge, float(np.max(arm.radii)),
+                                arm_sizing(self.scene.name, arm))
         elif self.crawler.mode == "guide":  # a scene of the caller's: its guide made once while it is reused
             if self._own_guide is None or self._own_guide[0] is not self.scene:
                 self._own_guide = (self.scene, self.crawler.route_guide(self.scene, world))
@@ -201,6 +215,13 @@ def upcoming(envs, draws: int) -> list[int]:
         for env, gen in zip(envs, gens):
             seeds.setdefault(int(gen.integers(*env.seed_range)), None)
     return list(seeds)
+
+
+@lru_cache(maxsize=SCENE_CACHE)
+def distribution_arm(seed: int) -> Chain:
+    """The arm of scene seed ``seed`` in arm-conditioned training and validation: the seed's arm of the
+    distribution (:func:`snakeplan.robots.arm_range.sample_arm`), made once per process."""
+    return sample_arm(seed)
 
 
 @lru_cache(maxsize=SCENE_CACHE)

@@ -64,7 +64,7 @@ from snakeplan.files import atomic_path, atomic_write
 from snakeplan.interrupt import StopRequest
 from snakeplan.parallel import ProgressDisplay, usable_cores
 from snakeplan.planners import Problem
-from snakeplan.planners.sac.crawler import CAPTURE_STEPS, TURN_RADIUS_MM, turn_radius_for
+from snakeplan.planners.sac.crawler import CAPTURE_STEPS, TURN_RADIUS_MM
 from snakeplan.planners.sac.observation import RoomGraph
 from snakeplan.planners.sac.planner import SacPlanner
 from snakeplan.planners.sac.policy import NumpyPolicy, arm_record, fits_arm
@@ -80,6 +80,7 @@ from snakeplan.rl.envs import (
     TRAIN_SEED,
     VALIDATION_SEED,
     SnakeEnv,
+    distribution_arm,
     families,
     family_of,
     scene_of,
@@ -92,6 +93,7 @@ from snakeplan.rl.policy import from_sb3
 from snakeplan.rl.resumable import Best, CheckpointCallback, ResumableRun
 from snakeplan.rl.rewards import GUIDE_WEIGHT
 from snakeplan.robots import Chain, get_robot, load_robot
+from snakeplan.robots.arm_range import ARM_RANGE, turn_radius_for
 from snakeplan.scenes import make_scene, scene_names, scene_spec
 from snakeplan.scenes.prefetch import ScenePrefetch
 from snakeplan.scenes.sizing import arm_sizing
@@ -142,6 +144,10 @@ class TrainConfig:
     residual: bool = False
     #: The guide design's reward per step length of progress along the guide (0: none).
     guide_weight: float = GUIDE_WEIGHT
+    #: Each scene seed's episodes crawl an arm drawn from the distribution of arms
+    #: (:mod:`snakeplan.robots.arm_range`), in the scene sized to it, and the policy observes the arm: one policy
+    #: for arms it never saw.
+    arm_conditioned: bool = False
     eval_every: int = 5000
     eval_episodes: int = 20
     #: 0: :func:`snakeplan.checkpoints.checkpoint_interval` of the run's steps.
@@ -200,12 +206,15 @@ def judge_policy(policy: NumpyPolicy, scene_name: str, seeds, robot: str | Chain
     """Plan with ``policy``'s deterministic roll-out alone (one attempt, no smoothing) on the scenes ``seeds`` (of
     ``scene_name``'s families, see :func:`families`) with ``knowledge`` and judge each path: success rate, median
     plan time (s), mean smoothness index of the successes, and the per-seed verdicts. ``robot``: a preset or robot
-    file name, or an arm; default the family's (its spec); the scenes are sized to it."""
+    file name, or an arm; default the family's (its spec); the scenes are sized to it. An arm-conditioned policy
+    plans each seed's arm of the distribution (:func:`snakeplan.rl.envs.distribution_arm`) instead."""
     if not isinstance(robot, Chain):
         robot = load_robot(robot or robot_for(scene_name, DEFAULT_CONFIG))
+    fixed = robot
     planner = SacPlanner(policy=policy, attempts=1, smoothing=())
     runs = []
     for seed in seeds:
+        robot = distribution_arm(int(seed)) if policy.arm_conditioned else fixed
         episode = run_episode(Problem(scene_of(scene_name, int(seed), robot), robot, knowledge=knowledge), planner)
         report = episode.report
         runs.append({"seed": int(seed), "scene": episode.problem.scene.name, "success": episode.success,
@@ -227,7 +236,7 @@ def make_env(scene: str, config: TrainConfig):
     return lambda: SnakeEnv(scene, observation=config.observation, robot=arm, seeds=seeds,
                             turn_radius_mm=config.turn_radius_mm, capture_steps=config.capture_steps,
                             lookahead=config.lookahead, knowledge=config.knowledge, residual=config.residual,
-                            guide_weight=config.guide_weight)
+                            guide_weight=config.guide_weight, arm_conditioned=config.arm_conditioned)
 
 
 def route_graph(scene: str, config: TrainConfig) -> RoomGraph | None:
@@ -309,10 +318,11 @@ class _Run(ResumableRun):
 
     def meta(self, n: int) -> dict:
         crawler = self.model.env.envs[0].crawler
-        return {"name": f"{self.scene}-{self.algorithm}", "scene": self.scene, "algorithm": self.algorithm,
-                "robot": self.arm.name, "arm": arm_record(self.arm),
-                "observation": self.config.observation, "step_mm": crawler.step_mm,
-                "turn_radius_mm": crawler.step_mm / crawler.max_turn,
+        arm = ({"arm_conditioned": True, "arm_range": ARM_RANGE.to_dict()} if self.config.arm_conditioned
+               else {"robot": self.arm.name, "arm": arm_record(self.arm)})
+        turn = {} if self.config.arm_conditioned else {"turn_radius_mm": crawler.step_mm / crawler.max_turn}
+        return {"name": f"{self.scene}-{self.algorithm}", "scene": self.scene, "algorithm": self.algorithm, **arm,
+                "observation": self.config.observation, "step_mm": crawler.step_mm, **turn,
                 "capture_steps": round(crawler.capture_mm / crawler.step_mm), "lookahead": crawler.lookahead,
                 "residual": crawler.residual,
                 "env_steps": n, "seed": self.seed,
@@ -398,7 +408,8 @@ class _Run(ResumableRun):
         seeds = upcoming(envs, draws)
         seeds = seeds[:len(self.seeds)] + list(self.seeds) + seeds[len(self.seeds):]
         families_of = [family_of(self.scene, seed) for seed in seeds]
-        keys = [(f, seed, arm_sizing(f, self.arm)) for f, seed in zip(families_of, seeds)]
+        arms = [distribution_arm(seed) if self.config.arm_conditioned else self.arm for seed in seeds]
+        keys = [(f, seed, arm_sizing(f, arm)) for f, seed, arm in zip(families_of, seeds, arms)]
         self._prefetch = ScenePrefetch(keys, workers).start()
 
     def stop_prefetch(self) -> None:
@@ -423,7 +434,7 @@ RESUMABLE_CHANGES = ("eval_every", "checkpoint_every", "torch_threads", "scene_w
 
 #: Configuration fields added after checkpoints were first written: left out of a run's identity at their
 #: defaults, so that a state folder written before them still resumes.
-LATER_FIELDS = ("knowledge", "residual", "guide_weight", "autodiff", "overlap")
+LATER_FIELDS = ("knowledge", "residual", "guide_weight", "autodiff", "overlap", "arm_conditioned")
 
 
 def run_identity(scene: str, algorithm: str, seed: int, config: TrainConfig) -> dict:
@@ -480,11 +491,20 @@ def train(scene: str, algorithm: str, steps: int, seed: int, out_dir: str | Path
     if config.scene_workers < -1:
         raise ValueError(f"--scene-workers: must be -1 (one when another core is free), 0 (none) or positive, "
                          f"got {config.scene_workers}")
+    if config.arm_conditioned and config.turn_radius_mm != DEFAULT_CONFIG.turn_radius_mm:
+        raise ValueError("--turn-radius-mm: an arm-conditioned run turns each arm on its own radius "
+                         "(snakeplan.robots.arm_range.turn_radius_for); leave it out")
+    if config.arm_conditioned and config.robot:
+        raise ValueError("--arm-conditioned: each scene seed draws its own arm; leave --robot out")
+    if config.arm_conditioned and config.observation == "paper":
+        raise ValueError("--arm-conditioned: the paper observation carries no arm features; use local or guide")
     if not (math.isfinite(config.guide_weight) and config.guide_weight >= 0.0):
         raise ValueError(f"--guide-weight: must be a finite number >= 0, got {config.guide_weight}")
-    config = replace(config, robot=robot_for(scene, config))
+    if not config.arm_conditioned:  # an arm-conditioned run's command names no robot: its seeds draw the arms
+        config = replace(config, robot=robot_for(scene, config))
     arm, own = arm_for(scene, config), get_robot(scene_spec(families(scene)[0]).robot)
-    if config.turn_radius_mm == DEFAULT_CONFIG.turn_radius_mm and not fits_arm(arm_record(own), arm):
+    if (config.turn_radius_mm == DEFAULT_CONFIG.turn_radius_mm and not config.arm_conditioned
+            and not fits_arm(arm_record(own), arm)):
         config = replace(config, turn_radius_mm=turn_radius_for(arm))  # another arm turns on its own radius
     th.set_num_threads(config.torch_threads)
     out = Path(out_dir)

@@ -28,11 +28,13 @@ from snakeplan.planners.sac.observation import (
     RAY_RANGE_MM,
     _guide_into,
     action_dim,
+    arm_features,
     heading_frame,
     observation_dim,
     ray_directions,
 )
 from snakeplan.robots import Chain
+from snakeplan.robots.arm_range import turn_radius_for
 from snakeplan.scenes import Scene
 from snakeplan.scenes.routes.guide import RouteGuide
 from snakeplan.world import REACH_TOLERANCE_MM, ROLLOUT, FullView, KnowledgeView, ValidityChecker
@@ -43,15 +45,6 @@ STEP_MM = 35.0
 #: oil-tank policy turns down to 130 mm (its file's ``turn_radius_mm``): its targets a cell apart need turns
 #: sharper than any arc the bend limits allow over a whole section, which short ones may take.
 TURN_RADIUS_MM = 240.0
-#: Another arm's default turning radius: the least on which a chord of each section's length bends this fraction
-#: of the section's limit (SJTU-Snake III's 43 of 50.7 deg on ``TURN_RADIUS_MM``).
-TURN_BEND_FRACTION = 0.85
-
-
-def turn_radius_for(robot: Chain) -> float:
-    """The smallest turning radius (mm, to 0.1 mm) on which every section's chord bends at most
-    :data:`TURN_BEND_FRACTION` of its limit: ``max(L / (2 sin(f * limit / 2)))`` (241.6 mm for SJTU-Snake III)."""
-    return round(float(np.max(robot.lengths / (2.0 * np.sin(TURN_BEND_FRACTION * robot.max_bends / 2.0)))), 1)
 #: Goal capture (local design): a goal within this many steps that an arc no tighter than the turning radius
 #: reaches is steered to by pure pursuit, overriding the action (0 disables it).
 CAPTURE_STEPS = 4
@@ -70,19 +63,31 @@ class Crawler:
 
     def __init__(self, robot: Chain, mode: str = "local", step_mm: float = STEP_MM,
                  turn_radius_mm: float = TURN_RADIUS_MM, check_body: bool = True, capture_steps: int = CAPTURE_STEPS,
-                 lookahead: bool = False, residual: bool = False):
+                 lookahead: bool = False, residual: bool = False, arm_conditioned: bool = False):
         if mode not in OBSERVATIONS:
             raise ValueError(f"observation: must be one of {OBSERVATIONS}, got {mode!r}")
-        self.robot = robot
+        if arm_conditioned and mode == "paper":
+            raise ValueError("observation: the paper observation carries no arm features; use local or guide")
         self.mode = mode
         self.step_mm = float(step_mm)
-        self.max_turn = self.step_mm / float(turn_radius_mm)
+        self.arm_conditioned = arm_conditioned
+        self.turn_radius_mm = float(turn_radius_mm)
+        self.set_arm(robot)
         self.check_body = check_body
         self.capture_mm = capture_steps * self.step_mm if mode != "paper" else 0.0
         self.lookahead = lookahead and mode != "paper"
         self.residual = residual and mode == "guide"
         self.rays = ray_directions()
         self.code = OBSERVATIONS.index(mode)
+
+    def set_arm(self, robot: Chain) -> None:
+        """Crawl ``robot`` from the next :meth:`reset`; an arm-conditioned crawler turns on the arm's own radius
+        (:func:`~snakeplan.robots.arm_range.turn_radius_for`) and observes its features
+        (:func:`~.observation.arm_features`), any other on the radius it was made with."""
+        self.robot = robot
+        radius = turn_radius_for(robot) if self.arm_conditioned else self.turn_radius_mm
+        self.max_turn = self.step_mm / radius
+        self.arm = arm_features(robot) if self.arm_conditioned else _NO_RANGES
 
     def reset(self, scene: Scene, world: KnowledgeView | None = None, guide: RouteGuide | None = None) -> None:
         """Start at the entrance of ``scene``, heading along the feed direction, sensing through ``world`` (default:
@@ -109,6 +114,9 @@ class Crawler:
         state.setdefault("guide", None)
         state.setdefault("guide_s", 0.0)
         state.setdefault("code", OBSERVATIONS.index(state["mode"]))
+        state.setdefault("arm_conditioned", False)
+        state.setdefault("arm", _NO_RANGES)
+        state.setdefault("turn_radius_mm", state["step_mm"] / state["max_turn"])
         self.__dict__.update(state)
         if "scene" in state and "targets" not in state:
             self._compiled_state()
@@ -149,14 +157,15 @@ class Crawler:
         """The goal-conditioned observation dict (float32): ``paper``, the tip position scaled by the scene's size;
         else the tip position so scaled, the tip frame, the ray ranges (fractions of ``RAY_RANGE_MM``), the
         previous applied action and the inserted fraction of the arm, then the next target (look-ahead) and the
-        route guide's features (``guide``: :func:`_guide_into`)."""
+        route guide's features (``guide``: :func:`_guide_into`) and, arm-conditioned, the arm's
+        (:func:`~.observation.arm_features`)."""
         tip = self.tip
         ranges = self.ranges() if self.mode != "paper" else _NO_RANGES
-        vec = np.empty(observation_dim(self.mode, self.lookahead))
+        vec = np.empty(observation_dim(self.mode, self.lookahead, self.arm_conditioned))
         points, arc, target_arc = self.guide_arrays
         _observe(self.code, self.lookahead, tip, self.frame, ranges, self.prev_action,
                  self.depth / self.robot.total_length, self.tank_scale, self.targets, self.target_index, points, arc,
-                 self.guide_s, _guide_end(target_arc, self.target_index), vec)
+                 self.guide_s, _guide_end(target_arc, self.target_index), self.arm, vec)
         return {"observation": vec.astype(np.float32),
                 "achieved_goal": (tip / GOAL_SCALE_MM).astype(np.float32),
                 "desired_goal": (self.goal / GOAL_SCALE_MM).astype(np.float32)}

@@ -70,9 +70,10 @@ def _unit_into(v, out):
 
 @kernel
 def _observe(mode, lookahead, tip, frame, ranges, prev, fraction, tank_scale, targets, target, points, arc, s, end,
-             out):
-    """The ``observation`` vector of a crawl state into ``out`` (see :meth:`Crawler.observation`), rounded to float32
-    as the observation dict holds it."""
+             arm, out):
+    """The ``observation`` vector of a crawl state into ``out`` (see :meth:`Crawler.observation`; an
+    arm-conditioned one ends with ``arm``, else it is empty), rounded to float32 as the observation dict holds
+    it."""
     if mode == _PAPER:
         for a in range(3):
             out[a] = tip[a] / tank_scale
@@ -105,6 +106,9 @@ def _observe(mode, lookahead, tip, frame, ranges, prev, fraction, tank_scale, ta
             at += LOOKAHEAD_DIM
         if mode == _GUIDE:
             _guide_into(frame, tip, points, arc, s, end, out[at:at + GUIDE_DIM])
+            at += GUIDE_DIM
+        for k in range(arm.shape[0]):
+            out[at + k] = arm[k]
     for k in range(out.shape[0]):
         out[k] = np.float32(out[k])
 
@@ -252,9 +256,10 @@ def _follow(points, arc, target_arc, target, s, step_mm, tip):
 @kernel
 def _roll(mode, lookahead, residual, step_mm, max_turn, capture_mm, tank_scale, total_length, lo, hi, targets,
           direction, rays, points, arc, target_arc, has_graph, glo, ghi, gcentre, gnormal, gnext, gafter, weights,
-          biases, shapes, W, known, sense_range, stats, frame_rays, params, hits, state, noise, path):
+          biases, shapes, arm, W, known, sense_range, stats, frame_rays, params, hits, state, noise, path):
     """A whole planning roll-out, compiled: the crawl of :class:`Crawler` (``check_body`` off) driven by the actor
-    (:func:`_actor`, plus ``noise[step]``) from ``path[0]`` heading ``direction``, sensing through the view's
+    (:func:`_actor`, plus ``noise[step]``; observing the ``arm`` features of an arm-conditioned policy, else none)
+    from ``path[0]`` heading ``direction``, sensing through the view's
     :class:`~snakeplan.world.knowledge.Sensor` (``W, known, sense_range, stats``, a depth camera's ``frame_rays,
     params, hits, state``; ``known``, ``hits`` and ``state`` are updated).
     Returns (points written to ``path``, outcome code into :data:`ROLL_OUTCOMES`); at most ``len(noise)`` steps."""
@@ -266,7 +271,8 @@ def _roll(mode, lookahead, residual, step_mm, max_turn, capture_mm, tank_scale, 
     if mode == _PAPER:
         n_obs = 3
     else:
-        n_obs = 15 + n_rays + (LOOKAHEAD_DIM if lookahead else 0) + (GUIDE_DIM if mode == _GUIDE else 0)
+        n_obs = (15 + n_rays + (LOOKAHEAD_DIM if lookahead else 0) + (GUIDE_DIM if mode == _GUIDE else 0)
+                 + arm.shape[0])
     obs = np.empty(n_obs)
     x = np.empty(n_obs + (6 if mode == _PAPER else (4 if mode == _GUIDE else 15)))
     act, applied, prev = np.empty(adim), np.empty(adim), np.zeros(adim)
@@ -286,7 +292,7 @@ def _roll(mode, lookahead, residual, step_mm, max_turn, capture_mm, tank_scale, 
             sensor_rays(W, known, sense_range, tip, dirs, RAY_RANGE_MM, RAY_EPS_MM, ranges, work, stats, frame_rays,
                         params, hits, state)
         _observe(mode, lookahead, tip, frame, ranges, prev, depth / total_length, tank_scale, targets, target, points,
-                 arc, s, end, obs)
+                 arc, s, end, arm, obs)
         _actor_input(mode, obs, tip, goal, has_graph, glo, ghi, gcentre, gnormal, gnext, gafter, x)
         _actor(x, weights, biases, shapes, scratch, act)
         for k in range(adim):

@@ -88,13 +88,32 @@ def ray_directions() -> np.ndarray:
 LOOKAHEAD_DIM = 4
 
 
-def observation_dim(mode: str, lookahead: bool = False) -> int:
+#: Values an arm-conditioned observation adds (:func:`arm_features`).
+ARM_DIM = 6
+#: What :func:`arm_features` divides the arm's section count, section length (mm), radius (mm), bend limit (rad),
+#: length (mm) and turning radius (mm) by: about the largest of each that an arm-conditioned policy is trained on.
+ARM_SCALES = (30.0, 250.0, 40.0, math.radians(60.0), 3000.0, 320.0)
+
+
+def arm_features(robot) -> np.ndarray:
+    """The arm as an arm-conditioned policy sees it: its section count, longest section, thickest radius, tightest
+    bend limit, length and turning radius (:func:`snakeplan.robots.arm_range.turn_radius_for`), each over
+    :data:`ARM_SCALES`."""
+    from snakeplan.robots.arm_range import arm_parameters
+
+    p = arm_parameters(robot)
+    raw = (p["sections"], p["section_length_mm"], p["radius_mm"], math.radians(p["bend_limit_deg"]),
+           p["total_length_mm"], p["turn_radius_mm"])
+    return np.array([v / scale for v, scale in zip(raw, ARM_SCALES)])
+
+
+def observation_dim(mode: str, lookahead: bool = False, arm: bool = False) -> int:
     """Length of the ``observation`` vector for a design (with the next target's look-ahead: ``local`` and
-    ``guide``)."""
+    ``guide``; with the arm's features: ``arm``, not ``paper``)."""
     if mode == "paper":
         return 3
     return (3 + 9 + len(ray_directions()) + 2 + 1 + (LOOKAHEAD_DIM if lookahead else 0)
-            + (GUIDE_DIM if mode == "guide" else 0))
+            + (GUIDE_DIM if mode == "guide" else 0) + (ARM_DIM if arm else 0))
 
 
 def action_dim(mode: str) -> int:

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from collections import Counter
 from pathlib import Path
 
@@ -27,7 +28,10 @@ from snakeplan.planners.sac.guide import GUIDE_MARGIN_MAX_MM, GUIDE_MARGIN_MM, G
 from snakeplan.planners.sac.kernels import ROLL_OUTCOMES, Outcome, _roll
 from snakeplan.planners.sac.observation import action_dim, route_tables
 from snakeplan.planners.sac.policy import (
+    ARM_GENERALIST,
+    GENERALIST,
     NumpyPolicy,
+    arm_refusal,
     check_policy_fits,
     generalist_path,
     load_policy,
@@ -83,12 +87,21 @@ def rollout(policy: NumpyPolicy, scene: Scene, robot: Chain, deadline: float = m
                            np.array(scene.bounds_min, dtype=float), np.array(scene.bounds_max, dtype=float),
                            crawler.targets, np.array(scene.entrance.direction, dtype=float), crawler.rays,
                            *crawler.guide_arrays, policy.graph is not None, *route_tables(policy.graph),
-                           policy.weights, policy.biases, policy.shapes,
+                           policy.weights, policy.biases, policy.shapes, crawler.arm,
                            *sensor, shake, path)
     if noise > 0.0:  # leave ``rng`` where drawing each step's noise as it is taken would (the same plans)
         rng.bit_generator.state = start
         rng.standard_normal((count - 1, adim))
     return path[:count].copy(), ROLL_OUTCOMES[outcome]
+
+
+#: The shipped generalists by the names ``policy=`` takes.
+GENERALISTS = {"generalist": GENERALIST, "generalist-arms": ARM_GENERALIST}
+
+
+class ArmGeneralistWarning(UserWarning):
+    """A learned planner plans an arm with the arm-conditioned generalist: no policy it would use was trained for
+    the arm."""
 
 
 class SacPlanner(Planner):
@@ -115,25 +128,35 @@ class SacPlanner(Planner):
         self.smoothing = tuple(float(s) for s in smoothing)
         self.noise_levels = np.linspace(retry_noise[0], retry_noise[1], RETRY_LEVELS)
 
-    def _policy(self, scene: Scene) -> NumpyPolicy:
+    def _policy(self, scene: Scene, robot: Chain) -> NumpyPolicy:
+        """The policy to plan ``robot`` in ``scene`` with: the one given (a file, ``"generalist"``,
+        ``"generalist-arms"``), else the one that ships for the scene (:func:`shipped_policy`), else, when that one
+        was trained for another arm, the arm-conditioned generalist (said in a :class:`ArmGeneralistWarning`)."""
         if isinstance(self.policy, NumpyPolicy):
             return self.policy
-        if self.policy == "generalist":
-            path = generalist_path()
+        if self.policy in GENERALISTS:
+            path = generalist_path(GENERALISTS[self.policy])
             if path is None:
-                raise ValueError("policy: the generalist policy is not installed (rl/data/generalist.npz)")
+                raise ValueError(f"policy: the {self.policy} policy is not installed "
+                                 f"({GENERALISTS[self.policy][1].removeprefix('rl/')})")
             return load_policy(path)
         path = Path(self.policy) if self.policy else shipped_policy(spec_for(scene), self.name)
         if path is None:
             raise ValueError(f"policy: no {self.name} policy ships for scene family {scene.name}; train one "
                              f"('snakeplan train rl') and pass its policy.npz")
-        return load_policy(path)
+        policy = load_policy(path)
+        conditioned = generalist_path(ARM_GENERALIST)
+        if not self.policy and conditioned is not None and arm_refusal(policy, robot) is not None:
+            warnings.warn(f"policy: {robot.name} has no {self.name} policy of its own here; planning with the "
+                          f"arm-conditioned generalist", ArmGeneralistWarning, stacklevel=2)
+            return load_policy(conditioned)
+        return policy
 
     def warm_up(self, problem: Problem) -> None:
         """The validity checker's kernels, the policy, one roll-out step (rays, actor), a smoothing and a crawl
         check, outside the timed plan."""
         super().warm_up(problem)
-        policy = self._policy(problem.scene)
+        policy = self._policy(problem.scene, problem.robot)
         path, _ = rollout(policy, problem.scene, problem.robot, max_steps=2, world=problem.world)
         if len(path) > 2:
             smoothed = polyline.smooth(path, self.smoothing[0], pins=path[-1:]) if self.smoothing else path
@@ -162,10 +185,11 @@ class SacPlanner(Planner):
         return None, 0.0, raw_failure
 
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float) -> Solution:
-        policy = self._policy(problem.scene)
+        policy = self._policy(problem.scene, problem.robot)
         check_policy_fits(policy, problem.scene, problem.robot)
         model = ValidityChecker(problem.world, problem.robot, PLANNING)
-        details = {"policy": policy.meta.get("name", str(self.policy or self.name))}
+        details = {"policy": policy.meta.get("name", str(self.policy or self.name))
+                   + (" (arm-conditioned)" if policy.arm_conditioned else "")}
         best, best_reach, path = None, -1.0, None
         guide, known, margin, routed, widest = None, -1, GUIDE_MARGIN_MM, GUIDE_MARGIN_MM, GUIDE_MARGIN_MAX_MM
         space, radius = None, float(np.max(problem.robot.radii))

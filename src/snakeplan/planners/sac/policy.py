@@ -33,6 +33,7 @@ from snakeplan.planners.sac.observation import (
 )
 from snakeplan.planners.weights import read_npz, read_weights_file
 from snakeplan.robots import Chain, get_robot
+from snakeplan.robots.arm_range import ARM_RANGE, ArmRange, outside
 from snakeplan.scenes import Scene, SceneSpec, scene_spec
 
 _GRAPH_KEYS = ("lo", "hi", "centre", "normal", "next_portal", "after")
@@ -44,6 +45,10 @@ MAX_CAPTURE_STEPS = 100
 MAX_WEIGHT = 1e6
 MAX_COORD_MM = 1e7
 UNIT_TOL = 1e-6
+
+
+class ArmRangeWarning(UserWarning):
+    """An arm-conditioned policy plans for an arm outside the distribution it was trained over."""
 
 
 class PolicyTransferWarning(UserWarning):
@@ -74,7 +79,7 @@ def _check_meta(meta) -> dict:
             raise ValueError(f"meta.turn_radius_mm: {radius:g} mm would turn a {step:g} mm step by more than half "
                              f"a turn")
         inputs.integer(meta.get("capture_steps", 0), "meta.capture_steps", 0, MAX_CAPTURE_STEPS)
-        for key in ("lookahead", "residual"):
+        for key in ("lookahead", "residual", "arm_conditioned"):
             if type(meta.get(key, False)) is not bool:
                 raise ValueError(f"meta.{key}: expected true or false, got {inputs.show(meta[key])}")
         for key in ("name", "scene", "algorithm", "robot"):
@@ -82,6 +87,10 @@ def _check_meta(meta) -> dict:
                 inputs.text(meta[key], f"meta.{key}")
         if "arm" in meta:
             _check_arm(meta["arm"])
+        if meta.get("arm_conditioned", False) and mode == "paper":
+            raise ValueError("meta.arm_conditioned: the paper observation carries no arm features")
+        if "arm_range" in meta:
+            _check_arm_range(meta["arm_range"])
     except ValueError as exc:
         raise _bad(str(exc)) from None
     return meta
@@ -109,6 +118,18 @@ def _check_arm(record) -> None:
         sizes.add(len(values))
     if len(sizes) > 1:
         raise ValueError("meta.arm: lengths, radii and max_bends must list the same sections")
+
+
+def _check_arm_range(ranges) -> None:
+    """``meta.arm_range`` (:meth:`snakeplan.robots.arm_range.ArmRange.to_dict`): names of arm parameters, each
+    with a [low, high] pair; ValueError naming the field."""
+    inputs.mapping(ranges, "meta.arm_range", what="a JSON object")
+    for key, pair in ranges.items():
+        where = f"meta.arm_range.{key}"
+        if key not in ArmRange.__dataclass_fields__:
+            raise ValueError(f"{where}: unknown arm parameter (known: {', '.join(ArmRange.__dataclass_fields__)})")
+        if not isinstance(pair, list) or len(pair) != 2 or inputs.real(pair[0], where) > inputs.real(pair[1], where):
+            raise ValueError(f"{where}: expected [low, high], got {inputs.show(pair)}")
 
 
 def _parse_meta(raw: np.ndarray | None) -> dict:
@@ -207,8 +228,10 @@ class NumpyPolicy:
         lookahead = bool(meta.get("lookahead", False)) and mode != "paper"
         if len(layers) != meta["hidden_layers"]:
             raise _bad(f"meta.hidden_layers: {meta['hidden_layers']}, but the network has {len(layers)}")
-        width = input_dim(mode, observation_dim(mode, lookahead))
-        feeds = f" (the input of the {mode} observation{' with look-ahead' if lookahead else ''})"
+        conditioned = bool(meta.get("arm_conditioned", False))
+        width = input_dim(mode, observation_dim(mode, lookahead, conditioned))
+        feeds = (f" (the input of the {mode} observation{' with look-ahead' if lookahead else ''}"
+                 f"{' and the arm' if conditioned else ''})")
         checked = []
         for i, (w, b) in enumerate([*layers, mu]):
             name = f"w{i}" if i < len(layers) else "mu_w"
@@ -287,7 +310,12 @@ class NumpyPolicy:
         predates them)."""
         return Crawler(robot, self.mode, self.meta.get("step_mm", STEP_MM),
                        self.meta.get("turn_radius_mm", TURN_RADIUS_MM), check_body, self.meta.get("capture_steps", 0),
-                       self.meta.get("lookahead", False), self.meta.get("residual", False))
+                       self.meta.get("lookahead", False), self.meta.get("residual", False), self.arm_conditioned)
+
+    @property
+    def arm_conditioned(self) -> bool:
+        """Whether the policy observes the arm it plans for (trained over a distribution of arms)."""
+        return bool(self.meta.get("arm_conditioned", False))
 
 
 def trained_robot(policy: NumpyPolicy) -> str | None:
@@ -325,6 +353,32 @@ def _describe(record: dict) -> str:
             f"bend limit {math.degrees(min(record['max_bends'])):.3g} deg)")
 
 
+def arm_refusal(policy: NumpyPolicy, robot: Chain) -> str | None:
+    """Why ``policy`` cannot plan for ``robot`` (see :func:`check_policy_fits`), or None."""
+    if policy.arm_conditioned:
+        return None
+    if "arm" in policy.meta:
+        record = policy.meta["arm"]
+        if fits_arm(record, robot):
+            return None
+        return (f"trained for {_describe(record)}, planning with {_describe(arm_record(robot))}: a policy plans for "
+                f"the arm it was trained on (train one for this arm: snakeplan train rl ... --robot FILE)")
+    trained = trained_robot(policy)
+    if trained is None:
+        return None
+    try:
+        theirs = get_robot(trained)
+    except KeyError:
+        theirs = None
+    if theirs is None and trained != robot.name:
+        return f"trained for robot {trained}, which is not registered here; planning with {robot.name}"
+    if theirs is not None and (theirs.n_sections != robot.n_sections or not np.allclose(theirs.lengths, robot.lengths)):
+        return (f"trained for {trained} ({theirs.n_sections} sections, {theirs.total_length:g} mm), planning with "
+                f"{robot.name} ({robot.n_sections} sections, {robot.total_length:g} mm): a policy plans for the arm "
+                f"it was trained on")
+    return None
+
+
 def check_policy_fits(policy: NumpyPolicy, scene: Scene, robot: Chain) -> None:
     """The rule for planning with a policy outside what it was trained for.
 
@@ -332,31 +386,18 @@ def check_policy_fits(policy: NumpyPolicy, scene: Scene, robot: Chain) -> None:
     step and the crawl depend on the arm, so the planning robot must be the arm the file records (``meta.arm``,
     :func:`fits_arm`), or, in files from before it was recorded, have the section count and lengths of the
     trained robot (see :func:`trained_robot`; when that is no registered preset, its name), and be longer than
-    one step. A policy
-    that names no robot or family is not checked for it. Another scene family is accepted with a
+    one step. A policy that names no robot or family is not checked for it. An arm-conditioned policy plans any
+    arm, with an :class:`ArmRangeWarning` per parameter outside the distribution it was trained over
+    (``meta.arm_range``, :func:`snakeplan.robots.arm_range.outside`). Another scene family is accepted with a
     :class:`PolicyTransferWarning` (a policy may transfer; its route tables stay those of its own family).
     """
-    if "arm" in policy.meta:
-        record = policy.meta["arm"]
-        if not fits_arm(record, robot):
-            raise _bad(f"trained for {_describe(record)}, planning with {_describe(arm_record(robot))}: a policy "
-                       f"plans for the arm it was trained on (train one for this arm: snakeplan train rl ... "
-                       f"--robot FILE)")
-        trained = None
-    else:
-        trained = trained_robot(policy)
-    if trained is not None:
-        try:
-            theirs = get_robot(trained)
-        except KeyError:
-            theirs = None
-        if theirs is None and trained != robot.name:
-            raise _bad(f"trained for robot {trained}, which is not registered here; planning with {robot.name}")
-        if theirs is not None and (theirs.n_sections != robot.n_sections
-                                   or not np.allclose(theirs.lengths, robot.lengths)):
-            raise _bad(f"trained for {trained} ({theirs.n_sections} sections, {theirs.total_length:g} mm), planning "
-                       f"with {robot.name} ({robot.n_sections} sections, {robot.total_length:g} mm): a policy "
-                       f"plans for the arm it was trained on")
+    if policy.arm_conditioned:
+        for line in outside(robot, policy.meta.get("arm_range", ARM_RANGE.to_dict())):
+            warnings.warn(f"policy: {robot.name}: {line} of the arm-conditioned policy", ArmRangeWarning,
+                          stacklevel=3)
+    refusal = arm_refusal(policy, robot)
+    if refusal is not None:
+        raise _bad(refusal)
     step = float(policy.meta.get("step_mm", STEP_MM))
     if step > robot.total_length:
         raise _bad(f"meta.step_mm: a {step:g} mm step is longer than {robot.name} ({robot.total_length:g} mm)")
@@ -378,11 +419,16 @@ MAX_ROLLOUT_STEPS = 100_000
 #: of its own for them.
 GENERALIST = ("snakeplan", "rl/data/generalist.npz")
 GENERALIST_PLANNERS = ("sac", "sac-her", "sac-per")
+#: The arm-conditioned generalist (the same design, trained over the distribution of arms of
+#: :mod:`snakeplan.robots.arm_range`): what those planners plan with for an arm no other policy they would use was
+#: trained for.
+ARM_GENERALIST = ("snakeplan", "rl/data/generalist-arms.npz")
 
 
-def generalist_path() -> Path | None:
-    """The generalist policy's file, or None when this installation has none."""
-    path = Path(str(files(GENERALIST[0]).joinpath(*GENERALIST[1].split("/"))))
+def generalist_path(which: tuple[str, str] = GENERALIST) -> Path | None:
+    """The generalist policy's file (``which``: :data:`GENERALIST` or :data:`ARM_GENERALIST`), or None when this
+    installation has none."""
+    path = Path(str(files(which[0]).joinpath(*which[1].split("/"))))
     return path if path.is_file() else None
 
 
