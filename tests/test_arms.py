@@ -285,7 +285,7 @@ def test_the_arm_generalist_plans_held_out_arms_by_default_and_says_so(name):
         ok = 0
         for seed in seeds:
             scene = sized_scene(family, seed, arm_sizing(family, a))
-            with pytest.warns(ArmGeneralistWarning, match=f"policy: {name} has no sac-her policy of its own here"):
+            with pytest.warns(ArmGeneralistWarning, match=f"^sac-her: {name} has no policy of its own here"):
                 plan = get_planner("sac-her").plan(Problem(guarded(scene), a, time_limit_s=10.0, knowledge="sensed",
                                                            world=SensedView.of(scene)))
             assert plan.details["policy"] == "confined+fuel-tank+oil-tank-sac (arm-conditioned)"
@@ -309,3 +309,11 @@ def test_bench_rl_arms_tables_the_generalist_on_each_arm_from_the_runners_rows(c
     figures = summary["arms"]["arm-24x90"]["scenes"]["confined"]["generalist"]
     assert figures["runs"] == 2 and figures["success_pct"] == 50.0 * sum(r["success"] for r in rows)
     assert "| arm-24x90 | confined | generalist |" in (out / "arms.md").read_text()
+
+
+def test_the_console_says_once_that_an_arm_plans_with_the_arm_generalist(capsys):
+    code, stdout, err = run(capsys, "plan", "--scene", "confined", "--seed", "1", "--robot",
+                            str(ARMS / "arm-16x120.json"), "--planner", "sac", "--knowledge", "sensed")
+    assert code in (0, 1) and "sized to a 1920 mm arm" in stdout.splitlines()[0]
+    assert err == ("snakeplan: warning: sac: arm-16x120 has no policy of its own here; planning with the "
+                   "arm-conditioned generalist\n")

@@ -147,7 +147,7 @@ class SacPlanner(Planner):
         policy = load_policy(path)
         conditioned = generalist_path(ARM_GENERALIST)
         if not self.policy and conditioned is not None and arm_refusal(policy, robot) is not None:
-            warnings.warn(f"policy: {robot.name} has no {self.name} policy of its own here; planning with the "
+            warnings.warn(f"{self.name}: {robot.name} has no policy of its own here; planning with the "
                           f"arm-conditioned generalist", ArmGeneralistWarning, stacklevel=2)
             return load_policy(conditioned)
         return policy
@@ -156,7 +156,9 @@ class SacPlanner(Planner):
         """The validity checker's kernels, the policy, one roll-out step (rays, actor), a smoothing and a crawl
         check, outside the timed plan."""
         super().warm_up(problem)
-        policy = self._policy(problem.scene, problem.robot)
+        with warnings.catch_warnings():  # the plan says which policy it plans with, not its warm-up as well
+            warnings.simplefilter("ignore", ArmGeneralistWarning)
+            policy = self._policy(problem.scene, problem.robot)
         path, _ = rollout(policy, problem.scene, problem.robot, max_steps=2, world=problem.world)
         if len(path) > 2:
             smoothed = polyline.smooth(path, self.smoothing[0], pins=path[-1:]) if self.smoothing else path
