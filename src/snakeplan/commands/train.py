@@ -32,11 +32,12 @@ def add_parser(sub) -> None:
     t.add_argument("--fresh", action="store_true", help="delete the checkpoint in OUT.state and start over")
     t.set_defaults(func=cmd_train)
     t = tsub.add_parser("rl", help="a learned tip planner (sac-her, sac-per, sac)",
-                        description="Train sac-her / sac-per / sac on fuel-tank or oil-tank; resumes from the "
+                        description="Train sac-her / sac-per / sac on a scene family with targets; resumes from the "
                                     "checkpoint in --out (Ctrl-C saves one; --checkpoint-every N, default a tenth "
                                     "of --steps within 1000-10000). Any further option sets the training configuration "
-                                    "(--paper, --turn-radius-mm 215, --capture-steps 4, --eval-episodes 50, ...; "
-                                    "the list: 'python -m snakeplan.rl.train --help').")
+                                    "(--robot my_arm.json for your own arm, --arm-conditioned true for one policy "
+                                    "over a distribution of arms, --paper, --turn-radius-mm 215, --capture-steps 4, "
+                                    "--eval-episodes 50, ...; the list: 'python -m snakeplan.rl.train --help').")
     _rl_arguments(t)
     t.set_defaults(func=cmd_train_rl, takes_options=True)
 
