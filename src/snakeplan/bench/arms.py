@@ -16,9 +16,7 @@ import json
 from dataclasses import replace
 from pathlib import Path
 
-import numpy as np
-
-from snakeplan.bench.report import wilson
+from snakeplan.bench.report import summarise
 
 #: The held-out arms of the arm-conditioned generalist: never drawn in its training (the distribution draws
 #: continuous lengths, radii and limits), named by the issue that asked for it.
@@ -73,24 +71,23 @@ def run(out: Path, arms: tuple[str, ...] = HELD_OUT, seeds: int = 100, scenes: t
         folder = out / f"plans-{Path(arm).stem}"
         run_sweep(Sweep(f"arms-{Path(arm).stem}", scenes, tuple(range(seeds)), tuple(entries), time_limit,
                         robot=arm_source(arm), knowledge="sensed"), folder, backend)
-        table = {}
-        for r in read_rows(folder):
-            label = "generalist" if r["options"].get("policy") == "generalist-arms" else "per-arm"
-            table.setdefault(r["scene"], {}).setdefault(label, []).append(r)
+        table: dict = {}
+        for e in summarise(read_rows(folder)):
+            label = "generalist" if e["options"] == "policy=generalist-arms" else "per-arm"
+            table.setdefault(e["scene"], {})[label] = _figures(e)
         summary["arms"][Path(arm).stem] = {
             "training": None if trained is None else {k: trained[k] for k in ("wall_s_to_trained", "best_success")},
-            "scenes": {scene: {label: _figures(rows) for label, rows in by.items()} for scene, by in table.items()}}
+            "scenes": table}
     (out / "summary.json").write_text(json.dumps(summary, indent=1) + "\n")
     (out / "arms.md").write_text(markdown(summary))
     return summary
 
 
-def _figures(rows: list[dict]) -> dict:
-    ok = sum(bool(r["success"]) for r in rows)
-    lo, hi = wilson(ok, len(rows))
-    times = np.array([r["compute_time_s"] for r in rows]) * 1000.0
-    return {"runs": len(rows), "success_pct": 100.0 * ok / len(rows), "wilson_pct": [100.0 * lo, 100.0 * hi],
-            "median_ms": float(np.median(times)), "p90_ms": float(np.percentile(times, 90))}
+def _figures(entry: dict) -> dict:
+    """The table's figures of one :func:`snakeplan.bench.report.summarise` entry (percent, ms)."""
+    return {"runs": entry["runs"], "success_pct": 100.0 * entry["success_rate"],
+            "wilson_pct": [100.0 * entry["success_lo95"], 100.0 * entry["success_hi95"]],
+            "median_ms": 1000.0 * entry["time_median_s"], "p90_ms": 1000.0 * entry["time_p90_s"]}
 
 
 def markdown(summary: dict) -> str:

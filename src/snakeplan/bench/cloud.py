@@ -18,7 +18,6 @@ its scan; and a ten-million-point file refused in one line; the machine's load a
 from __future__ import annotations
 
 import json
-import os
 import subprocess
 import sys
 import time
@@ -28,7 +27,10 @@ import numpy as np
 
 from snakeplan import ftl
 from snakeplan.bench.kernels import median_seconds
+from snakeplan.bench.runner import loadavg
+from snakeplan.files import atomic_write
 from snakeplan.geometry.polyline import arclength_grid, cumulative_length
+from snakeplan.scenes.scan import ScanSettings
 
 #: The planners of the families' runs: the three sampling planners and the generalist (``sac`` in a family with
 #: no policy of its own plans with it).
@@ -55,7 +57,7 @@ def families(out: Path, seeds: int = 20, families_: tuple[str, ...] | None = Non
     written to ``out/summary.json``."""
     from snakeplan.bench.runner import Sweep, read_rows, run_sweep
     from snakeplan.parallel import Backend
-    from snakeplan.scenes.scan import SCANNED
+    from snakeplan.scenes.registry import SCANNED
 
     backend = backend or Backend()
     sources = tuple(families_ or SCANNED)
@@ -67,26 +69,32 @@ def families(out: Path, seeds: int = 20, families_: tuple[str, ...] | None = Non
     rows = read_rows(out)
     table = _summary([r for r in rows if r["config"] == "cloud"], lambda r: r["scene"].removesuffix("-scan"),
                      lambda r: r["made_from"]["success"])
-    for r in rows:
-        if r["config"] == "cloud-baseline" and r["planner"] in table.get(r["scene"], {}):
-            table[r["scene"]][r["planner"]].setdefault("baseline", []).append(r["success"])
-    for by in table.values():
-        for entry in by.values():
-            entry["baseline_success_pct"] = 100.0 * float(np.mean(entry.pop("baseline", [np.nan])))
+    _with_baseline(table, _summary([r for r in rows if r["config"] == "cloud-baseline"], lambda r: r["scene"],
+                                   lambda r: True))
     if mesh is not None:
         table.update(_mesh_runs(out, mesh, seeds, planners, backend, time_limit))
     summary = {"seeds": seeds, "planners": list(planners), "families": table}
-    (out / "summary.json").write_text(json.dumps(summary, indent=1) + "\n")
-    (out / "clouds.md").write_text(markdown(summary))
+    atomic_write(out / "summary.json", json.dumps(summary, indent=1, allow_nan=False) + "\n")
+    atomic_write(out / "clouds.md", markdown(summary))
     return summary
+
+
+def _with_baseline(table: dict, baseline: dict) -> None:
+    """Each entry of ``table`` gains its planner's success planning in the exact scene (``baseline``, a
+    :func:`_summary` of those runs; %, None without runs)."""
+    for family, by in table.items():
+        for planner, entry in by.items():
+            entry["baseline_success_pct"] = baseline.get(family, {}).get(planner, {}).get("cloud_success_pct")
 
 
 def markdown(summary: dict) -> str:
     """The summary as a table: per family and planner, success judged in the scan, how many of those plans are
     valid in the exact scene, success judged in the exact scene, and the same planner's success planning in the
     exact scene."""
-    lines = [f"Scans at 5 mm spacing, 2 mm noise, 40 holes of 10 mm; {summary['seeds']} seeds per family; a plan "
-             "made in the scan judged in the scan and in the exact scene it came from.", "",
+    scan = ScanSettings()
+    lines = [f"Scans at {scan.spacing_mm:g} mm spacing, {scan.noise_mm:g} mm noise, {scan.holes} holes of "
+             f"{scan.hole_radius_mm:g} mm; {summary['seeds']} seeds per family; a plan made in the scan judged in the "
+             "scan and in the exact scene it came from.", "",
              "| family | planner | success in the scan | of those, valid in the exact scene | success in the exact "
              "scene | planning in the exact scene | median plan (s) |", "|---|---|---|---|---|---|---|"]
     for family, by in summary["families"].items():
@@ -152,10 +160,10 @@ def _mesh_runs(out: Path, mesh: Path, seeds: int, planners: tuple[str, ...], bac
     runs += Sweep("cloud-mesh-baseline", (str(out / "exact.json"),), tuple(range(seeds)),
                   tuple((p, {}) for p in planners), time_limit).runs()
     run_sweep(Sweep("cloud-mesh", (), (), ()), out, backend, runs=runs)
-    baseline: dict = {}
+    baseline = []
     for r in read_rows(out):
         if r["config"] == "cloud-mesh-baseline":
-            baseline.setdefault(r["planner"], []).append(r["success"])
+            baseline.append(r)
         if r["config"] != "cloud-mesh":
             continue
         path = row_path(out, r)
@@ -163,8 +171,7 @@ def _mesh_runs(out: Path, mesh: Path, seeds: int, planners: tuple[str, ...], bac
         judged[key] = path is not None and evaluate(exact, robot, path).success
         rows.append(r)
     table = _summary(rows, lambda r: f"{mesh.stem} (mesh)", lambda r: judged[(r["seed"], r["planner"])])
-    for planner, entry in table.get(f"{mesh.stem} (mesh)", {}).items():
-        entry["baseline_success_pct"] = 100.0 * float(np.mean(baseline.get(planner, [np.nan])))
+    _with_baseline(table, _summary(baseline, lambda r: f"{mesh.stem} (mesh)", lambda r: True))
     return table
 
 
@@ -185,12 +192,12 @@ def speed(folder: Path, repeats: int = 3) -> dict:
     from snakeplan.episode import run_episode
     from snakeplan.planners import Problem
     from snakeplan.robots import get_robot
-    from snakeplan.scenes.scan import ScanSettings, scan_points, scan_scene
+    from snakeplan.scenes.scan import scan_points, scan_scene
 
     folder.mkdir(parents=True, exist_ok=True)
     robot = get_robot(GENERALIST_ARM)
     prim, mesh = fuel_tank_mesh()
-    out: dict = {"loadavg_before": list(os.getloadavg())}
+    out: dict = {"loadavg_before": list(loadavg())}
     dense = scan_points(prim, ScanSettings(spacing_mm=3.6), seed=0)
     big = folder / "fuel-tank-1m.npy"
     np.save(big, dense[:SPEED_POINTS])
@@ -232,5 +239,5 @@ def speed(folder: Path, repeats: int = 3) -> dict:
     out["ten_million"] = {"exit": done.returncode, "stderr": done.stderr.strip(),
                           "s": round(time.perf_counter() - t, 2), "written": (folder / "ten-million.json").exists()}
     huge.unlink()
-    out["loadavg_after"] = list(os.getloadavg())
+    out["loadavg_after"] = list(loadavg())
     return out

@@ -508,7 +508,7 @@ def run_sweep(sweep: Sweep, out: str | Path, backend: Backend = Backend(), fresh
     rerunning resumes."""
     all_runs = list(sweep.runs() if runs is None else runs)
     log = ResultsLog(out)
-    start, load = time.perf_counter(), _loadavg()
+    start, load = time.perf_counter(), loadavg()
     with log.open(fresh) as log:
         done = log.done()
         todo = [r for r in all_runs if r.key not in done]
@@ -538,14 +538,14 @@ def _log_invocation(folder: Path, stamp: dict, outcome: Outcome, load: tuple[flo
     """Append what this invocation did (backend, runs, wall time, the machine's load averages before and after)
     to ``folder/invocations.jsonl``: the runner's own timing of a sweep."""
     entry = {"started": stamp["started"], "commit": stamp["commit"], **outcome.to_dict(), "host": socket.gethostname(),
-             "cores": usable_cores(), "loadavg_before": list(load), "loadavg_after": list(_loadavg())}
+             "cores": usable_cores(), "loadavg_before": list(load), "loadavg_after": list(loadavg())}
     with open(folder / INVOCATIONS_FILE, "a") as fh:
         fh.write(json.dumps(jsonable(entry)) + "\n")
         fh.flush()
         os.fsync(fh.fileno())
 
 
-def _loadavg() -> tuple[float, ...]:
+def loadavg() -> tuple[float, ...]:
     try:
         return os.getloadavg()
     except OSError:

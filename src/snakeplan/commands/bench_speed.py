@@ -141,7 +141,7 @@ def cmd_bench_mesh(args: argparse.Namespace) -> int:
 
 def cmd_bench_cloud(args: argparse.Namespace) -> int:
     from snakeplan.bench import cloud
-    from snakeplan.scenes import scene_names, scene_spec
+    from snakeplan.scenes.registry import SCANNED
 
     if not Path(args.out).parent.is_dir():
         raise UsageError(f"--out: folder {str(Path(args.out).parent)!r} does not exist (create it first)")
@@ -150,8 +150,7 @@ def cmd_bench_cloud(args: argparse.Namespace) -> int:
     else:
         if args.seeds < 1:
             raise UsageError(f"--seeds: expected a positive integer, got {args.seeds}")
-        scanned = [scene_spec(n).made_from for n in scene_names() if scene_spec(n).made_from]
-        families = name_list(args.families, scanned, "--families") if args.families else None
+        families = name_list(args.families, list(SCANNED), "--families") if args.families else None
         mesh = None
         if args.mesh:
             mesh = Path(args.mesh)

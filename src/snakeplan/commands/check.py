@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from snakeplan.commands.common import EXIT_INFEASIBLE, EXIT_OK, UsageError, print_json
-from snakeplan.commands.inputs import PlanFile, load_plan_file, plan_scene, robot_for, sized_to
+from snakeplan.commands.inputs import PlanFile, given_robot, load_plan_file, plan_scene, robot_for
 from snakeplan.commands.options import DEFAULT_SCENE, ROBOT_HELP, plan_scene_args, view_args
 from snakeplan.commands.ros import check_ros, check_ros_robot, ros_args, write_ros
 from snakeplan.commands.views import check_picture, check_views, write_episode_views, write_plot, write_views
@@ -31,9 +31,8 @@ def cmd_check(args: argparse.Namespace) -> int:
     check_views(args)
     check_ros(args)
     plan = load_plan_file(args.path_file)
-    scene = plan_scene(args, plan.scene, (DEFAULT_SCENE, 0))
+    scene = plan_scene(args, plan.scene, (DEFAULT_SCENE, 0), plan.arm or given_robot(args))
     robot, source = plan_robot(args, scene, plan)
-    scene = sized_to(args, scene, robot)
     check_ros_robot(args, robot)
     problem, report = judge_plan(scene, robot, plan)
     if plan.mission is not None:

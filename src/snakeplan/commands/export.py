@@ -8,7 +8,7 @@ import sys
 
 from snakeplan.commands.check import judge_plan, plan_robot
 from snakeplan.commands.common import UsageError
-from snakeplan.commands.inputs import load_plan_file, plan_scene, sized_to
+from snakeplan.commands.inputs import given_robot, load_plan_file, plan_scene
 from snakeplan.commands.options import ROBOT_HELP, plan_scene_args
 from snakeplan.commands.ros import check_ros, check_ros_robot, ros_args, write_ros
 
@@ -32,9 +32,8 @@ def cmd_export(args: argparse.Namespace) -> int:
         raise UsageError("--rosbag: give --rosbag DIR, --mcap FILE or both")
     check_ros(args)
     plan = load_plan_file(args.plan_file)
-    scene = plan_scene(args, plan.scene)
+    scene = plan_scene(args, plan.scene, robot=plan.arm or given_robot(args))
     robot, source = plan_robot(args, scene, plan)
-    scene = sized_to(args, scene, robot)
     check_ros_robot(args, robot)
     _, report = judge_plan(scene, robot, plan)
     sys.stderr.write(f"arm: {robot.name} ({source}); {report.lines()[0]}\n")

@@ -14,23 +14,20 @@ import numpy as np
 from snakeplan.commands.common import UsageError
 
 
-def load_scene(args: argparse.Namespace):
-    """The scene of --scene-file, else of --scene and --seed."""
-    from snakeplan.scenes import Scene, make_scene
+def load_scene(args: argparse.Namespace, robot=None):
+    """The scene of --scene-file, else of --scene and --seed sized to ``robot`` (:func:`generated`)."""
+    from snakeplan.scenes import Scene
 
     if getattr(args, "scene_file", None):
         return Scene.from_json(read_text(args.scene_file, "--scene-file"), "--scene-file", scene_dir(args.scene_file))
-    try:
-        return make_scene(args.scene, args.seed)
-    except KeyError as exc:
-        raise UsageError(f"--scene: {exc.args[0]}") from None
+    return generated(args.scene, args.seed, robot)
 
 
 def plan_scene(args: argparse.Namespace, named: tuple[str, int] | None,
-               fallback: tuple[str, int] | None = None):
+               fallback: tuple[str, int] | None = None, robot=None):
     """A plan file's scene: --scene-file's, else --scene and --seed, each defaulting to the scene the plan names
-    (``named``: name, seed, or None), then to ``fallback``."""
-    from snakeplan.scenes import Scene, make_scene
+    (``named``: name, seed, or None), then to ``fallback``; a generated one sized to ``robot``."""
+    from snakeplan.scenes import Scene
 
     if args.scene_file:
         return Scene.from_json(read_text(args.scene_file, "--scene-file"), "--scene-file", scene_dir(args.scene_file))
@@ -41,26 +38,28 @@ def plan_scene(args: argparse.Namespace, named: tuple[str, int] | None,
             scene_seed = default[1] if scene_seed is None else scene_seed
     if name is None or scene_seed is None:
         raise UsageError("--scene: the plan names no generated scene; give --scene and --seed, or --scene-file")
+    return generated(name, scene_seed, robot)
+
+
+def generated(name: str, seed: int, robot=None):
+    """Family ``name``'s scene of ``seed``, sized to ``robot`` where that is another arm than the family's
+    (:mod:`snakeplan.scenes.sizing`; None: the family's own arm)."""
+    from snakeplan.scenes import arm_sizing, sized_scene
+
     try:
-        return make_scene(name, scene_seed)
+        return sized_scene(name, seed, arm_sizing(name, robot) if robot is not None else ())
     except KeyError as exc:
         raise UsageError(f"--scene: {exc.args[0]}") from None
+
+
+def given_robot(args: argparse.Namespace, field: str = "--robot"):
+    """The robot --robot names (a preset or a robot file), or None when it names none."""
+    return load_robot(args.robot, field) if args.robot else None
 
 
 def scene_dir(filename: str) -> Path:
     """The folder a scene file's mesh files are read relative to (the working directory for standard input)."""
     return Path(".") if filename == "-" else Path(filename).parent
-
-
-def sized_to(args: argparse.Namespace, scene, robot):
-    """A generated scene (--scene, or the one a plan file names) sized to the arm planned or judged in it
-    (:mod:`snakeplan.scenes.sizing`: the family's own arm gets it unchanged); a --scene-file as it is."""
-    from snakeplan.scenes import arm_sizing, sized_scene
-
-    if getattr(args, "scene_file", None) or scene.seed is None:
-        return scene
-    params = arm_sizing(scene.name, robot)
-    return sized_scene(scene.name, scene.seed, params) if params else scene
 
 
 def robot_for(args: argparse.Namespace, scene):

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 from snakeplan.commands.common import EXIT_INFEASIBLE, EXIT_OK, UsageError
-from snakeplan.commands.inputs import load_robot, plan_scene, read_text, sized_to
+from snakeplan.commands.inputs import load_robot, plan_scene, read_text
 from snakeplan.commands.options import TRAJECTORY_HELP, plan_scene_args
 from snakeplan.commands.ros import check_ros, check_ros_robot, ros_args, write_ros
 
@@ -37,9 +37,10 @@ def cmd_trajectory(args: argparse.Namespace) -> int:
     check_trajectories(args.out, "-o")
     check_ros(args)
     plan = read_plan(read_text(args.plan_file, "PLAN"))
-    scene = plan_scene(args, (plan["scene"]["name"], plan["scene"]["seed"]))
-    robot = load_robot(args.robot or plan["robot"] or spec_for(scene).robot)
-    scene = sized_to(args, scene, robot)
+    named = args.robot or plan["robot"]
+    given = load_robot(named) if named else None
+    scene = plan_scene(args, (plan["scene"]["name"], plan["scene"]["seed"]), robot=given)
+    robot = given or load_robot(spec_for(scene).robot)
     check_ros_robot(args, robot)
     report = evaluate(scene, robot, plan["path"])
     code, traj = EXIT_OK, None

@@ -72,8 +72,7 @@ class Effort:
     shortcuts: bool
 
 
-EFFORT = {"none": Effort(scales=0, reach=0.0, rounds=0, checks=0, shortcuts=False),
-          "fast": Effort(scales=5, reach=0.5, rounds=10, checks=28, shortcuts=False),
+EFFORT = {"fast": Effort(scales=5, reach=0.5, rounds=10, checks=28, shortcuts=False),
           "full": Effort(scales=12, reach=1.0, rounds=16, checks=80, shortcuts=True)}
 #: A path still this rough (S below it) after ``fast``'s search goes on with ``full``'s from where it stopped: most
 #: paths are smooth within ``fast``'s few checks, and the rest get the wider search (paper 000's smoothest

@@ -43,7 +43,7 @@ from snakeplan.robots.arm_range import sample_arm
 from snakeplan.scenes import Scene
 from snakeplan.scenes.prefetch import made_ahead
 from snakeplan.scenes.routes.guide import RouteGuide
-from snakeplan.scenes.sizing import arm_sizing, sized_scene
+from snakeplan.scenes.sizing import arm_sizing, scene_sizing, sized_scene
 from snakeplan.world import KnowledgeView, view_for
 
 #: Truncation horizon H (steps), paper 000 §4.1.
@@ -133,7 +133,7 @@ class SnakeEnv(gym.Env):
         guide = None
         if self.crawler.mode == "guide" and generated:
             guide = scene_guide(self.scene.name, self.scene.seed, self.knowledge, float(np.max(arm.radii)),
-                                arm_sizing(self.scene.name, arm))
+                                scene_sizing(self.scene))
         elif self.crawler.mode == "guide":  # a scene of the caller's: its guide made once while it is reused
             if self._own_guide is None or self._own_guide[0] is not self.scene:
                 self._own_guide = (self.scene, self.crawler.route_guide(self.scene, world))

@@ -300,12 +300,12 @@ class _Run(ResumableRun):
     """One training run's files and bookkeeping; its state folder is ``out`` itself."""
 
     def __init__(self, scene: str, algorithm: str, steps: int, seed: int, out: Path, config: TrainConfig,
-                 progress: bool, command: str):
+                 progress: bool, command: str, arm: Chain):
         super().__init__(StateFolder(out, run_identity(scene, algorithm, seed, config)),
                          config.checkpoint_every or checkpoint_interval(steps))
         self.scene, self.algorithm, self.steps, self.seed, self.out = scene, algorithm, steps, seed, out
         self.config, self.progress, self.command = config, progress, command
-        self.arm = arm_for(scene, config)
+        self.arm = arm
         self.history: list[dict] = []
         self.episodes: deque[bool] = deque(maxlen=ROLLING_EPISODES)
         self.last_eval = 0
@@ -510,7 +510,7 @@ def train(scene: str, algorithm: str, steps: int, seed: int, out_dir: str | Path
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     command = _command(scene, algorithm, steps, seed, out, config)
-    run = _Run(scene, algorithm, steps, seed, out, config, progress, command)
+    run = _Run(scene, algorithm, steps, seed, out, config, progress, command, arm)
     with run.session(resume) as (stop, generation):
         return _train(run, stop, generation)
 

@@ -31,6 +31,9 @@ SceneGenerator = Callable[..., Scene]
 DEFAULT_ROBOT = "sjtu-snake-iii"
 DEFAULT_PLANNER = {Task.REACH: "as-rrt", Task.INSPECT: "coverage", Task.SEARCH: "explore-reach"}
 
+#: The families with a scanned family ``<family>-scan`` (:mod:`snakeplan.scenes.scan`).
+SCANNED = ("confined", "fuel-tank", "oil-tank", "pipe", "concentric-pipe", "pipework", "vessel", "engine")
+
 BUILTIN_SCENES = {
     "fuel-tank": "snakeplan.scenes.fuel_tank:fuel_tank",
     "thermal-tank": "snakeplan.scenes.fuel_tank:thermal_tank",
@@ -42,8 +45,7 @@ BUILTIN_SCENES = {
     "pipework": "snakeplan.scenes.mesh_families:pipework",
     "vessel": "snakeplan.scenes.mesh_families:vessel",
     "engine": "snakeplan.scenes.mesh_families:engine",
-    **{f"{of}-scan": f"snakeplan.scenes.scan:{of.replace('-', '_')}_scan"
-       for of in ("confined", "fuel-tank", "oil-tank", "pipe", "concentric-pipe", "pipework", "vessel", "engine")},
+    **{f"{of}-scan": f"snakeplan.scenes.scan:{of.replace('-', '_')}_scan" for of in SCANNED},
 }
 
 

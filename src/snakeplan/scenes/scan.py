@@ -9,9 +9,9 @@ misses: shadows, dark or shiny patches). The cloud is one :class:`~snakeplan.geo
 of the default radius (:data:`~snakeplan.geometry.primitives.DEFAULT_RADIUS_SPACINGS` spacings), known in advance
 like a scan taken before the job; entrance, targets and bounds are the scene's.
 
-Every reach family ``F`` has a scanned family ``F-scan`` (:data:`SCANNED`): seed ``s`` is the scan (seeded ``s``,
-default :class:`ScanSettings`) of ``F``'s seed ``s``, for the same robot, and its spec says it is ``made_from``
-``F``, so the benchmark runner also judges its plans in the exact scene.
+Every reach family ``F`` has a scanned family ``F-scan`` (:data:`~snakeplan.scenes.registry.SCANNED`): seed
+``s`` is the scan (seeded ``s``, default :class:`ScanSettings`) of ``F``'s seed ``s``, for the same robot, and its
+spec says it is ``made_from`` ``F``, so the benchmark runner also judges its plans in the exact scene.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ import numpy as np
 from snakeplan import inputs
 from snakeplan.geometry.primitives import Points
 from snakeplan.geometry.surface_points import sample_surfaces
-from snakeplan.scenes.registry import make_scene, register_scene, scene_spec
+from snakeplan.scenes.registry import SCANNED, make_scene, register_scene, scene_spec
 from snakeplan.scenes.scene import Scene
 
 #: Most points a scan of a scene may hold.
@@ -74,10 +74,6 @@ def scan_scene(scene: Scene, settings: ScanSettings = ScanSettings(), seed: int 
     meta = {k: v for k, v in scene.metadata.items() if k not in ("field", "mesh")}
     meta["scan"] = {**asdict(settings), "seed": seed, "of": scene.name}
     return replace(scene, name=f"{scene.name}-scan", obstacles=(Points(points),), discovered=(), metadata=meta)
-
-
-#: The families with a scanned family ``<family>-scan``.
-SCANNED = ("confined", "fuel-tank", "oil-tank", "pipe", "concentric-pipe", "pipework", "vessel", "engine")
 
 
 def _scanned(of: str):

@@ -51,3 +51,8 @@ def sized_scene(family: str, seed: int, params: tuple[tuple[str, float], ...] = 
     arm), which a sized scene records in ``metadata["sizing"]``."""
     scene = make_scene(family, seed, **dict(params))
     return replace(scene, metadata={**scene.metadata, "sizing": dict(params)}) if params else scene
+
+
+def scene_sizing(scene: Scene) -> tuple[tuple[str, float], ...]:
+    """The sizing parameters ``scene`` was made with (:func:`sized_scene`; empty for a family's own arm)."""
+    return tuple(scene.metadata.get("sizing", {}).items())

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from snakeplan.jit import kernel
+from snakeplan.robots.arm_range import arm_parameters
 from snakeplan.scenes import Scene
 
 #: Range (mm) of the tip's range sensor.
@@ -99,8 +100,6 @@ def arm_features(robot) -> np.ndarray:
     """The arm as an arm-conditioned policy sees it: its section count, longest section, thickest radius, tightest
     bend limit, length and turning radius (:func:`snakeplan.robots.arm_range.turn_radius_for`), each over
     :data:`ARM_SCALES`."""
-    from snakeplan.robots.arm_range import arm_parameters
-
     p = arm_parameters(robot)
     raw = (p["sections"], p["section_length_mm"], p["radius_mm"], math.radians(p["bend_limit_deg"]),
            p["total_length_mm"], p["turn_radius_mm"])

@@ -99,6 +99,14 @@ def rollout(policy: NumpyPolicy, scene: Scene, robot: Chain, deadline: float = m
 GENERALISTS = {"generalist": GENERALIST, "generalist-arms": ARM_GENERALIST}
 
 
+def _generalist(name: str) -> NumpyPolicy:
+    """The shipped generalist called ``name`` (:data:`GENERALISTS`); ValueError when it is not installed."""
+    path = generalist_path(GENERALISTS[name])
+    if path is None:
+        raise ValueError(f"policy: the {name} policy is not installed ({GENERALISTS[name][1].removeprefix('rl/')})")
+    return load_policy(path)
+
+
 class ArmGeneralistWarning(UserWarning):
     """A learned planner plans an arm with the arm-conditioned generalist: no policy it would use was trained for
     the arm."""
@@ -128,37 +136,28 @@ class SacPlanner(Planner):
         self.smoothing = tuple(float(s) for s in smoothing)
         self.noise_levels = np.linspace(retry_noise[0], retry_noise[1], RETRY_LEVELS)
 
-    def _policy(self, scene: Scene, robot: Chain) -> NumpyPolicy:
+    def _policy(self, scene: Scene, robot: Chain) -> tuple[NumpyPolicy, bool]:
         """The policy to plan ``robot`` in ``scene`` with: the one given (a file, ``"generalist"``,
         ``"generalist-arms"``), else the one that ships for the scene (:func:`shipped_policy`), else, when that one
-        was trained for another arm, the arm-conditioned generalist (said in a :class:`ArmGeneralistWarning`)."""
+        was trained for another arm, the arm-conditioned generalist; and whether it is the latter standing in."""
         if isinstance(self.policy, NumpyPolicy):
-            return self.policy
+            return self.policy, False
         if self.policy in GENERALISTS:
-            path = generalist_path(GENERALISTS[self.policy])
-            if path is None:
-                raise ValueError(f"policy: the {self.policy} policy is not installed "
-                                 f"({GENERALISTS[self.policy][1].removeprefix('rl/')})")
-            return load_policy(path)
+            return _generalist(self.policy), False
         path = Path(self.policy) if self.policy else shipped_policy(spec_for(scene), self.name)
         if path is None:
             raise ValueError(f"policy: no {self.name} policy ships for scene family {scene.name}; train one "
                              f"('snakeplan train rl') and pass its policy.npz")
         policy = load_policy(path)
-        conditioned = generalist_path(ARM_GENERALIST)
-        if not self.policy and conditioned is not None and arm_refusal(policy, robot) is not None:
-            warnings.warn(f"{self.name}: {robot.name} has no policy of its own here; planning with the "
-                          f"arm-conditioned generalist", ArmGeneralistWarning, stacklevel=2)
-            return load_policy(conditioned)
-        return policy
+        if self.policy or arm_refusal(policy, robot) is None or generalist_path(ARM_GENERALIST) is None:
+            return policy, False
+        return _generalist("generalist-arms"), True
 
     def warm_up(self, problem: Problem) -> None:
         """The validity checker's kernels, the policy, one roll-out step (rays, actor), a smoothing and a crawl
         check, outside the timed plan."""
         super().warm_up(problem)
-        with warnings.catch_warnings():  # the plan says which policy it plans with, not its warm-up as well
-            warnings.simplefilter("ignore", ArmGeneralistWarning)
-            policy = self._policy(problem.scene, problem.robot)
+        policy, _ = self._policy(problem.scene, problem.robot)
         path, _ = rollout(policy, problem.scene, problem.robot, max_steps=2, world=problem.world)
         if len(path) > 2:
             smoothed = polyline.smooth(path, self.smoothing[0], pins=path[-1:]) if self.smoothing else path
@@ -187,7 +186,10 @@ class SacPlanner(Planner):
         return None, 0.0, raw_failure
 
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float) -> Solution:
-        policy = self._policy(problem.scene, problem.robot)
+        policy, stands_in = self._policy(problem.scene, problem.robot)
+        if stands_in:
+            warnings.warn(f"{self.name}: {problem.robot.name} has no policy of its own here; planning with the "
+                          f"arm-conditioned generalist", ArmGeneralistWarning, stacklevel=2)
         check_policy_fits(policy, problem.scene, problem.robot)
         model = ValidityChecker(problem.world, problem.robot, PLANNING)
         details = {"policy": policy.meta.get("name", str(self.policy or self.name))
