@@ -3,6 +3,8 @@ against the surfaces it saw, and the planners sensing through it (judged on the 
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -110,3 +112,39 @@ def test_a_depth_sensor_needs_sensed_knowledge(capsys):
     assert main(["plan", "--scene", "fuel-tank", "--sensor", "depth"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--sensor" in err[0]
+
+
+def test_no_return_is_lost_silently_when_the_buffer_fills(monkeypatch):
+    """A buffer of two frames: sensing a path reads in between, so it keeps the very points a large buffer keeps;
+    a compiled roll-out that overfills it warns how many it lost and grows it, and the same roll-out from the view
+    made afresh (the same path, the buffer it grew to) loses none: it keeps more points, those of the first among
+    them."""
+    from snakeplan.planners.sac import load_policy, shipped_policy
+    from snakeplan.planners.sac.planner import rollout
+    from snakeplan.scenes import scene_spec
+    from snakeplan.world import depth
+
+    scene = make_scene("fuel-tank", 2)
+    walk = scene.entrance.position + np.linspace(0.0, 600.0, 13)[:, None] * scene.entrance.direction
+    large = DepthView.of(scene)
+    large.sense(walk)
+    monkeypatch.setattr(depth, "BUFFER_POINTS", 2 * len(camera_rays(DepthCamera().pixels)))
+    small = DepthView.of(scene)
+    small.sense(walk)
+    assert len(small._hits) == depth.BUFFER_POINTS and np.array_equal(small.points, large.points)
+
+    policy = load_policy(shipped_policy(scene_spec("fuel-tank"), "sac-her"))
+    robot = get_robot("sjtu-snake-iii")
+    first = DepthView.of(scene)
+    path, _ = rollout(policy, scene, robot, world=first)
+    with pytest.warns(depth.DepthBufferWarning, match=r"returns since the last reading fell past the buffer of 6912"):
+        lossy = first.points
+    again = first.fresh()
+    assert len(again._hits) > depth.BUFFER_POINTS
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", depth.DepthBufferWarning)
+        path_again, _ = rollout(policy, scene, robot, world=again)
+        whole = again.points
+    assert np.array_equal(path, path_again) and len(whole) > len(lossy)
+    keys = {tuple(p) for p in np.round(whole, 9)}
+    assert all(tuple(p) in keys for p in np.round(lossy, 9))

@@ -23,6 +23,7 @@ the whole scene.
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -49,13 +50,19 @@ from snakeplan.world.knowledge import (
     prior_flags,
 )
 
-#: Returns a view's buffer holds between readings: a frame of 24 x 24 x 6 pixels returns at most 3,456, a roll-out of
-#: the whole 2.1 m SJTU-Snake III takes at most 43 frames (148,608).
+#: Returns a view's buffer holds between readings at first: a frame of 24 x 24 x 6 pixels returns at most 3,456, a
+#: roll-out of the whole 2.1 m SJTU-Snake III takes at most 43 frames (148,608); the finest camera's frame (256
+#: pixels a face) returns at most 393,216. A compiled roll-out that returns more (a finer camera, a longer arm)
+#: loses the rest: the view warns (:class:`DepthBufferWarning`) and grows its buffer to hold them next time.
 BUFFER_POINTS = 400_000
 #: Clouds of new returns kept apart before they are merged into one.
 MERGE_CHUNKS = 16
 #: Stopping tolerance (mm) of the camera's rays.
 RAY_EPS_MM = 1e-3
+
+
+class DepthBufferWarning(UserWarning):
+    """A compiled roll-out's depth frames returned more points than the view's buffer held: the rest were lost."""
 
 
 @dataclass(frozen=True)
@@ -122,13 +129,15 @@ def _frames(W, known, range_mm, points, rays, params, hits, state, stats):
 
 class DepthView(KnowledgeView):
     """Prior obstacles plus the clouds of the tip depth camera's returns (see the module). ``truth`` is the scene's
-    obstacle list (read here, never handed to the planner); ``prior`` marks the ones known before the job."""
+    obstacle list (read here, never handed to the planner); ``prior`` marks the ones known before the job;
+    ``buffer_points``: the returns its buffer holds at first (default :data:`BUFFER_POINTS`; the views made from
+    this one keep what it grew to)."""
 
     kind = Knowledge.SENSED
 
     def __init__(self, scene: Scene, truth: Sequence[Obstacle], camera: DepthCamera = DepthCamera(),
                  prior: Sequence[bool] | None = None, truth_set: ObstacleSet | None = None,
-                 seen: tuple[np.ndarray, list] | None = None):
+                 seen: tuple[np.ndarray, list] | None = None, buffer_points: int | None = None):
         super().__init__(scene if isinstance(scene, GuardedScene) else guarded(scene))  # structure only
         self._truth_set = ObstacleSet(truth) if truth_set is None else truth_set
         self.camera = camera
@@ -138,7 +147,7 @@ class DepthView(KnowledgeView):
         self._rays = camera_rays(camera.pixels)
         self._params = camera.params()
         self._all = np.ones(count, dtype=bool)
-        self._hits = np.zeros((BUFFER_POINTS, 3))
+        self._hits = np.zeros((buffer_points or BUFFER_POINTS, 3))
         self._state = np.zeros(5)
         self._keys, self._clouds = (np.zeros(0, dtype=np.int64), []) if seen is None else (seen[0].copy(),
                                                                                            list(seen[1]))
@@ -161,8 +170,13 @@ class DepthView(KnowledgeView):
         n = int(self._state[0])
         if n == 0:
             return False
-        pts = self._hits[:n].copy()
+        cap = len(self._hits)
+        pts = self._hits[:min(n, cap)].copy()
         self._state[0] = 0.0
+        if n > cap:
+            self._hits = np.zeros((cap << int(math.ceil(math.log2(n / cap))), 3))
+            warnings.warn(f"depth camera: {n - cap} of {n} returns since the last reading fell past the buffer of "
+                          f"{cap} and were lost; it now holds {len(self._hits)}", DepthBufferWarning, stacklevel=3)
         cells = np.floor(pts / self.camera.voxel_mm).astype(np.int64) + (1 << 20)
         keys = (cells[:, 0] << 42) | (cells[:, 1] << 21) | cells[:, 2]
         keys, first = np.unique(keys, return_index=True)
@@ -189,12 +203,16 @@ class DepthView(KnowledgeView):
         return self._set
 
     def sense(self, points) -> bool:
-        """Frames from ``points (..., 3)`` (each at least the camera's spacing from the last); True when a return
-        fell in a voxel not seen before."""
+        """Frames from ``points (..., 3)`` (each at least the camera's spacing from the last), read in as often as
+        the buffer fills, so none is lost; True when a return fell in a voxel not seen before."""
         pts = np.ascontiguousarray(np.asarray(points, dtype=float).reshape(-1, 3))
-        _frames(self._truth_set.packed, self._all, self.camera.range_mm, pts, self._rays, self._params, self._hits,
-                self._state, self._truth_set.evaluations)
-        return self._read()
+        new = self._read()
+        per = len(self._hits) // len(self._rays)
+        for start in range(0, len(pts), per):
+            _frames(self._truth_set.packed, self._all, self.camera.range_mm, pts[start:start + per], self._rays,
+                    self._params, self._hits, self._state, self._truth_set.evaluations)
+            new = self._read() or new
+        return new
 
     def sensor(self) -> Sensor:
         return Sensor(self._truth_set.packed, self._all, self.camera.range_mm, self._truth_set.evaluations,
@@ -208,11 +226,12 @@ class DepthView(KnowledgeView):
         return self.over(self.scene)
 
     def over(self, scene: Scene) -> DepthView:
-        return DepthView(scene, self._truth_set.obstacles, self.camera, self._prior, self._truth_set)
+        return DepthView(scene, self._truth_set.obstacles, self.camera, self._prior, self._truth_set,
+                         buffer_points=len(self._hits))
 
     def for_targets(self, targets) -> DepthView:
         self._read()
         view = DepthView(self.scene.with_targets(targets), self._truth_set.obstacles, self.camera, self._prior,
-                         self._truth_set, (self._keys, self._clouds))
+                         self._truth_set, (self._keys, self._clouds), len(self._hits))
         view._state[1:] = self._state[1:]
         return view

@@ -66,8 +66,8 @@ class Sensor(NamedTuple):
     obstacle, True once known (updated in place by :func:`sense_at`), the sensor's range (mm; inf: no limit) and
     the evaluation counter of the packed set. A depth camera (:class:`snakeplan.world.depth.DepthView`) adds its
     frame's unit rays ``(m, 3)`` (none: no camera), its ``params`` (:func:`depth_frame`), the buffer its frames'
-    returns go to (``hits (cap, 3)``, mm) and its ``state`` (returns so far, the last frame's position, whether
-    there was one), both updated in place."""
+    returns go to (``hits (cap, 3)``, mm) and its ``state`` (returns so far, those past ``cap`` included, the last
+    frame's position, whether there was one), both updated in place."""
 
     packed: tuple
     known: np.ndarray
@@ -115,7 +115,8 @@ def camera_reading(t, origin, i, params):
 def depth_frame(W, known, range_mm, origin, rays, params, hits, state, work, stats) -> None:
     """One depth frame from ``origin``, unless one was taken within ``params[SPACING]`` of it: every ray of
     ``rays`` read (:func:`camera_reading`) against the obstacles flagged in ``known``, each return within range
-    written to ``hits`` (while there is room) and counted in ``state[0]``; ``state[1:4]`` the frame's position."""
+    written to ``hits`` while there is room and counted in ``state[0]`` (past the room too, so the reader knows how
+    many were lost); ``state[1:4]`` the frame's position."""
     if rays.shape[0] == 0:
         return
     if state[4] > 0.0:
@@ -126,9 +127,10 @@ def depth_frame(W, known, range_mm, origin, rays, params, hits, state, work, sta
     for i in range(rays.shape[0]):
         t = camera_reading(ray_into(W, known, origin, rays[i], range_mm, params[EPS], work, stats), origin, i, params)
         c = int(state[0])
-        if t <= range_mm and c < hits.shape[0]:
-            for a in range(3):
-                hits[c, a] = origin[a] + t * rays[i, a]
+        if t <= range_mm:
+            if c < hits.shape[0]:
+                for a in range(3):
+                    hits[c, a] = origin[a] + t * rays[i, a]
             state[0] = c + 1
 
 
