@@ -122,10 +122,11 @@ def is_cloud_file(path: str | os.PathLike) -> bool:
     return True
 
 
-def read_cloud_file(path: str | os.PathLike, field: str, units: str = "mm") -> np.ndarray:
+def read_cloud_file(path: str | os.PathLike, field: str, units: str = "mm", units_field: str | None = None
+                    ) -> np.ndarray:
     """The points (mm) of a cloud file. ValueError (``field: ...``) when it cannot be read, is over
-    :data:`MAX_CLOUD_FILE_BYTES`, holds no points or points that are not finite, or ``units`` makes it implausibly
-    small or large."""
+    :data:`MAX_CLOUD_FILE_BYTES` or holds no points or points that are not finite, and (``units_field: ...``,
+    default ``field``) when ``units`` makes it implausibly small or large."""
     if units not in UNITS_MM:
         raise ValueError(f"{field}: units must be one of {', '.join(UNITS_MM)}, got {inputs.show(units)}")
     p = Path(path)
@@ -150,7 +151,7 @@ def read_cloud_file(path: str | os.PathLike, field: str, units: str = "mm") -> n
     if bad.any():
         raise ValueError(f"{field}: {shown} has {int(bad.sum())} points that are not finite numbers (the first is "
                          f"point {int(np.argmax(bad))}); drop them before import")
-    return check_span(points * UNITS_MM[units], field, units, "cloud")
+    return check_span(points * UNITS_MM[units], units_field or field, units, "cloud")
 
 
 def crop_box(value: Any, name: str) -> np.ndarray:
@@ -204,7 +205,7 @@ def read_cloud_spec(d: dict, where: str, base_dir: str | os.PathLike | None) -> 
     voxel = inputs.length(d["downsample_mm"], f"{where}.downsample_mm") if "downsample_mm" in d else None
     radius = inputs.length(d["radius_mm"], f"{where}.radius_mm") if "radius_mm" in d else None
     path = Path(base_dir or ".") / file
-    points = read_cloud(path, f"{where}.file", units, f"{where}.units:", T, f"{where}.transform", crop, voxel)
+    points = read_cloud(path, f"{where}.file", units, f"{where}.units", T, f"{where}.transform", crop, voxel)
     return points, cloud_source(str(path.resolve()), units, T, crop, voxel, radius)
 
 
@@ -212,15 +213,9 @@ def read_cloud(path: str | os.PathLike, field: str, units: str, units_field: str
                transform_field: str = "transform", crop: np.ndarray | None = None, voxel_mm: float | None = None
                ) -> np.ndarray:
     """The points (mm) of a cloud file read in ``units`` (:func:`read_cloud_file`; implausible units blamed on
-    ``units_field``, a prefix), moved by the rigid ``transform``, cropped and thinned (:func:`thin`): what a scene's
-    cloud and ``snakeplan scene import`` both load."""
-    try:
-        points = read_cloud_file(path, field, units)
-    except ValueError as exc:
-        msg = str(exc)
-        if "are its units" in msg:
-            raise ValueError(f"{units_field}{msg.split(':', 1)[1]}") from None
-        raise
+    ``units_field``), moved by the rigid ``transform``, cropped and thinned (:func:`thin`): what a scene's cloud and
+    ``snakeplan scene import`` both load."""
+    points = read_cloud_file(path, field, units, units_field)
     if transform is not None:
         points = points @ transform[:3, :3].T + transform[:3, 3]
         if not np.all(np.abs(points) <= inputs.MAX_MM):

@@ -30,10 +30,11 @@ MESH_SPAN_MM = (10.0, 1e5)
 MESH_SUFFIXES = (".stl", ".obj", ".ply", ".glb", ".gltf", ".off")
 
 
-def read_mesh_file(path: str | os.PathLike, field: str, units: str = "mm") -> tuple[np.ndarray, np.ndarray]:
+def read_mesh_file(path: str | os.PathLike, field: str, units: str = "mm", units_field: str | None = None
+                   ) -> tuple[np.ndarray, np.ndarray]:
     """(vertices in mm, faces) of a mesh file; duplicate vertices merged so shared edges are found. ValueError
-    (``field: ...``) when it cannot be read, holds no triangles or too many, or ``units`` makes it implausibly
-    small or large."""
+    (``field: ...``) when it cannot be read or holds no triangles or too many, and (``units_field: ...``, default
+    ``field``) when ``units`` makes it implausibly small or large."""
     import trimesh
 
     if units not in UNITS_MM:
@@ -61,7 +62,7 @@ def read_mesh_file(path: str | os.PathLike, field: str, units: str = "mm") -> tu
                          f"decimate it in CAD")
     if not np.all(np.isfinite(vertices)):
         raise ValueError(f"{field}: {shown} has vertices that are not finite numbers")
-    return check_span(vertices * UNITS_MM[units], field, units, "mesh"), faces
+    return check_span(vertices * UNITS_MM[units], units_field or field, units, "mesh"), faces
 
 
 def check_span(points: np.ndarray, field: str, units: str, what: str) -> np.ndarray:
@@ -103,13 +104,7 @@ def read_mesh_spec(d: dict, where: str, base_dir: str | os.PathLike | None
     if units not in UNITS_MM:
         raise ValueError(f"{where}.units: expected one of {', '.join(UNITS_MM)}, got {inputs.show(units)}")
     path = Path(base_dir or ".") / file
-    try:
-        vertices, faces = read_mesh_file(path, f"{where}.file", units)
-    except ValueError as exc:
-        msg = str(exc)
-        if "are its units" in msg:
-            raise ValueError(f"{where}.units:{msg.split(':', 1)[1]}") from None
-        raise
+    vertices, faces = read_mesh_file(path, f"{where}.file", units, f"{where}.units")
     source = {"file": str(path.resolve()), "units": units}
     if "transform" in d:
         T = rigid_transform(d["transform"], f"{where}.transform")

@@ -49,7 +49,7 @@ def parse_bounds(text: str) -> tuple[np.ndarray, np.ndarray] | None:
 def _cloud(file: str, field: str, units: str, here: Path, crop: np.ndarray | None, voxel: float | None,
            radius: float | None) -> Points:
     """The :class:`Points` of a cloud file, cropped and thinned, its source relative to ``here``."""
-    points = read_cloud(file, field, units, f"--units: {file}:", crop=crop, voxel_mm=voxel)
+    points = read_cloud(file, field, units, f"--units: {file}", crop=crop, voxel_mm=voxel)
     source = cloud_source(os.path.relpath(Path(file).resolve(), here), units, None, crop, voxel, radius)
     try:
         return Points(points, radius, source=source)
@@ -86,13 +86,7 @@ def import_scene(files: Sequence[str], units: str, entrance: np.ndarray, directi
         if is_cloud_file(file):
             obstacles.append(_cloud(file, field, units, here, crop, downsample_mm, radius_mm))
             continue
-        try:
-            vertices, faces = read_mesh_file(file, field, units)
-        except ValueError as exc:
-            msg = str(exc)
-            if "are its units" in msg:
-                raise ValueError(f"--units: {file}:{msg.split(':', 1)[1]}") from None
-            raise
+        vertices, faces = read_mesh_file(file, field, units, f"--units: {file}")
         source = {"file": os.path.relpath(Path(file).resolve(), here), "units": units}
         if thickness is not None:
             source["thickness"] = thickness
