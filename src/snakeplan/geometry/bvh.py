@@ -85,6 +85,16 @@ def build(boxes: np.ndarray, leaf_size: int = LEAF_SIZE) -> tuple[np.ndarray, np
     return _build(b, int(leaf_size))
 
 
+def shifted(links: np.ndarray, first_node: int, first_item: int) -> np.ndarray:
+    """A tree's links (:func:`build`) once its nodes and items are stored after others': inner nodes' children
+    moved by ``first_node``, leaves' first items by ``first_item``."""
+    out = links.copy()
+    inner = out[:, 1] > 0
+    out[inner] += first_node
+    out[~inner, 0] += first_item
+    return out
+
+
 @leaf
 def box_distance2(box: np.ndarray, p: np.ndarray) -> float:
     """Squared distance from p to the box ``[lo(3), hi(3)]`` (0 inside)."""

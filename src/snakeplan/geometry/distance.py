@@ -716,16 +716,6 @@ def _mesh_grid(obstacles: ObstacleSet, meshes: np.ndarray, query: tuple) -> np.n
     return field
 
 
-def _shifted(links: np.ndarray, first_node: int, first_item: int) -> np.ndarray:
-    """A tree's links (:mod:`snakeplan.geometry.bvh`) once its nodes and items are stored after others: inner nodes'
-    children moved by ``first_node``, leaves' first items by ``first_item``."""
-    out = links.copy()
-    inner = out[:, 1] > 0
-    out[inner] += first_node
-    out[~inner, 0] += first_item
-    return out
-
-
 class ObstacleSet:
     """A packed, immutable set of obstacles with batched exact queries (mm).
 
@@ -746,7 +736,7 @@ class ObstacleSet:
                 cloud_ranges.append((point_start, point_start + len(pts), cloud_node_start))
                 cloud_pts.append(pts)
                 cloud_nodes.append(nd)
-                cloud_links.append(_shifted(lk, cloud_node_start, point_start))
+                cloud_links.append(bvh.shifted(lk, cloud_node_start, point_start))
                 point_start += len(pts)
                 cloud_node_start += len(nd)
             if o.kind == KIND_MESH:
@@ -756,7 +746,7 @@ class ObstacleSet:
                 tris.append(t)
                 normals.append(nrm)
                 nodes.append(nd)
-                links.append(_shifted(lk, node_start, tri_start))
+                links.append(bvh.shifted(lk, node_start, tri_start))
                 tri_start += len(t)
                 node_start += len(nd)
         width = rows[0].shape[0] if rows else PACK_WIDTH
@@ -822,8 +812,8 @@ class ObstacleSet:
         flat = _kernel_array(p.reshape(-1, 3))
         return _sdf_points(self._packed, flat, float(cap), self.evaluations).reshape(p.shape[:-1])
 
-    def grid_distance(self, origin, spacing, shape: tuple[int, int, int], cap: float, layers: tuple[int, int] | None = None
-                      ) -> np.ndarray:
+    def grid_distance(self, origin, spacing, shape: tuple[int, int, int], cap: float,
+                      layers: tuple[int, int] | None = None) -> np.ndarray:
         """:meth:`signed_distance` with a finite ``cap`` at the centres ``origin + (index + 0.5) * spacing`` (mm) of
         a grid of ``shape`` cells (the z layers ``layers = (k0, k1)`` only; default all), clamped below at
         ``-cap``; shape ``(nx, ny, k1 - k0)``. Each obstacle is evaluated only at the cells within ``cap`` of its

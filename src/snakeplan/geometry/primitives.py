@@ -197,7 +197,8 @@ class Pipe(Obstacle):
         object.__setattr__(self, "outer_radius", inputs.length(self.outer_radius, "pipe.outer_radius"))
         object.__setattr__(self, "length", inputs.length(self.length, "pipe.length"))
         if self.outer_radius <= self.inner_radius:
-            raise ValueError(f"pipe.outer_radius: must exceed inner_radius {self.inner_radius}, got {self.outer_radius}")
+            raise ValueError(f"pipe.outer_radius: must exceed inner_radius {self.inner_radius}, "
+                             f"got {self.outer_radius}")
 
     def frame(self) -> np.ndarray:
         x = any_perpendicular(self.axis)
@@ -489,7 +490,8 @@ def obstacle_from_dict(d: Any, where: str = "obstacle", base_dir: str | None = N
         raise ValueError(f"{where}.type: expected a string, got {inputs.show(kind)}")
     cls = OBSTACLE_TYPES.get(kind)
     if cls is None:
-        raise ValueError(f"{where}.type: unknown obstacle type {inputs.show(kind)} (known: {', '.join(OBSTACLE_TYPES)})")
+        raise ValueError(f"{where}.type: unknown obstacle type {inputs.show(kind)} "
+                         f"(known: {', '.join(OBSTACLE_TYPES)})")
     if cls is Mesh and "file" in d:
         vertices, faces, source = read_mesh_spec(d, where, base_dir)
         try:
