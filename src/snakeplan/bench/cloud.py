@@ -62,17 +62,20 @@ def families(out: Path, seeds: int = 20, families_: tuple[str, ...] | None = Non
     backend = backend or Backend()
     sources = tuple(families_ or SCANNED)
     entries = tuple((p, {}) for p in planners)
-    run_sweep(Sweep("cloud", tuple(f"{f}-scan" for f in sources), tuple(range(seeds)), entries, time_limit,
-                    include=_include), out, backend)
-    run_sweep(Sweep("cloud-baseline", sources, tuple(range(seeds)), entries, time_limit, include=_include), out,
-              backend)
+    runs = (Sweep("cloud", tuple(f"{f}-scan" for f in sources), tuple(range(seeds)), entries, time_limit,
+                  include=_include).runs()
+            + Sweep("cloud-baseline", sources, tuple(range(seeds)), entries, time_limit, include=_include).runs())
+    exact = None if mesh is None else _mesh_scans(out, mesh, seeds)
+    if mesh is not None:
+        runs += _mesh_sweeps(out, mesh, seeds, planners, time_limit)
+    run_sweep(Sweep("cloud", (), (), ()), out, backend, runs=runs)
     rows = read_rows(out)
     table = _summary([r for r in rows if r["config"] == "cloud"], lambda r: r["scene"].removesuffix("-scan"),
                      lambda r: r["made_from"]["success"])
     _with_baseline(table, _summary([r for r in rows if r["config"] == "cloud-baseline"], lambda r: r["scene"],
                                    lambda r: True))
     if mesh is not None:
-        table.update(_mesh_runs(out, mesh, seeds, planners, backend, time_limit))
+        table.update(_mesh_table(out, mesh, rows, exact))
     summary = {"seeds": seeds, "planners": list(planners), "families": table}
     atomic_write(out / "summary.json", json.dumps(summary, indent=1, allow_nan=False) + "\n")
     atomic_write(out / "clouds.md", markdown(summary))
@@ -125,24 +128,19 @@ KITCHEN = {"entrance": [0.0, -1900.0, 700.0], "direction": [0.0, 1.0, 0.0], "tar
            "floor": {"type": "box", "center": [0, -500, -10], "size": [3000, 3000, 20]}}
 
 
-def _mesh_runs(out: Path, mesh: Path, seeds: int, planners: tuple[str, ...], backend, time_limit: float) -> dict:
-    """``mesh`` (metres; placed as gymnasium-robotics' kitchen base cabinets on a floor, :data:`KITCHEN`) scanned
-    once per seed into ``out/scans``, run through the runner, each plan judged in the mesh's scene."""
-    from snakeplan.bench.runner import Sweep, read_rows, row_path, run_sweep
-    from snakeplan.evaluation import evaluate
-    from snakeplan.robots import get_robot
+def _mesh_scans(out: Path, mesh: Path, seeds: int):
+    """``mesh`` (metres; placed as gymnasium-robotics' kitchen base cabinets on a floor, :data:`KITCHEN`) as the
+    scene ``out/exact.json``, and scanned once per seed into ``out/scans`` (scene files naming their clouds, and
+    ``exact.json`` its mesh, relative to their folders); the exact scene."""
     from snakeplan.scenes.importing import import_scene
     from snakeplan.scenes.scan import scan_scene
 
     exact = import_scene([str(mesh)], "m", np.array(KITCHEN["entrance"]), np.array(KITCHEN["direction"]),
                          [np.array(KITCHEN["target"])], out / "exact.json",
                          bounds=tuple(np.array(b) for b in KITCHEN["bounds"]), primitives=[KITCHEN["floor"]])
+    atomic_write(out / "exact.json", exact.to_json())
     scans = out / "scans"
     scans.mkdir(exist_ok=True)
-    robot = get_robot(GENERALIST_ARM)
-    judged: dict = {}
-    rows = []
-    runs = []
     for seed in range(seeds):
         scene_file = scans / f"{mesh.stem}-{seed}.json"
         if not scene_file.exists():
@@ -150,28 +148,40 @@ def _mesh_runs(out: Path, mesh: Path, seeds: int, planners: tuple[str, ...], bac
             np.save(scans / f"{mesh.stem}-{seed}.npy", cloud.points)
             doc = json.loads(exact.to_json())
             doc["name"] = f"{mesh.stem}-scan-{seed}"
-            doc["obstacles"] = [{"type": "points", "file": str((scans / f"{mesh.stem}-{seed}.npy").resolve()),
-                                 "units": "mm", "radius_mm": cloud.radius}]
-            scene_file.write_text(json.dumps(doc))
-        runs += Sweep("cloud-mesh", (str(scene_file),), (seed,), tuple((p, {}) for p in planners), time_limit).runs()
-    exact_doc = json.loads(exact.to_json())
-    exact_doc["obstacles"][0]["file"] = str(Path(mesh).resolve())
-    (out / "exact.json").write_text(json.dumps(exact_doc))
-    runs += Sweep("cloud-mesh-baseline", (str(out / "exact.json"),), tuple(range(seeds)),
-                  tuple((p, {}) for p in planners), time_limit).runs()
-    run_sweep(Sweep("cloud-mesh", (), (), ()), out, backend, runs=runs)
-    baseline = []
-    for r in read_rows(out):
-        if r["config"] == "cloud-mesh-baseline":
-            baseline.append(r)
-        if r["config"] != "cloud-mesh":
-            continue
+            doc["obstacles"] = [{"type": "points", "file": f"{mesh.stem}-{seed}.npy", "units": "mm",
+                                 "radius_mm": cloud.radius}]
+            atomic_write(scene_file, json.dumps(doc))
+    return exact
+
+
+def _mesh_sweeps(out: Path, mesh: Path, seeds: int, planners: tuple[str, ...], time_limit: float) -> list:
+    """The runs of :func:`_mesh_scans`' scans (``cloud-mesh``) and of its exact scene (``cloud-mesh-baseline``)."""
+    from snakeplan.bench.runner import Sweep
+
+    entries = tuple((p, {}) for p in planners)
+    runs = []
+    for seed in range(seeds):
+        runs += Sweep("cloud-mesh", (str(out / "scans" / f"{mesh.stem}-{seed}.json"),), (seed,), entries,
+                      time_limit).runs()
+    return runs + Sweep("cloud-mesh-baseline", (str(out / "exact.json"),), tuple(range(seeds)), entries,
+                        time_limit).runs()
+
+
+def _mesh_table(out: Path, mesh: Path, rows: list[dict], exact) -> dict:
+    """The mesh's entry of the summary: each plan in a scan judged in the ``exact`` scene too."""
+    from snakeplan.bench.runner import row_path
+    from snakeplan.evaluation import evaluate
+    from snakeplan.robots import get_robot
+
+    robot = get_robot(GENERALIST_ARM)
+    scanned = [r for r in rows if r["config"] == "cloud-mesh"]
+    judged = {}
+    for r in scanned:
         path = row_path(out, r)
-        key = (r["seed"], r["planner"])
-        judged[key] = path is not None and evaluate(exact, robot, path).success
-        rows.append(r)
-    table = _summary(rows, lambda r: f"{mesh.stem} (mesh)", lambda r: judged[(r["seed"], r["planner"])])
-    _with_baseline(table, _summary(baseline, lambda r: f"{mesh.stem} (mesh)", lambda r: True))
+        judged[(r["seed"], r["planner"])] = path is not None and evaluate(exact, robot, path).success
+    table = _summary(scanned, lambda r: f"{mesh.stem} (mesh)", lambda r: judged[(r["seed"], r["planner"])])
+    _with_baseline(table, _summary([r for r in rows if r["config"] == "cloud-mesh-baseline"],
+                                   lambda r: f"{mesh.stem} (mesh)", lambda r: True))
     return table
 
 

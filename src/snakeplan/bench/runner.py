@@ -47,6 +47,7 @@ from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -55,6 +56,9 @@ from snakeplan.files import atomic_write
 from snakeplan.jit import compilations
 from snakeplan.jsonable import jsonable
 from snakeplan.parallel import Backend, streamed, usable_cores
+
+if TYPE_CHECKING:
+    from snakeplan.scenes.registry import SceneSpec
 
 SCHEMA = "snakeplan.run/1"
 RUNS_FILE = "runs.jsonl"
@@ -75,7 +79,8 @@ TIMING_FIELDS = ("compute_time_s", "provenance")
 @dataclass(frozen=True)
 class Run:
     """One run: a scene (a registered family and seed, or a scene file) planned by ``planner`` with ``options``
-    from ``seed``. ``scene_file`` runs carry the file's text (``scene_json``) so that any worker can plan them."""
+    from ``seed``. ``scene_file`` runs carry the file's text (``scene_json``) and its folder (``scene_dir``, where
+    the mesh and cloud files it names are read from) so that any worker can plan them."""
 
     scene: str
     seed: int
@@ -90,16 +95,20 @@ class Run:
     task: str = "reach"
     robot_json: str = ""
     sensor: str = "exact"
+    scene_dir: str = ""
 
     def identity(self) -> dict:
-        """What makes this run this run (the key's preimage; a scene file and a robot file count by content; a
-        sensed run's sensor when it is not the exact one)."""
+        """What makes this run this run (the key's preimage; a scene file, the files it names and a robot file
+        count by content, wherever they lie; a sensed run's sensor when it is not the exact one)."""
         ident = {"scene": self.scene, "seed": self.seed, "robot": self.robot, "planner": self.planner,
                  "options": dict(self.options), "time_limit_s": self.time_limit_s, "knowledge": self.knowledge}
         if self.sensor != "exact":
             ident["sensor"] = self.sensor
         if self.scene_json:
             ident["scene_sha256"] = hashlib.sha256(self.scene_json.encode()).hexdigest()
+            named = _named_files(self.scene_json, self.scene_dir)
+            if named:
+                ident["files_sha256"] = named
         if self.robot_json:
             ident["robot_sha256"] = hashlib.sha256(self.robot_json.encode()).hexdigest()
         return ident
@@ -115,7 +124,7 @@ class Run:
         from snakeplan.scenes.sizing import arm_sizing, sized_scene
 
         if self.scene_json:
-            return Scene.from_json(self.scene_json, "scenes")
+            return Scene.from_json(self.scene_json, "scenes", self.scene_dir or None)
         return sized_scene(self.scene, self.seed if seed is None else seed, arm_sizing(self.scene, self.arm()))
 
     @property
@@ -125,6 +134,26 @@ class Run:
     @property
     def label(self) -> str:
         return f"{self.scene} seed {self.seed} {self.planner}"
+
+
+def _named_files(scene_json: str, folder: str) -> dict[str, str]:
+    """The SHA-256 of each mesh or cloud file a scene file's obstacles name, by the name written (read from
+    ``folder``)."""
+    doc = json.loads(scene_json)
+    names = [o["file"] for o in doc.get("obstacles", ()) if isinstance(o, dict) and isinstance(o.get("file"), str)]
+    paths = {name: Path(folder or ".") / name for name in names}
+    return {name: _file_sha256(str(p), p.stat().st_mtime_ns, p.stat().st_size) for name, p in paths.items()}
+
+
+@functools.lru_cache(maxsize=256)
+def _file_sha256(path: str, mtime_ns: int, size: int) -> str:
+    """A file's SHA-256, read once per process however many runs name it (again when it is written anew: its
+    modification time and size are part of the cache's key)."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
 
 
 @functools.lru_cache(maxsize=16)
@@ -184,8 +213,7 @@ class Sweep:
         fitted: set[str] = set()
         robot_file = _robot_source(self.robot) if self.robot else None
         for scene in self.scenes:
-            text, family = _scene_source(scene)
-            spec = _spec(family, text)
+            text, family, folder, spec = _scene_source(scene)
             task = self.task or spec.task
             robot, robot_json = robot_file or (spec.robot, "")
             for planner, options in self.planners:
@@ -200,7 +228,7 @@ class Sweep:
                                        tuple(sorted(options.items())), knowledge, text,
                                        self.stateful is not None and self.stateful(planner, options),
                                        self.name, task, robot_json,
-                                       self.sensor if knowledge == "sensed" else "exact"))
+                                       self.sensor if knowledge == "sensed" else "exact", folder))
         idle = [p for p, _ in self.planners if p not in fitted]
         if idle:
             raise ValueError(f"planners: {', '.join(idle)} can do none of these scenes' tasks "
@@ -222,20 +250,20 @@ def _needs_full_scene(planner: str) -> bool:
     return PLANNERS.get(planner).needs_full_scene
 
 
-def _scene_source(scene: str) -> tuple[str, str]:
-    """(scene file text or "", family or file name) of a sweep's scene entry."""
-    if scene.endswith(".json"):
-        from snakeplan.scenes import Scene
+def _scene_source(scene: str) -> tuple[str, str, str, SceneSpec]:
+    """(scene file text or "", family or file name, the file's absolute folder or "", the scene spec: robot, task)
+    of a sweep's scene entry."""
+    from snakeplan.scenes import Scene, scene_spec, spec_for
 
+    if scene.endswith(".json"):
         try:
             text = Path(scene).read_text()
         except OSError as exc:
             raise ValueError(f"scenes: cannot read {scene} ({exc.__class__.__name__})") from None
-        return text, Scene.from_json(text, "scenes").name
-    from snakeplan.scenes import scene_spec
-
-    scene_spec(scene)  # KeyError naming the known families
-    return "", scene
+        folder = str(Path(scene).resolve().parent)
+        made = Scene.from_json(text, "scenes", folder)
+        return text, made.name, folder, spec_for(made)
+    return "", scene, "", scene_spec(scene)  # KeyError naming the known families
 
 
 def _does_task(planner: str, task: str) -> bool:
@@ -243,13 +271,6 @@ def _does_task(planner: str, task: str) -> bool:
     from snakeplan.planners.registry import PLANNERS
 
     return task in PLANNERS.get(planner).tasks
-
-
-def _spec(family: str, text: str):
-    """The scene spec (robot, task) of a family or a scene file's text."""
-    from snakeplan.scenes import Scene, scene_spec, spec_for
-
-    return spec_for(Scene.from_json(text, "scenes")) if text else scene_spec(family)
 
 
 # --- tasks ------------------------------------------------------------------------------------------------
@@ -286,6 +307,7 @@ def run_chunk(task: list[Run], stamp: dict) -> list[dict]:
     and this host."""
     from snakeplan.episode import run_episode
     from snakeplan.planners import Problem, get_planner
+    from snakeplan.scenes import scene_spec
 
     host = {"host": socket.gethostname(), "pid": os.getpid()}
     rows = []
@@ -293,8 +315,8 @@ def run_chunk(task: list[Run], stamp: dict) -> list[dict]:
     for run in task:
         robot = run.arm()
         options = dict(run.options)
-        warm = (run.scene, run.scene_json, run.robot, run.robot_json, run.planner, run.options, run.knowledge,
-                run.sensor)
+        warm = (run.scene, run.scene_json, run.scene_dir, run.robot, run.robot_json, run.planner, run.options,
+                run.knowledge, run.sensor)
         compiled = 0
         if warm not in _WARM:
             before = compilations()
@@ -311,7 +333,7 @@ def run_chunk(task: list[Run], stamp: dict) -> list[dict]:
                           sensor=run.sensor)
         episode = run_episode(problem, planner, seed=run.seed)
         rows.append(make_row(run, episode, {**stamp, **host, "kernels_compiled": compiled}))
-        source = "" if run.scene_json else _spec(run.scene, "").made_from
+        source = "" if run.scene_json else scene_spec(run.scene).made_from
         if source:
             rows[-1]["made_from"] = judged_in_source(source, run, episode.plan.path)
     return rows
