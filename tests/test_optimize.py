@@ -57,14 +57,25 @@ def test_optimised_path_is_never_worse(family, seed, planner, level, sensed):
         assert done.after["smoothness_index"] == pytest.approx(after.smoothness_index, abs=1e-12)
 
 
-def test_deterministic_and_recorded():
-    """The same plan twice is the same to the bit, and the plan's details say what the optimiser did."""
+def test_deterministic_and_recorded(monkeypatch):
+    """The same plan twice is the same to the bit, and the plan's details say what the optimiser did: the crawl
+    checks it records are those the validity checker was asked for (counted here), within the level's budget, and
+    the smoothness it records is the judge's."""
+    from snakeplan.world import ValidityChecker
+
     scene = make_scene("oil-tank", 3)
-    plans = [get_planner("sp-rrt").plan(Problem(scene, ROBOT, 10.0), seed=1) for _ in range(2)]
+    plans = [get_planner("sp-rrt", optimize="none").plan(Problem(scene, ROBOT, 10.0), seed=1) for _ in range(2)]
     assert np.array_equal(plans[0].path, plans[1].path)
-    done = plans[0].details["optimize"]
+    asked = []
+    feasible = ValidityChecker.feasible
+    monkeypatch.setattr(ValidityChecker, "feasible", lambda self, path: asked.append(1) or feasible(self, path))
+    done = optimize_path(plans[0].path, FullView(scene), ROBOT, scene.targets, "fast").to_dict()
     assert done["level"] == "fast" and set(done["before"]) >= {"smoothness_index", "min_clearance_mm", "length_mm"}
-    assert done["checks"] <= EFFORT["fast"].checks and len(done["kept"]) <= EFFORT["fast"].rounds
+    assert done["checks"] == len(asked) and 0 < len(asked) <= EFFORT["fast"].checks + EFFORT["full"].checks
+    assert len(done["kept"]) <= EFFORT["fast"].rounds + EFFORT["full"].rounds
+    assert done["before"]["smoothness_index"] == pytest.approx(judge(scene, ROBOT, plans[0].path).smoothness_index)
+    planned = get_planner("sp-rrt").plan(Problem(scene, ROBOT, 10.0), seed=1)
+    assert planned.details["optimize"]["checks"] == done["checks"]
 
 
 def test_straight_path_stays_straight():
