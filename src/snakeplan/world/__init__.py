@@ -6,6 +6,7 @@ from snakeplan.world.knowledge import (
     Knowledge,
     KnowledgeView,
     SensedView,
+    SensingView,
     UnsensedObstacleError,
     as_knowledge,
     guarded,
@@ -29,5 +30,6 @@ from snakeplan.world.validity import (
 )
 
 __all__ = ["DEFAULT_SENSOR_RANGE_MM", "ENTRANCE_TOLERANCE_MM", "JUDGE", "PLANNING", "REACH_TOLERANCE_MM", "ROLLOUT",
-           "CrawlCheck", "Failure", "FailureKind", "FullView", "KnowledgeView", "SensedView", "Tolerances",
-           "UnsensedObstacleError", "ValidityChecker", "as_knowledge", "guarded", "min_turn_radius", "targets_reached", "view_for"]
+           "CrawlCheck", "Failure", "FailureKind", "FullView", "Knowledge", "KnowledgeView", "SensedView",
+           "SensingView", "Tolerances", "UnsensedObstacleError", "ValidityChecker", "as_knowledge", "guarded",
+           "min_turn_radius", "targets_reached", "view_for"]

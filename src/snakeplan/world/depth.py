@@ -41,13 +41,9 @@ from snakeplan.world.knowledge import (
     DROPOUT,
     SEED,
     SPACING,
-    GuardedScene,
-    Knowledge,
-    KnowledgeView,
     Sensor,
+    SensingView,
     depth_frame,
-    guarded,
-    prior_flags,
 )
 
 #: Returns a view's buffer holds between readings at first: a frame of 24 x 24 x 6 pixels returns at most 3,456, a
@@ -127,23 +123,17 @@ def _frames(W, known, range_mm, points, rays, params, hits, state, stats):
         depth_frame(W, known, range_mm, points[i], rays, params, hits, state, work, stats)
 
 
-class DepthView(KnowledgeView):
-    """Prior obstacles plus the clouds of the tip depth camera's returns (see the module). ``truth`` is the scene's
-    obstacle list (read here, never handed to the planner); ``prior`` marks the ones known before the job;
-    ``buffer_points``: the returns its buffer holds at first (default :data:`BUFFER_POINTS`; the views made from
+class DepthView(SensingView):
+    """Prior obstacles plus the clouds of the tip depth camera's returns (see the module and
+    :class:`~snakeplan.world.knowledge.SensingView`; the camera's range is the sensor's); ``buffer_points``: the returns its buffer holds at first (default :data:`BUFFER_POINTS`; the views made from
     this one keep what it grew to)."""
-
-    kind = Knowledge.SENSED
 
     def __init__(self, scene: Scene, truth: Sequence[Obstacle], camera: DepthCamera = DepthCamera(),
                  prior: Sequence[bool] | None = None, truth_set: ObstacleSet | None = None,
                  seen: tuple[np.ndarray, list] | None = None, buffer_points: int | None = None):
-        super().__init__(scene if isinstance(scene, GuardedScene) else guarded(scene))  # structure only
-        self._truth_set = ObstacleSet(truth) if truth_set is None else truth_set
+        super().__init__(scene, truth, camera.range_mm, prior, truth_set)
         self.camera = camera
-        self.sensor_range_mm = camera.range_mm
         count = len(self._truth_set)
-        self._prior = prior_flags(prior, count)
         self._rays = camera_rays(camera.pixels)
         self._params = camera.params()
         self._all = np.ones(count, dtype=bool)
@@ -217,13 +207,6 @@ class DepthView(KnowledgeView):
     def sensor(self) -> Sensor:
         return Sensor(self._truth_set.packed, self._all, self.camera.range_mm, self._truth_set.evaluations,
                       self._rays, self._params, self._hits, self._state)
-
-    def raycast(self, origins, directions, max_distance: float, eps: float = 1e-3) -> np.ndarray:
-        """Range readings of what is known: the camera sees no further than its range."""
-        return super().raycast(origins, directions, min(float(max_distance), self.camera.range_mm), eps)
-
-    def fresh(self) -> DepthView:
-        return self.over(self.scene)
 
     def over(self, scene: Scene) -> DepthView:
         return DepthView(scene, self._truth_set.obstacles, self.camera, self._prior, self._truth_set,

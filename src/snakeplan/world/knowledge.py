@@ -254,21 +254,36 @@ def prior_flags(prior: Sequence[bool] | None, count: int) -> np.ndarray:
     return flags
 
 
-class SensedView(KnowledgeView):
-    """Prior obstacles plus those revealed within ``sensor_range_mm`` of the points the tip has visited.
-
-    ``truth`` is the scene's obstacle list (read here, never handed to the planner); ``prior`` marks the ones known
-    before the job (default: none). The view's ``scene`` is the structure alone (:func:`guarded`).
-    """
+class SensingView(KnowledgeView):
+    """What a planner knows of a scene as the tip senses it: the prior obstacles plus what the tip's sensor, which
+    sees no further than ``sensor_range_mm``, has revealed. ``truth`` is the scene's obstacle list (read here,
+    never handed to the planner); ``prior`` marks the ones known before the job (default: none). The view's
+    ``scene`` is the structure alone (:func:`guarded`)."""
 
     kind = Knowledge.SENSED
 
-    def __init__(self, scene: Scene, truth: Sequence[Obstacle], sensor_range_mm: float = DEFAULT_SENSOR_RANGE_MM,
+    def __init__(self, scene: Scene, truth: Sequence[Obstacle], sensor_range_mm: float,
                  prior: Sequence[bool] | None = None, truth_set: ObstacleSet | None = None):
         super().__init__(scene if isinstance(scene, GuardedScene) else guarded(scene))  # structure only
         self._truth_set = ObstacleSet(truth) if truth_set is None else truth_set
         self.sensor_range_mm = float(sensor_range_mm)
         self._prior = prior_flags(prior, len(self._truth_set))
+
+    def raycast(self, origins, directions, max_distance: float, eps: float = 1e-3) -> np.ndarray:
+        """Readings of the tip's sensor: it sees no further than its range."""
+        return super().raycast(origins, directions, min(float(max_distance), self.sensor_range_mm), eps)
+
+    def fresh(self) -> SensingView:
+        return self.over(self.scene)
+
+
+class SensedView(SensingView):
+    """Prior obstacles plus those revealed, whole and exact, within ``sensor_range_mm`` of the points the tip has
+    visited (see :class:`SensingView`)."""
+
+    def __init__(self, scene: Scene, truth: Sequence[Obstacle], sensor_range_mm: float = DEFAULT_SENSOR_RANGE_MM,
+                 prior: Sequence[bool] | None = None, truth_set: ObstacleSet | None = None):
+        super().__init__(scene, truth, sensor_range_mm, prior, truth_set)
         self.known = self._prior.copy()
         self._set: ObstacleSet | None = None
         self._set_of = self.known.copy()
@@ -294,13 +309,6 @@ class SensedView(KnowledgeView):
 
     def sensor(self) -> Sensor:
         return Sensor(self._truth_set.packed, self.known, self.sensor_range_mm, self._truth_set.evaluations)
-
-    def raycast(self, origins, directions, max_distance: float, eps: float = 1e-3) -> np.ndarray:
-        """Readings of the range sensor: it sees no further than its range."""
-        return super().raycast(origins, directions, min(float(max_distance), self.sensor_range_mm), eps)
-
-    def fresh(self) -> SensedView:
-        return self.over(self.scene)
 
     def over(self, scene: Scene) -> SensedView:
         return SensedView(scene, self._truth_set.obstacles, self.sensor_range_mm, self._prior, self._truth_set)
