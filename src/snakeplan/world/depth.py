@@ -125,8 +125,9 @@ def _frames(W, known, range_mm, points, rays, params, hits, state, stats):
 
 class DepthView(SensingView):
     """Prior obstacles plus the clouds of the tip depth camera's returns (see the module and
-    :class:`~snakeplan.world.knowledge.SensingView`; the camera's range is the sensor's); ``buffer_points``: the returns its buffer holds at first (default :data:`BUFFER_POINTS`; the views made from
-    this one keep what it grew to)."""
+    :class:`~snakeplan.world.knowledge.SensingView`; the camera's range is the sensor's); ``buffer_points``: the
+    returns its buffer holds at first (default :data:`BUFFER_POINTS`; the views made from this one keep what it grew
+    to)."""
 
     def __init__(self, scene: Scene, truth: Sequence[Obstacle], camera: DepthCamera = DepthCamera(),
                  prior: Sequence[bool] | None = None, truth_set: ObstacleSet | None = None,

@@ -162,7 +162,8 @@ class JointMotionCheck:
             if first is not None and s0 >= first:
                 continue
             half = B * (s1 - s0) / 2.0 + CLEARANCE_TOLERANCE_MM
-            if (c0 >= half and c1 >= half) or half <= CONTACT_RESOLUTION_MM + CLEARANCE_TOLERANCE_MM or (s1 - s0) < 2.0 ** -MAX_HALVINGS:
+            if ((c0 >= half and c1 >= half) or half <= CONTACT_RESOLUTION_MM + CLEARANCE_TOLERANCE_MM
+                    or (s1 - s0) < 2.0 ** -MAX_HALVINGS):
                 continue  # certified clear, or settled by its ends at the contact resolution
             sm = (s0 + s1) / 2.0
             T, Q = interpolate(bases, q, i, np.array([sm]))
