@@ -132,6 +132,9 @@ def test_no_return_is_lost_silently_when_the_buffer_fills(monkeypatch):
     small = DepthView.of(scene)
     small.sense(walk)
     assert len(small._hits) == depth.BUFFER_POINTS and np.array_equal(small.points, large.points)
+    tiny = DepthView(scene, scene.obstacles, DepthCamera(), scene.prior, scene.obstacle_set, buffer_points=10)
+    tiny.sense(walk)
+    assert len(tiny._hits) == len(camera_rays(DepthCamera().pixels)) and np.array_equal(tiny.points, large.points)
 
     policy = load_policy(shipped_policy(scene_spec("fuel-tank"), "sac-her"))
     robot = get_robot("sjtu-snake-iii")

@@ -596,6 +596,7 @@ def test_a_sweep_plans_a_scene_file_whose_mesh_lies_beside_it_and_keys_it_by_con
     """A scene file naming its mesh relative to itself: the runner's worker reads it from the file's folder and
     plans; the run's key is the same when the folder moves (nothing absolute in it) and changes when the mesh
     does."""
+    import hashlib
     import shutil
 
     from snakeplan.bench.runner import Sweep, run_sweep
@@ -617,6 +618,8 @@ def test_a_sweep_plans_a_scene_file_whose_mesh_lies_beside_it_and_keys_it_by_con
 
     rows = run_sweep(sweep(job), tmp_path / "out", Backend("serial"), progress=False).rows
     assert len(rows) == 1 and rows[0]["success"], rows[0]["why"]
+    assert rows[0]["files_sha256"] == {"parts/elbow.stl": hashlib.sha256((job / "parts" / "elbow.stl").read_bytes())
+                                       .hexdigest()}
     shutil.move(job, tmp_path / "moved")
     assert sweep(tmp_path / "moved").runs()[0].key == rows[0]["key"]
     bent = trimesh.load(tmp_path / "moved" / "parts" / "elbow.stl")

@@ -55,7 +55,7 @@ def families(out: Path, seeds: int = 20, families_: tuple[str, ...] | None = Non
              time_limit: float = 10.0) -> dict:
     """Run the scanned families (and ``mesh``'s scans) not yet in ``out`` (see the module); the summary, also
     written to ``out/summary.json``."""
-    from snakeplan.bench.runner import Sweep, read_rows, run_sweep
+    from snakeplan.bench.runner import Sweep, run_sweep
     from snakeplan.parallel import Backend
     from snakeplan.scenes.registry import SCANNED
 
@@ -68,8 +68,7 @@ def families(out: Path, seeds: int = 20, families_: tuple[str, ...] | None = Non
     exact = None if mesh is None else _mesh_scans(out, mesh, seeds)
     if mesh is not None:
         runs += _mesh_sweeps(out, mesh, seeds, planners, time_limit)
-    run_sweep(Sweep("cloud", (), (), ()), out, backend, runs=runs)
-    rows = read_rows(out)
+    rows = run_sweep(Sweep("cloud", (), (), ()), out, backend, runs=runs).rows
     table = _summary([r for r in rows if r["config"] == "cloud"], lambda r: r["scene"].removesuffix("-scan"),
                      lambda r: r["made_from"]["success"])
     _with_baseline(table, _summary([r for r in rows if r["config"] == "cloud-baseline"], lambda r: r["scene"],
@@ -130,15 +129,18 @@ KITCHEN = {"entrance": [0.0, -1900.0, 700.0], "direction": [0.0, 1.0, 0.0], "tar
 
 def _mesh_scans(out: Path, mesh: Path, seeds: int):
     """``mesh`` (metres; placed as gymnasium-robotics' kitchen base cabinets on a floor, :data:`KITCHEN`) as the
-    scene ``out/exact.json``, and scanned once per seed into ``out/scans`` (scene files naming their clouds, and
-    ``exact.json`` its mesh, relative to their folders); the exact scene."""
+    scene ``out/exact.json`` (naming the mesh by its absolute path: it lies outside ``out``), and scanned once per
+    seed into ``out/scans`` (scene files naming their clouds beside them, so ``out`` can move and resume); the
+    exact scene."""
     from snakeplan.scenes.importing import import_scene
     from snakeplan.scenes.scan import scan_scene
 
     exact = import_scene([str(mesh)], "m", np.array(KITCHEN["entrance"]), np.array(KITCHEN["direction"]),
                          [np.array(KITCHEN["target"])], out / "exact.json",
                          bounds=tuple(np.array(b) for b in KITCHEN["bounds"]), primitives=[KITCHEN["floor"]])
-    atomic_write(out / "exact.json", exact.to_json())
+    doc = json.loads(exact.to_json())
+    doc["obstacles"][0]["file"] = str(Path(mesh).resolve())
+    atomic_write(out / "exact.json", json.dumps(doc))
     scans = out / "scans"
     scans.mkdir(exist_ok=True)
     for seed in range(seeds):

@@ -47,7 +47,7 @@ from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -79,8 +79,9 @@ TIMING_FIELDS = ("compute_time_s", "provenance")
 @dataclass(frozen=True)
 class Run:
     """One run: a scene (a registered family and seed, or a scene file) planned by ``planner`` with ``options``
-    from ``seed``. ``scene_file`` runs carry the file's text (``scene_json``) and its folder (``scene_dir``, where
-    the mesh and cloud files it names are read from) so that any worker can plan them."""
+    from ``seed``. ``scene_file`` runs carry the file's text (``scene_json``), its folder (``scene_dir``, where the
+    mesh and cloud files it names are read from) so that any worker can plan them, and the SHA-256 of each file
+    it names (``files_sha256``: (name as written, digest) pairs, taken once when the sweep listed its runs)."""
 
     scene: str
     seed: int
@@ -96,19 +97,20 @@ class Run:
     robot_json: str = ""
     sensor: str = "exact"
     scene_dir: str = ""
+    files_sha256: tuple[tuple[str, str], ...] = ()
 
     def identity(self) -> dict:
         """What makes this run this run (the key's preimage; a scene file, the files it names and a robot file
-        count by content, wherever they lie; a sensed run's sensor when it is not the exact one)."""
+        count by content, so a folder whose scene files name their files relative to themselves keys the same
+        wherever it is moved; a sensed run's sensor when it is not the exact one)."""
         ident = {"scene": self.scene, "seed": self.seed, "robot": self.robot, "planner": self.planner,
                  "options": dict(self.options), "time_limit_s": self.time_limit_s, "knowledge": self.knowledge}
         if self.sensor != "exact":
             ident["sensor"] = self.sensor
         if self.scene_json:
             ident["scene_sha256"] = hashlib.sha256(self.scene_json.encode()).hexdigest()
-            named = _named_files(self.scene_json, self.scene_dir)
-            if named:
-                ident["files_sha256"] = named
+            if self.files_sha256:
+                ident["files_sha256"] = dict(self.files_sha256)
         if self.robot_json:
             ident["robot_sha256"] = hashlib.sha256(self.robot_json.encode()).hexdigest()
         return ident
@@ -136,24 +138,18 @@ class Run:
         return f"{self.scene} seed {self.seed} {self.planner}"
 
 
-def _named_files(scene_json: str, folder: str) -> dict[str, str]:
-    """The SHA-256 of each mesh or cloud file a scene file's obstacles name, by the name written (read from
-    ``folder``)."""
+def _named_files(scene_json: str, folder: str) -> tuple[tuple[str, str], ...]:
+    """(name as written, SHA-256) of each mesh or cloud file a scene file's obstacles name (read from ``folder``)."""
     doc = json.loads(scene_json)
     names = [o["file"] for o in doc.get("obstacles", ()) if isinstance(o, dict) and isinstance(o.get("file"), str)]
-    paths = {name: Path(folder or ".") / name for name in names}
-    return {name: _file_sha256(str(p), p.stat().st_mtime_ns, p.stat().st_size) for name, p in paths.items()}
-
-
-@functools.lru_cache(maxsize=256)
-def _file_sha256(path: str, mtime_ns: int, size: int) -> str:
-    """A file's SHA-256, read once per process however many runs name it (again when it is written anew: its
-    modification time and size are part of the cache's key)."""
-    digest = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
+    out = []
+    for name in dict.fromkeys(names):
+        digest = hashlib.sha256()
+        with open(Path(folder) / name, "rb") as fh:
+            for block in iter(lambda: fh.read(1 << 20), b""):
+                digest.update(block)
+        out.append((name, digest.hexdigest()))
+    return tuple(out)
 
 
 @functools.lru_cache(maxsize=16)
@@ -213,7 +209,8 @@ class Sweep:
         fitted: set[str] = set()
         robot_file = _robot_source(self.robot) if self.robot else None
         for scene in self.scenes:
-            text, family, folder, spec = _scene_source(scene)
+            source = _scene_source(scene)
+            family, spec = source.name, source.spec
             task = self.task or spec.task
             robot, robot_json = robot_file or (spec.robot, "")
             for planner, options in self.planners:
@@ -225,10 +222,11 @@ class Sweep:
                 for knowledge in dict.fromkeys(self.knowledge_of(planner)):
                     for seed in self.seeds:
                         out.append(Run(family, seed, planner, robot, self.time_limit_s,
-                                       tuple(sorted(options.items())), knowledge, text,
+                                       tuple(sorted(options.items())), knowledge, source.text,
                                        self.stateful is not None and self.stateful(planner, options),
                                        self.name, task, robot_json,
-                                       self.sensor if knowledge == "sensed" else "exact", folder))
+                                       self.sensor if knowledge == "sensed" else "exact", source.folder,
+                                       source.files))
         idle = [p for p, _ in self.planners if p not in fitted]
         if idle:
             raise ValueError(f"planners: {', '.join(idle)} can do none of these scenes' tasks "
@@ -250,9 +248,20 @@ def _needs_full_scene(planner: str) -> bool:
     return PLANNERS.get(planner).needs_full_scene
 
 
-def _scene_source(scene: str) -> tuple[str, str, str, SceneSpec]:
-    """(scene file text or "", family or file name, the file's absolute folder or "", the scene spec: robot, task)
-    of a sweep's scene entry."""
+class SceneSource(NamedTuple):
+    """A sweep's scene entry: a scene file's text, the absolute folder it names its files from and their
+    :func:`_named_files` (all empty for a family), the family or the file's scene name, and its spec (robot,
+    task)."""
+
+    text: str
+    folder: str
+    files: tuple[tuple[str, str], ...]
+    name: str
+    spec: SceneSpec
+
+
+def _scene_source(scene: str) -> SceneSource:
+    """The :class:`SceneSource` of a sweep's scene entry: a registered family, or a scene file (``.json``)."""
     from snakeplan.scenes import Scene, scene_spec, spec_for
 
     if scene.endswith(".json"):
@@ -262,8 +271,8 @@ def _scene_source(scene: str) -> tuple[str, str, str, SceneSpec]:
             raise ValueError(f"scenes: cannot read {scene} ({exc.__class__.__name__})") from None
         folder = str(Path(scene).resolve().parent)
         made = Scene.from_json(text, "scenes", folder)
-        return text, made.name, folder, spec_for(made)
-    return "", scene, "", scene_spec(scene)  # KeyError naming the known families
+        return SceneSource(text, folder, _named_files(text, folder), made.name, spec_for(made))
+    return SceneSource("", "", (), scene, scene_spec(scene))  # KeyError naming the known families
 
 
 def _does_task(planner: str, task: str) -> bool:
@@ -368,6 +377,8 @@ def _row(run: Run, status: str, why: str, success: bool, reason: str | None, com
            "provenance": provenance}
     if run.scene_json:
         row["scene_sha256"] = run.identity()["scene_sha256"]
+    if run.files_sha256:
+        row["files_sha256"] = dict(run.files_sha256)
     return jsonable(row)
 
 

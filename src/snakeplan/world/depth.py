@@ -126,8 +126,8 @@ def _frames(W, known, range_mm, points, rays, params, hits, state, stats):
 class DepthView(SensingView):
     """Prior obstacles plus the clouds of the tip depth camera's returns (see the module and
     :class:`~snakeplan.world.knowledge.SensingView`; the camera's range is the sensor's); ``buffer_points``: the
-    returns its buffer holds at first (default :data:`BUFFER_POINTS`; the views made from this one keep what it grew
-    to)."""
+    returns its buffer holds at first (default :data:`BUFFER_POINTS`, at least a frame's; the views made from this
+    one keep what it grew to)."""
 
     def __init__(self, scene: Scene, truth: Sequence[Obstacle], camera: DepthCamera = DepthCamera(),
                  prior: Sequence[bool] | None = None, truth_set: ObstacleSet | None = None,
@@ -138,7 +138,7 @@ class DepthView(SensingView):
         self._rays = camera_rays(camera.pixels)
         self._params = camera.params()
         self._all = np.ones(count, dtype=bool)
-        self._hits = np.zeros((buffer_points or BUFFER_POINTS, 3))
+        self._hits = np.zeros((max(buffer_points or BUFFER_POINTS, len(self._rays)), 3))  # a frame at least
         self._state = np.zeros(5)
         self._keys, self._clouds = (np.zeros(0, dtype=np.int64), []) if seen is None else (seen[0].copy(),
                                                                                            list(seen[1]))
