@@ -17,6 +17,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from snakeplan.bench.report import summarise
+from snakeplan.files import atomic_write
 
 #: The held-out arms of the arm-conditioned generalist: never drawn in its training (the distribution draws
 #: continuous lengths, radii and limits), named by the issue that asked for it.
@@ -56,30 +57,30 @@ def run(out: Path, arms: tuple[str, ...] = HELD_OUT, seeds: int = 100, scenes: t
         train_steps: int = 0, time_limit: float = 10.0, backend=None) -> dict:
     """Train (``train_steps`` > 0) and plan every arm (see the module) into ``out``; the summary, also written to
     ``out/summary.json`` and ``out/arms.md``."""
-    from snakeplan.bench.runner import Sweep, read_rows, run_sweep
+    from snakeplan.bench.runner import Sweep, run_sweep
     from snakeplan.parallel import Backend
 
     backend = backend or Backend()
     out.mkdir(parents=True, exist_ok=True)
     summary: dict = {"seeds": seeds, "scenes": list(scenes), "train_steps": train_steps, "arms": {}}
     for arm in arms:
+        name = Path(arm).stem
         entries = [("sac", {"policy": "generalist-arms"})]
         trained = None
         if train_steps > 0:
-            trained = train_arm(arm, out / f"train-{Path(arm).stem}", train_steps)
+            trained = train_arm(arm, out / f"train-{name}", train_steps)
             entries.append(("sac", {"policy": trained["policy"]}))
-        folder = out / f"plans-{Path(arm).stem}"
-        run_sweep(Sweep(f"arms-{Path(arm).stem}", scenes, tuple(range(seeds)), tuple(entries), time_limit,
-                        robot=arm_source(arm), knowledge="sensed"), folder, backend)
+        rows = run_sweep(Sweep(f"arms-{name}", scenes, tuple(range(seeds)), tuple(entries), time_limit,
+                               robot=arm_source(arm), knowledge="sensed"), out / f"plans-{name}", backend).rows
         table: dict = {}
-        for e in summarise(read_rows(folder)):
+        for e in summarise(rows):
             label = "generalist" if e["options"] == "policy=generalist-arms" else "per-arm"
             table.setdefault(e["scene"], {})[label] = _figures(e)
-        summary["arms"][Path(arm).stem] = {
+        summary["arms"][name] = {
             "training": None if trained is None else {k: trained[k] for k in ("wall_s_to_trained", "best_success")},
             "scenes": table}
-    (out / "summary.json").write_text(json.dumps(summary, indent=1) + "\n")
-    (out / "arms.md").write_text(markdown(summary))
+    atomic_write(out / "summary.json", json.dumps(summary, indent=1, allow_nan=False) + "\n")
+    atomic_write(out / "arms.md", markdown(summary))
     return summary
 
 

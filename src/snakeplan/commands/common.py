@@ -130,7 +130,9 @@ def optimize_line(plan) -> str:
 def where(scene) -> str:
     """A scene as the console names it: "fuel-tank (seed 3)", "confined (seed 3, sized to a 1920 mm arm)" (see
     :mod:`snakeplan.scenes.sizing`), or a file scene's name alone (it has no seed)."""
+    from snakeplan.scenes.sizing import scene_sizing
+
     if scene.seed is None:
         return scene.name
-    sized = scene.metadata.get("sizing")
+    sized = dict(scene_sizing(scene))
     return f"{scene.name} (seed {scene.seed}" + (f", sized to a {sized['arm_length_mm']:g} mm arm)" if sized else ")")

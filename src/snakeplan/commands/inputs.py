@@ -47,7 +47,7 @@ def generated(name: str, seed: int, robot=None):
     from snakeplan.scenes import arm_sizing, sized_scene
 
     try:
-        return sized_scene(name, seed, arm_sizing(name, robot) if robot is not None else ())
+        return sized_scene(name, seed, arm_sizing(name, robot))
     except KeyError as exc:
         raise UsageError(f"--scene: {exc.args[0]}") from None
 

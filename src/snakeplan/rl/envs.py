@@ -201,7 +201,7 @@ def scene_of(scene: str, seed: int, robot: Chain | None = None) -> Scene:
     """The scene of ``seed`` in ``scene``'s families (:func:`family_of`, :func:`family_scene`), sized to ``robot``
     (:mod:`snakeplan.scenes.sizing`; None: the family's own arm)."""
     family = family_of(scene, seed)
-    return family_scene(family, int(seed), arm_sizing(family, robot) if robot is not None else ())
+    return family_scene(family, int(seed), arm_sizing(family, robot))
 
 
 def upcoming(envs, draws: int) -> list[int]:

@@ -42,7 +42,7 @@ class ScenePrefetch:
         self._next = min(WINDOW, len(self._keys))
         self._pool, futures = submit_all(_make, self._keys[:self._next], workers)
         self._futures: dict[Key, Future] = dict(zip(self._keys, futures))
-        self._taken: set[tuple[str, int]] = set()
+        self._taken: set[Key] = set()
         self._warned = False
 
     def start(self) -> ScenePrefetch:

@@ -29,9 +29,12 @@ from snakeplan.scenes.scene import Scene
 SIZED = ("arm_length_mm", "inflate_mm", "target_clearance_mm")
 
 
-def arm_sizing(family: str, robot: Chain) -> tuple[tuple[str, float], ...]:
-    """The generator parameters (name, value) that size ``family`` to ``robot`` (see the module); empty where the
-    family takes none or ``robot`` has the length and thickest radius of the family's own arm."""
+def arm_sizing(family: str, robot: Chain | None) -> tuple[tuple[str, float], ...]:
+    """The generator parameters (name, value) that size ``family`` to ``robot`` (see the module); empty where
+    ``robot`` is None (the family's own arm), the family takes none, or ``robot`` has the length and thickest
+    radius of the family's own arm."""
+    if robot is None:
+        return ()
     spec = scene_spec(family)
     params = inspect.signature(spec.generator).parameters
     if not all(k in params for k in SIZED):
