@@ -144,11 +144,8 @@ def _named_files(scene_json: str, folder: str) -> tuple[tuple[str, str], ...]:
     names = [o["file"] for o in doc.get("obstacles", ()) if isinstance(o, dict) and isinstance(o.get("file"), str)]
     out = []
     for name in dict.fromkeys(names):
-        digest = hashlib.sha256()
         with open(Path(folder) / name, "rb") as fh:
-            for block in iter(lambda: fh.read(1 << 20), b""):
-                digest.update(block)
-        out.append((name, digest.hexdigest()))
+            out.append((name, hashlib.file_digest(fh, "sha256").hexdigest()))
     return tuple(out)
 
 
