@@ -130,7 +130,7 @@ def optimize_line(plan) -> str:
 def where(scene) -> str:
     """A scene as the console names it: "fuel-tank (seed 3)", "confined (seed 3, sized to a 1920 mm arm)" (see
     :mod:`snakeplan.scenes.sizing`), or a file scene's name alone (it has no seed)."""
-    from snakeplan.scenes.sizing import scene_sizing
+    from snakeplan.scenes import scene_sizing
 
     if scene.seed is None:
         return scene.name
