@@ -3,8 +3,9 @@ the parameters of an arm that it does not cover.
 
 An arm of the distribution has equal sections: 8-30 of them, 60-250 mm long, 10-40 mm in radius, with bend
 limits of 20-60 deg; drawn uniformly in each, and kept when the whole arm is 1.5-3 m long and turns on a radius
-of at most 320 mm (:func:`turn_radius_for`, the turning radius the learned planners' crawl takes for an arm): the room-scale families (confined, the tanks) are built for arms of about two metres, with
-rooms of 300-760 mm that a stiffer arm cannot turn in.
+of at most 320 mm (:func:`turn_radius_for`, the turning radius the learned planners' crawl takes for an arm): the
+room-scale families (confined, the tanks) are built for arms of about two metres, with rooms of 300-760 mm that a
+stiffer arm cannot turn in.
 """
 
 from __future__ import annotations
@@ -38,10 +39,10 @@ ARM_RANGE = ArmRange()
 TURN_BEND_FRACTION = 0.85
 
 
-def turn_radius_for(robot: Chain) -> float:
-    """The smallest turning radius (mm, to 0.1 mm) on which every section's chord bends at most
-    :data:`TURN_BEND_FRACTION` of its limit: ``max(L / (2 sin(f * limit / 2)))`` (241.6 mm for SJTU-Snake III)."""
-    return round(float(np.max(robot.lengths / (2.0 * np.sin(TURN_BEND_FRACTION * robot.max_bends / 2.0)))), 1)
+def turn_radius_for(robot: Chain, fraction: float = TURN_BEND_FRACTION) -> float:
+    """The smallest turning radius (mm, to 0.1 mm) on which every section's chord bends at most ``fraction`` of
+    its limit: ``max(L / (2 sin(f * limit / 2)))`` (241.6 mm for SJTU-Snake III at :data:`TURN_BEND_FRACTION`)."""
+    return round(float(np.max(robot.lengths / (2.0 * np.sin(fraction * robot.max_bends / 2.0)))), 1)
 
 
 def arm_parameters(robot: Chain) -> dict[str, float]:

@@ -1,12 +1,20 @@
-"""The ``guide`` design's route guide (mm): through what a knowledge view knows now, kept a margin beyond the arm's
-radius, and its free space, extended with what was sensed since. The routing is
-:mod:`snakeplan.scenes.routes.guide`'s; these take a :class:`~snakeplan.world.KnowledgeView`, a layer above scenes."""
+"""The ``guide`` design's route guides (mm): the taut one through what a knowledge view knows now, kept a margin
+beyond the arm's radius, and its free space, extended with what was sensed since; and the turning route an arm
+whose roll-out on the taut guide failed follows next. The routing is :mod:`snakeplan.scenes.routes`'; these take a
+:class:`~snakeplan.world.KnowledgeView` or an arm, layers above scenes."""
 
 from __future__ import annotations
 
+import math
+
+import numpy as np
+
+from snakeplan.robots import Chain
+from snakeplan.robots.arm_range import turn_radius_for
 from snakeplan.scenes import Scene
 from snakeplan.scenes.routes.grid import Grid
 from snakeplan.scenes.routes.guide import GUIDE_CELL_MM, FreeSpace, RouteGuide, route_through
+from snakeplan.scenes.routes.turning import MAX_EXPANSIONS, turning_route
 from snakeplan.world import KnowledgeView
 
 #: Clearance (mm) beyond the arm's largest radius that a route guide keeps from the known obstacles: a guide
@@ -18,6 +26,14 @@ GUIDE_MARGIN_MM = 25.0
 #: an opening at the larger margin is not taken).
 GUIDE_MARGIN_STEP_MM = 15.0
 GUIDE_MARGIN_MAX_MM = 70.0
+#: A turning route's crawl turns on the radius on which every section's chord bends this fraction of its limit
+#: (the policy's own crawl: 0.85), and the route itself on ``TURNING_ROUTE_WIDER`` times that radius, so that the
+#: pursuit, a little off the route, still turns as the route does.
+TURNING_BEND_FRACTION = 1.0
+TURNING_ROUTE_WIDER = 1.05
+#: Expansions of the turning route's search a second, at least (measured: about 100,000 on the 2-core machine),
+#: so that a search given the rest of a plan's budget ends within it.
+TURNING_EXPANSIONS_PER_S = 50_000
 
 
 def guide_space(scene: Scene, world: KnowledgeView, radius_mm: float, deadline: float | None = None,
@@ -38,3 +54,24 @@ def guide_for(scene: Scene, world: KnowledgeView, radius_mm: float, deadline: fl
     makes it (:class:`~snakeplan.scenes.routes.grid.FieldDeadline` past ``deadline``)."""
     space = guide_space(scene, world, radius_mm, deadline)
     return route_through(space, scene.entrance, scene.targets, radius_mm + margin_mm)
+
+
+def turning_guide(space: FreeSpace, scene: Scene, robot: Chain, margin_mm: float, step_mm: float,
+                  seconds: float = math.inf) -> RouteGuide | None:
+    """The turning route (:func:`~snakeplan.scenes.routes.turning.turning_route`) through ``space`` for ``robot``:
+    on ``TURNING_ROUTE_WIDER`` times :func:`turning_crawl_radius`, kept ``margin_mm`` beyond the arm's radius (at
+    most the field's cap), no longer than the arm, in crawl steps of ``step_mm``, searched for about ``seconds``
+    at most (``TURNING_EXPANSIONS_PER_S``); None when there is none (or none was found in time)."""
+    clearance = min(float(np.max(robot.radii)) + margin_mm, space.cap_mm)
+    budget = int(min(MAX_EXPANSIONS, max(seconds, 0.0) * TURNING_EXPANSIONS_PER_S))
+    if budget < 1:
+        return None
+    return turning_route(space, scene.entrance, scene.targets, TURNING_ROUTE_WIDER * turning_crawl_radius(robot),
+                         clearance, step_mm, float(robot.total_length), max_expansions=budget)
+
+
+def turning_crawl_radius(robot: Chain) -> float:
+    """The radius (mm) a turning route is made for: ``TURNING_BEND_FRACTION`` of the bend limits (the route
+    itself turns on ``TURNING_ROUTE_WIDER`` times it; a crawl following it turns on it, or on its own radius where
+    that is tighter)."""
+    return turn_radius_for(robot, TURNING_BEND_FRACTION)

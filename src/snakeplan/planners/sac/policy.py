@@ -308,9 +308,14 @@ class NumpyPolicy:
     def crawler(self, robot: Chain, check_body: bool = True) -> Crawler:
         """A crawler with the settings this policy was trained with (no goal capture or look-ahead when the file
         predates them)."""
-        return Crawler(robot, self.mode, self.meta.get("step_mm", STEP_MM),
+        return Crawler(robot, self.mode, self.step_mm,
                        self.meta.get("turn_radius_mm", TURN_RADIUS_MM), check_body, self.meta.get("capture_steps", 0),
                        self.meta.get("lookahead", False), self.meta.get("residual", False), self.arm_conditioned)
+
+    @property
+    def step_mm(self) -> float:
+        """The tip's advance (mm) per action of the crawl this policy was trained on."""
+        return float(self.meta.get("step_mm", STEP_MM))
 
     @property
     def arm_conditioned(self) -> bool:

@@ -1,0 +1,137 @@
+"""Turning routes (scenes.routes.turning): a route a tip turning no tighter than a radius can follow, checked
+against plane geometry, an independent interpolator and the obstacles' exact distances; and the learned planners'
+roll-outs along one where the taut guide's fail."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+from scipy.interpolate import RegularGridInterpolator
+
+from snakeplan.episode import run_episode
+from snakeplan.geometry.distance import ObstacleSet
+from snakeplan.geometry.primitives import Box
+from snakeplan.planners import Problem, Status
+from snakeplan.planners.sac.guide import turning_guide
+from snakeplan.planners.sac.planner import SacPlanner
+from snakeplan.robots import load_robot
+from snakeplan.scenes import Entrance, arm_sizing, sized_scene
+from snakeplan.scenes.routes.grid import Grid
+from snakeplan.scenes.routes.guide import GUIDE_CELL_MM, FreeSpace, route_through
+from snakeplan.scenes.routes.turning import _clearance, turning_route
+
+RADIUS_MM, CLEAR_MM, STEP_MM = 250.0, 40.0, 35.0
+ENTRANCE = Entrance([0.0, 150.0, 300.0], [1.0, 0.0, 0.0])
+BESIDE = np.array([[100.0, 750.0, 300.0]])  # 600 mm beside the entrance, 100 mm in
+
+
+def _room(depth_mm: float) -> tuple[FreeSpace, ObstacleSet]:
+    """A 1200 x 900 x 600 mm box of bounds fed along +x at x = 0, with a wall across it at x = ``depth_mm``."""
+    wall = ObstacleSet([Box([depth_mm + 5.0, 450.0, 300.0], [10.0, 900.0, 600.0])])
+    grid = Grid.covering([0.0, 0.0, 0.0], [1200.0, 900.0, 600.0], GUIDE_CELL_MM)
+    return FreeSpace.of(wall, grid, 100.0), wall
+
+
+def _vertices(points: np.ndarray) -> np.ndarray:
+    """The polyline's corners: its points less those inside a straight run."""
+    d = np.diff(points, axis=0)
+    d = d[np.linalg.norm(d, axis=1) > 1e-9]
+    u = d / np.linalg.norm(d, axis=1)[:, None]
+    keep = np.concatenate([[True], np.einsum("ij,ij->i", u[1:], u[:-1]) < 1 - 1e-12, [True]])
+    corners = np.concatenate([points[:1], points[:1] + np.cumsum(d, axis=0)])
+    return corners[keep]
+
+
+def _capture_arc(points: np.ndarray) -> np.ndarray:
+    """The arc the crawl captures the route's last target on: tangent to the last step's heading at the point the
+    route leaves for the target in a straight chord, through the target; it turns no tighter than the route."""
+    prev, p, q = _vertices(points)[-3:]
+    h = (p - prev) / np.linalg.norm(p - prev)
+    c = q - p
+    side = c - (c @ h) * h
+    r = (c @ c) / (2 * np.linalg.norm(side))
+    assert r >= RADIUS_MM
+    centre = p + r * side / np.linalg.norm(side)
+    theta = np.linspace(0.0, 2 * np.arcsin(np.linalg.norm(c) / (2 * r)), 50)
+    arc = centre + r * (-np.cos(theta)[:, None] * side / np.linalg.norm(side) + np.sin(theta)[:, None] * h)
+    np.testing.assert_allclose(arc[-1], q, atol=1e-6)
+    return arc
+
+
+def test_the_clearance_is_the_trilinear_interpolation_of_the_field():
+    rng = np.random.default_rng(0)
+    sdf = rng.normal(size=(5, 4, 3))
+    origin, spacing = np.array([10.0, -5.0, 2.0]), np.array([40.0, 30.0, 20.0])
+    axes = [origin[a] + (np.arange(sdf.shape[a]) + 0.5) * spacing[a] for a in range(3)]
+    reference = RegularGridInterpolator(axes, sdf)
+    shape = np.array(sdf.shape, dtype=np.int64)
+    for p in rng.uniform([a[0] for a in axes], [a[-1] for a in axes], (200, 3)):
+        assert _clearance(sdf, shape, origin, spacing, p) == pytest.approx(reference(p)[0], abs=1e-9)
+
+
+def test_a_target_beside_the_entrance_needs_a_room_as_deep_as_the_turning_radius():
+    """From heading +x to a point 600 mm aside and 100 mm in, the heading must turn through 90 deg (else x only
+    grows and, turning by at most 1/R, the heading never steepens enough to gain 600 mm aside in 100 mm along),
+    which on a radius of R carries the tip R along x; in crawl steps s that turn before they advance (as the crawl
+    does), sum(s cos(k s / R)) up to 90 deg, which is R - s / 2 to within a millimetre. A wall 250 mm in leaves
+    210 mm clear of it: no turning route, though the taut guide passes; 450 mm in leaves room, and the route (with
+    the arc that captures its target) swings out that far."""
+    shallow, _ = _room(250.0)
+    assert route_through(shallow, ENTRANCE, BESIDE, CLEAR_MM).complete
+    assert turning_route(shallow, ENTRANCE, BESIDE, RADIUS_MM, CLEAR_MM, STEP_MM, 3000.0) is None
+    deep, wall = _room(450.0)
+    route = turning_route(deep, ENTRANCE, BESIDE, RADIUS_MM, CLEAR_MM, STEP_MM, 3000.0)
+    assert route is not None and route.complete
+    arc = _capture_arc(route.points)
+    swing = max(route.points[:-1, 0].max(), arc[:, 0].max())
+    assert swing >= RADIUS_MM - STEP_MM / 2 - 1.0 and route.points[:, 0].max() <= 450.0 - CLEAR_MM + 1e-6
+    assert np.min(wall.signed_distance(route.points)) >= CLEAR_MM - 1e-6
+    np.testing.assert_allclose(route.points[-1], BESIDE[0])
+
+
+def test_a_route_through_two_targets_turns_no_tighter_than_its_radius():
+    """Every corner of the route between crawl steps turns by at most its shorter side over R (an arc of radius R
+    turns a step s by s / R), away from the targets, where the crawl's capture and snap take over; the targets
+    come in order, at the route's target arcs; the route keeps the clearance; a tour longer than allowed is none."""
+    space, wall = _room(1000.0)
+    targets = np.array([[600.0, 600.0, 200.0], [250.0, 200.0, 450.0]])
+    route = turning_route(space, ENTRANCE, targets, RADIUS_MM, CLEAR_MM, STEP_MM, 3000.0)
+    assert route is not None
+    np.testing.assert_allclose(route.at(route.target_arc), targets, atol=1e-9)
+    assert np.all(np.diff(route.target_arc) > 0)
+    corners = _vertices(route.points)
+    near_target = np.min(np.linalg.norm(corners[1:-1, None] - targets[None], axis=2), axis=1) < 1e-6
+    before = np.linalg.norm(corners[1:-1] - corners[:-2], axis=1)
+    after = np.linalg.norm(corners[2:] - corners[1:-1], axis=1)
+    u, v = (corners[1:-1] - corners[:-2]) / before[:, None], (corners[2:] - corners[1:-1]) / after[:, None]
+    turn = np.arccos(np.clip(np.einsum("ij,ij->i", u, v), -1.0, 1.0))
+    assert len(turn) > 10 and np.all((turn <= np.minimum(before, after) / RADIUS_MM + 1e-9) | near_target)
+    assert np.min(wall.signed_distance(route.points)) >= CLEAR_MM - 1e-6
+    assert turning_route(space, ENTRANCE, targets, RADIUS_MM, CLEAR_MM, STEP_MM, route.arc[-1] * 0.8) is None
+
+
+def test_a_turning_guide_given_no_time_is_none():
+    space, _ = _room(1000.0)
+    scene_like = type("S", (), {"entrance": ENTRANCE, "targets": BESIDE})()
+    arm = load_robot("src/snakeplan/robots/data/arms/arm-10x220.json")
+    assert turning_guide(space, scene_like, arm, 25.0, STEP_MM, seconds=0.0) is None
+    assert turning_guide(space, scene_like, arm, 25.0, STEP_MM) is not None
+
+
+def test_the_stiff_arm_reaches_a_confined_target_along_a_turning_route_it_missed_on_the_taut_guide():
+    """The 10 x 220 mm arm (55 deg) in confined seed 5, sized to it, sensed: fed up from the floor of a room
+    400 mm high towards a target 540 mm aside, every roll-out on the taut guide swings past it and leaves the
+    bounds; the first roll-out along the turning route reaches it, and the judge passes the plan."""
+    arm = load_robot("src/snakeplan/robots/data/arms/arm-10x220.json")
+    scene = sized_scene("confined", 5, arm_sizing("confined", arm))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        taut = run_episode(Problem(scene, arm, time_limit_s=10.0, knowledge="sensed"),
+                           SacPlanner(policy="generalist-arms", turning=False))
+        turned = run_episode(Problem(scene, arm, time_limit_s=10.0, knowledge="sensed"),
+                             SacPlanner(policy="generalist-arms"))
+    assert not taut.success and taut.plan.why.count("left the bounds") == 1 and "16 left the bounds" in taut.plan.why
+    assert turned.success and turned.plan.status is Status.FOUND and turned.plan.details["route"] == "turning"
+    assert turned.plan.details["attempts"] == 2
