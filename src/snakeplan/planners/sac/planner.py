@@ -141,7 +141,8 @@ class SacPlanner(Planner):
     (``problem.world``), so a retry re-plans within what has been sensed; a ``guide`` policy's route guide is
     made again from what has been sensed when a retry knows more than the last guide did, and with ``turning``
     (the default) its odd-numbered retries follow the turning route of what is known (see the module), crawling on
-    :func:`~.guide.turning_crawl_radius` or the policy's own radius, the tighter. A found plan's details name the ``route`` it followed."""
+    :func:`~.guide.turning_crawl_radius` or the policy's own radius, the tighter. A found plan's details name
+    the ``route`` it followed."""
 
     name = "sac"
     needs_full_scene = False
