@@ -12,7 +12,7 @@ from scipy.interpolate import RegularGridInterpolator
 
 from snakeplan.episode import run_episode
 from snakeplan.geometry.distance import ObstacleSet
-from snakeplan.geometry.primitives import Box
+from snakeplan.geometry.primitives import Box, Plate
 from snakeplan.planners import Problem, Status
 from snakeplan.planners.sac.guide import turning_guide
 from snakeplan.planners.sac.planner import SacPlanner
@@ -20,9 +20,10 @@ from snakeplan.robots import load_robot
 from snakeplan.scenes import Entrance, arm_sizing, sized_scene
 from snakeplan.scenes.routes.grid import Grid
 from snakeplan.scenes.routes.guide import GUIDE_CELL_MM, FreeSpace, route_through
-from snakeplan.scenes.routes.turning import _clearance, turning_route
+from snakeplan.scenes.routes.turning import _clearance, _tour, turning_route
 
 RADIUS_MM, CLEAR_MM, STEP_MM = 250.0, 40.0, 35.0
+CAPTURE_MM = 4 * STEP_MM  # the generalists' goal capture
 ENTRANCE = Entrance([0.0, 150.0, 300.0], [1.0, 0.0, 0.0])
 BESIDE = np.array([[100.0, 750.0, 300.0]])  # 600 mm beside the entrance, 100 mm in
 
@@ -67,8 +68,9 @@ def test_the_clearance_is_the_trilinear_interpolation_of_the_field():
     axes = [origin[a] + (np.arange(sdf.shape[a]) + 0.5) * spacing[a] for a in range(3)]
     reference = RegularGridInterpolator(axes, sdf)
     shape = np.array(sdf.shape, dtype=np.int64)
-    for p in rng.uniform([a[0] for a in axes], [a[-1] for a in axes], (200, 3)):
-        assert _clearance(sdf, shape, origin, spacing, p) == pytest.approx(reference(p)[0], abs=1e-9)
+    lo, hi = np.array([a[0] for a in axes]), np.array([a[-1] for a in axes])
+    for p in rng.uniform(lo - 50.0, hi + 50.0, (400, 3)):  # beyond the outer centres: the outer value
+        assert _clearance(sdf, shape, origin, spacing, p) == pytest.approx(reference(np.clip(p, lo, hi))[0], abs=1e-9)
 
 
 def test_a_target_beside_the_entrance_needs_a_room_as_deep_as_the_turning_radius():
@@ -80,9 +82,9 @@ def test_a_target_beside_the_entrance_needs_a_room_as_deep_as_the_turning_radius
     the arc that captures its target) swings out that far."""
     shallow, _ = _room(250.0)
     assert route_through(shallow, ENTRANCE, BESIDE, CLEAR_MM).complete
-    assert turning_route(shallow, ENTRANCE, BESIDE, RADIUS_MM, CLEAR_MM, STEP_MM, 3000.0) is None
+    assert turning_route(shallow, ENTRANCE, BESIDE, RADIUS_MM, CLEAR_MM, STEP_MM, 3000.0, CAPTURE_MM) is None
     deep, wall = _room(450.0)
-    route = turning_route(deep, ENTRANCE, BESIDE, RADIUS_MM, CLEAR_MM, STEP_MM, 3000.0)
+    route = turning_route(deep, ENTRANCE, BESIDE, RADIUS_MM, CLEAR_MM, STEP_MM, 3000.0, CAPTURE_MM)
     assert route is not None and route.complete
     arc = _capture_arc(route.points)
     swing = max(route.points[:-1, 0].max(), arc[:, 0].max())
@@ -94,10 +96,11 @@ def test_a_target_beside_the_entrance_needs_a_room_as_deep_as_the_turning_radius
 def test_a_route_through_two_targets_turns_no_tighter_than_its_radius():
     """Every corner of the route between crawl steps turns by at most its shorter side over R (an arc of radius R
     turns a step s by s / R), away from the targets, where the crawl's capture and snap take over; the targets
-    come in order, at the route's target arcs; the route keeps the clearance; a tour longer than allowed is none."""
+    come in order, at the route's target arcs; the route keeps the clearance from a wall (exact: the field is
+    linear there); a tour longer than allowed is none."""
     space, wall = _room(1000.0)
     targets = np.array([[600.0, 600.0, 200.0], [250.0, 200.0, 450.0]])
-    route = turning_route(space, ENTRANCE, targets, RADIUS_MM, CLEAR_MM, STEP_MM, 3000.0)
+    route = turning_route(space, ENTRANCE, targets, RADIUS_MM, CLEAR_MM, STEP_MM, 3000.0, CAPTURE_MM)
     assert route is not None
     np.testing.assert_allclose(route.at(route.target_arc), targets, atol=1e-9)
     assert np.all(np.diff(route.target_arc) > 0)
@@ -109,15 +112,40 @@ def test_a_route_through_two_targets_turns_no_tighter_than_its_radius():
     turn = np.arccos(np.clip(np.einsum("ij,ij->i", u, v), -1.0, 1.0))
     assert len(turn) > 10 and np.all((turn <= np.minimum(before, after) / RADIUS_MM + 1e-9) | near_target)
     assert np.min(wall.signed_distance(route.points)) >= CLEAR_MM - 1e-6
-    assert turning_route(space, ENTRANCE, targets, RADIUS_MM, CLEAR_MM, STEP_MM, route.arc[-1] * 0.8) is None
+    short = route.arc[-1] * 0.8
+    assert turning_route(space, ENTRANCE, targets, RADIUS_MM, CLEAR_MM, STEP_MM, short, CAPTURE_MM) is None
+
+
+def test_a_route_through_a_hole_keeps_the_clearance_from_its_rim_as_the_field_holds_it():
+    """A wall across x = 500 with a round hole of radius 90 mm centred at y = 450, fed at y = 250 towards a target
+    at y = 650 behind it: the route threads the hole off its axis, within 90 mm of the rim, and keeps the
+    clearance from the rim to within half a cell diagonal (the field is trilinear between cell centres, and the
+    distance to a rim is not linear)."""
+    wall = ObstacleSet([Plate([500.0, 450.0, 300.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0], (900.0, 600.0), 10.0,
+                              {"offset": [0.0, 0.0], "semi_axes": [90.0, 90.0]})])
+    grid = Grid.covering([0.0, 0.0, 0.0], [1200.0, 900.0, 600.0], GUIDE_CELL_MM)
+    route = turning_route(FreeSpace.of(wall, grid, 100.0), Entrance([0.0, 250.0, 300.0], [1.0, 0.0, 0.0]),
+                          np.array([[900.0, 650.0, 300.0]]), RADIUS_MM, CLEAR_MM, STEP_MM, 3000.0, CAPTURE_MM)
+    assert route is not None
+    assert CLEAR_MM - 0.5 * np.linalg.norm(grid.spacing) <= np.min(wall.signed_distance(route.points)) <= 90.0
+
+
+def test_without_goal_capture_a_route_ends_where_the_crawl_snaps():
+    """With no goal capture the crawl takes a target only within two steps, inside one step's turn: the route's
+    last chord is so."""
+    space, _ = _room(450.0)
+    route = turning_route(space, ENTRANCE, BESIDE, RADIUS_MM, CLEAR_MM, STEP_MM, 3000.0, 0.0)
+    prev, p, q = _vertices(route.points)[-3:]
+    u, v = (p - prev) / np.linalg.norm(p - prev), (q - p) / np.linalg.norm(q - p)
+    assert np.linalg.norm(q - p) <= 2 * STEP_MM + 1e-9 and np.arccos(min(u @ v, 1.0)) <= STEP_MM / RADIUS_MM + 1e-9
 
 
 def test_a_turning_guide_given_no_time_is_none():
     space, _ = _room(1000.0)
     scene_like = type("S", (), {"entrance": ENTRANCE, "targets": BESIDE})()
     arm = load_robot("src/snakeplan/robots/data/arms/arm-10x220.json")
-    assert turning_guide(space, scene_like, arm, 25.0, STEP_MM, seconds=0.0) is None
-    assert turning_guide(space, scene_like, arm, 25.0, STEP_MM) is not None
+    assert turning_guide(space, scene_like, arm, 25.0, STEP_MM, CAPTURE_MM, seconds=0.0) is None
+    assert turning_guide(space, scene_like, arm, 25.0, STEP_MM, CAPTURE_MM) is not None
 
 
 def test_the_stiff_arm_reaches_a_confined_target_along_a_turning_route_it_missed_on_the_taut_guide():
@@ -126,12 +154,15 @@ def test_the_stiff_arm_reaches_a_confined_target_along_a_turning_route_it_missed
     bounds; the first roll-out along the turning route reaches it, and the judge passes the plan."""
     arm = load_robot("src/snakeplan/robots/data/arms/arm-10x220.json")
     scene = sized_scene("confined", 5, arm_sizing("confined", arm))
+    planner = SacPlanner(policy="generalist-arms")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         taut = run_episode(Problem(scene, arm, time_limit_s=10.0, knowledge="sensed"),
                            SacPlanner(policy="generalist-arms", turning=False))
-        turned = run_episode(Problem(scene, arm, time_limit_s=10.0, knowledge="sensed"),
-                             SacPlanner(policy="generalist-arms"))
+        planner.warm_up(Problem(scene, arm, time_limit_s=10.0, knowledge="sensed"))
+        compiled = len(getattr(_tour, "signatures", ()))
+        turned = run_episode(Problem(scene, arm, time_limit_s=10.0, knowledge="sensed"), planner)
     assert not taut.success and taut.plan.why.count("left the bounds") == 1 and "16 left the bounds" in taut.plan.why
     assert turned.success and turned.plan.status is Status.FOUND and turned.plan.details["route"] == "turning"
     assert turned.plan.details["attempts"] == 2
+    assert len(getattr(_tour, "signatures", ())) == compiled  # the plan called the search as the warm-up did

@@ -9,9 +9,10 @@ import math
 
 import numpy as np
 
+from snakeplan.geometry.distance import ObstacleSet
 from snakeplan.robots import Chain
 from snakeplan.robots.arm_range import turn_radius_for
-from snakeplan.scenes import Scene
+from snakeplan.scenes import Entrance, Scene
 from snakeplan.scenes.routes.grid import Grid
 from snakeplan.scenes.routes.guide import GUIDE_CELL_MM, FreeSpace, RouteGuide, route_through
 from snakeplan.scenes.routes.turning import MAX_EXPANSIONS, turning_route
@@ -57,17 +58,18 @@ def guide_for(scene: Scene, world: KnowledgeView, radius_mm: float, deadline: fl
 
 
 def turning_guide(space: FreeSpace, scene: Scene, robot: Chain, margin_mm: float, step_mm: float,
-                  seconds: float = math.inf) -> RouteGuide | None:
+                  capture_mm: float, seconds: float = math.inf) -> RouteGuide | None:
     """The turning route (:func:`~snakeplan.scenes.routes.turning.turning_route`) through ``space`` for ``robot``:
     on ``TURNING_ROUTE_WIDER`` times :func:`turning_crawl_radius`, kept ``margin_mm`` beyond the arm's radius (at
-    most the field's cap), no longer than the arm, in crawl steps of ``step_mm``, searched for about ``seconds``
-    at most (``TURNING_EXPANSIONS_PER_S``); None when there is none (or none was found in time)."""
+    most the field's cap), no longer than the arm, in crawl steps of ``step_mm``, capturing targets within
+    ``capture_mm`` as the crawl does, its search's expansions capped by ``seconds`` (``TURNING_EXPANSIONS_PER_S``;
+    its geodesic fields, milliseconds, are not); None when there is none (or none was found in time)."""
     clearance = min(float(np.max(robot.radii)) + margin_mm, space.cap_mm)
     budget = int(min(MAX_EXPANSIONS, max(seconds, 0.0) * TURNING_EXPANSIONS_PER_S))
     if budget < 1:
         return None
     return turning_route(space, scene.entrance, scene.targets, TURNING_ROUTE_WIDER * turning_crawl_radius(robot),
-                         clearance, step_mm, float(robot.total_length), max_expansions=budget)
+                         clearance, step_mm, float(robot.total_length), capture_mm, max_expansions=budget)
 
 
 def turning_crawl_radius(robot: Chain) -> float:
@@ -75,3 +77,13 @@ def turning_crawl_radius(robot: Chain) -> float:
     itself turns on ``TURNING_ROUTE_WIDER`` times it; a crawl following it turns on it, or on its own radius where
     that is tighter)."""
     return turn_radius_for(robot, TURNING_BEND_FRACTION)
+
+
+def warm_up_turning(step_mm: float, capture_mm: float) -> None:
+    """Compile (or load) the turning route search's kernels, with the argument types a plan passes them, on a
+    route across an empty box three cells wide."""
+    grid = Grid.covering((0.0, 0.0, 0.0), (3 * GUIDE_CELL_MM,) * 3, GUIDE_CELL_MM)
+    space = FreeSpace(grid, GUIDE_CELL_MM, np.full(grid.shape, GUIDE_CELL_MM), ObstacleSet([]))
+    middle = 1.5 * GUIDE_CELL_MM
+    turning_route(space, Entrance([0.0, middle, middle], [1.0, 0.0, 0.0]), [[2 * GUIDE_CELL_MM, middle, middle]],
+                  10 * GUIDE_CELL_MM, 0.0, step_mm, 10 * GUIDE_CELL_MM, capture_mm)

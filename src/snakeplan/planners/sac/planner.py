@@ -37,6 +37,7 @@ from snakeplan.planners.sac.guide import (
     guide_space,
     turning_crawl_radius,
     turning_guide,
+    warm_up_turning,
 )
 from snakeplan.planners.sac.kernels import ROLL_OUTCOMES, Outcome, _roll
 from snakeplan.planners.sac.observation import action_dim, route_tables
@@ -176,10 +177,12 @@ class SacPlanner(Planner):
 
     def warm_up(self, problem: Problem) -> None:
         """The validity checker's kernels, the policy, one roll-out step (rays, actor), a smoothing and a crawl
-        check, outside the timed plan."""
+        check, and a guide policy's turning route search, outside the timed plan."""
         super().warm_up(problem)
         policy, _ = self._policy(problem.scene, problem.robot)
         path, _ = rollout(policy, problem.scene, problem.robot, max_steps=2, world=problem.world)
+        if policy.mode == "guide" and self.turning:
+            warm_up_turning(policy.step_mm, policy.crawler(problem.robot).capture_mm)
         if len(path) > 2:
             smoothed = polyline.smooth(path, self.smoothing[0], pins=path[-1:]) if self.smoothing else path
             path_smoothness(smoothed, float(np.mean(problem.robot.lengths)), problem.robot.k_ul)
@@ -219,7 +222,7 @@ class SacPlanner(Planner):
         guide, known, margin, routed, widest = None, -1, GUIDE_MARGIN_MM, GUIDE_MARGIN_MM, GUIDE_MARGIN_MAX_MM
         space, radius = None, float(np.max(problem.robot.radii))
         turning: dict[tuple, RouteGuide | None] = {}
-        own_radius = policy.step_mm / policy.crawler(problem.robot).max_turn
+        crawl = policy.crawler(problem.robot)  # the policy's own turning radius and goal capture
         ends: Counter[str] = Counter()
         for attempt in range(self.attempts):
             noise = self.noise_levels[(attempt - 1) % RETRY_LEVELS] if attempt else 0.0
@@ -241,10 +244,11 @@ class SacPlanner(Planner):
                 key = (known, routed)
                 fresh = key not in turning
                 if fresh:  # a turning route on what is known now
-                    turning[key] = turning_guide(space, problem.scene, problem.robot, routed, policy.step_mm,
-                                                 deadline - time.perf_counter())
+                    turning[key] = turning_guide(space, problem.scene, problem.robot, routed, crawl.step_mm,
+                                                 crawl.capture_mm, deadline - time.perf_counter())
                 if turning[key] is not None:
-                    follow, radius_mm = turning[key], min(turning_crawl_radius(problem.robot), own_radius)
+                    follow = turning[key]
+                    radius_mm = min(turning_crawl_radius(problem.robot), crawl.step_mm / crawl.max_turn)
                     noise = 0.0 if fresh else noise
             path, outcome = rollout(policy, problem.scene, problem.robot, deadline, noise=noise, rng=rng,
                                     world=problem.world, guide=follow, turn_radius_mm=radius_mm)
@@ -271,6 +275,10 @@ class SacPlanner(Planner):
         why = (f"{'the time limit ran out' if stopped is Status.TIMEOUT else 'no roll-out found a path'} after "
                f"{details['attempts']} of {self.attempts} roll-outs: "
                + ", ".join(f"{n} {what}" for what, n in ends.items()))
+        if turning:
+            found = sum(route is not None for route in turning.values())
+            why += (f" ({found} of {len(turning)} turning routes found)" if found
+                    else "; no turning route the arm can follow was found within the search's budget")
         best = best if best is not None else path
         if best is None or len(best) < 2:
             return Solution(stopped, None, details, why)

@@ -10,9 +10,9 @@ heading. Every step stays inside the bounds and at least the clearance from the 
 of :class:`~.guide.FreeSpace`, trilinear between cell centres; the feed stretch inside the port excepted). States
 are told apart by next target, grid cell and heading bin. The cost is arc length (turns cost ``TURN_COST`` more);
 the heuristic is the geodesic distance (:mod:`.geodesic`) to the next target and on through the rest, weighted by
-``HEURISTIC_WEIGHT``. A target is captured where it lies ahead within ``CAPTURE_STEPS`` steps on an arc
-``CAPTURE_RADIUS`` times wider than the turning radius (the crawl's goal capture steers there); the search goes on
-from it with the heading that arc arrives with. The whole tour is at most ``max_length_mm`` (the arm's length).
+``HEURISTIC_WEIGHT``. A target is captured where the crawl would take it (its goal capture, on an arc
+``CAPTURE_RADIUS`` times wider than the turning radius, or its snap); the search goes on from it with the heading
+that arc arrives with. The whole tour is at most ``max_length_mm`` (the arm's length).
 """
 
 from __future__ import annotations
@@ -34,12 +34,12 @@ STEPS_PER_EXPANSION = 3
 BEND_DIRECTIONS = 8
 #: Heading bins per cube face edge: 6 * BINS**2 bins, about 15 deg each.
 HEADING_BINS = 6
-#: A leg ends where its target lies ahead within this many steps on an arc no tighter than the turning radius
-#: (the crawl's goal capture steers it there).
-CAPTURE_STEPS = 4
 #: How much wider than the turning radius a capturing arc is: the crawl, following a little off the route, still
 #: captures.
 CAPTURE_RADIUS = 1.5
+#: Without goal capture, a target is reached as the crawl snaps to it: within this many steps, inside one step's
+#: turn.
+SNAP_STEPS = 2.0
 #: Extra cost of turning, a fraction of the length turned at the full rate: of routes about as long, the straighter.
 TURN_COST = 0.2
 #: Weight of the geodesic heuristic (> 1: greedier, faster, at most that much longer than the shortest).
@@ -49,17 +49,23 @@ MAX_EXPANSIONS = 200_000
 
 
 def turning_route(space: FreeSpace, entrance: Entrance, targets, turn_radius_mm: float, clearance_mm: float,
-                  step_mm: float, max_length_mm: float, feed_mm: float = DEFAULT_FEED_MM,
+                  step_mm: float, max_length_mm: float, capture_mm: float = 0.0, feed_mm: float = DEFAULT_FEED_MM,
                   max_expansions: int = MAX_EXPANSIONS) -> RouteGuide | None:
     """The :class:`RouteGuide` from ``entrance`` through ``targets`` in order on arcs of radius at least
-    ``turn_radius_mm``, every point at least ``clearance_mm`` (at most the field's cap) from the obstacles of
-    ``space`` (the first ``feed_mm`` from the entrance, inside the port, excepted), at most ``max_length_mm``
-    long; None when the search finds none within ``max_expansions``."""
+    ``turn_radius_mm``, every point at least ``clearance_mm`` (at most the field's cap; as the field interpolates
+    it, so to within half a cell near an obstacle's edges) from the obstacles of ``space`` (the first ``feed_mm``
+    from the entrance, inside the port, excepted), at most ``max_length_mm`` long; None when the search finds
+    none within ``max_expansions``. A target is captured, as the crawl's goal capture takes it, where it lies ahead
+    within ``capture_mm`` on an arc ``CAPTURE_RADIUS`` times wider than the turning radius (0: no capture; where
+    the crawl snaps to it, within ``SNAP_STEPS`` steps inside one step's turn); the route then runs straight to
+    it."""
     if clearance_mm > space.cap_mm:
         raise ValueError(f"clearance_mm: at most the field's cap {space.cap_mm:g} mm, got {clearance_mm:g}")
     grid = space.grid
     shape = np.array(grid.shape, dtype=np.int64)
-    goals = np.asarray(targets, dtype=float).reshape(-1, 3)
+    goals = np.array(targets, dtype=float).reshape(-1, 3)  # a writable copy: one argument type, whatever given
+    if len(goals) == 0:
+        return None
     # the heuristic's free cells are those whose centre is within half a cell diagonal of a clear point
     inflate = max(clearance_mm - 0.5 * float(np.linalg.norm(grid.spacing)), 0.0)
     fields = [geodesic_from_sdf(grid, space.sdf, Entrance(target, entrance.direction), inflate, 0.0)
@@ -74,7 +80,7 @@ def turning_route(space: FreeSpace, entrance: Entrance, targets, turn_radius_mm:
                         np.array(entrance.position, dtype=float),
                         np.array(entrance.direction, dtype=float) / np.linalg.norm(entrance.direction),
                         float(step_mm), float(step_mm) / float(turn_radius_mm), float(clearance_mm),
-                        float(max_length_mm), float(feed_mm), int(max_expansions))
+                        float(max_length_mm), float(feed_mm), float(capture_mm), int(max_expansions))
     if len(path) < 2:
         return None
     pieces, ends, start = [path[:1]], [], 0
@@ -181,13 +187,14 @@ def _arc(position, heading, action, turn, step, steps, trail, ends, work):
 
 @kernel
 def _tour(sdf, shape, origin, spacing, togo, after, targets, start, heading, step, turn, clearance, max_length, feed,
-          budget):
-    """The search of :func:`turning_route`: (tip points every ``step`` or less from ``start`` through ``targets``,
-    or none; the index of each target's point). A state is a tip place, heading and the next target; ``togo[k]``
-    is the geodesic distance to target k per flat cell (inf where blocked), ``after[k]`` that of the tour on from
-    it; ``turn`` the largest turn (rad) of one step. Capturing a target (ahead within ``CAPTURE_STEPS`` steps on
-    an arc of radius ``CAPTURE_RADIUS * step / turn`` or more) moves the state onto it, heading as that arc
-    arrives."""
+          capture, budget):
+    """The search of :func:`turning_route`: (tip points from ``start`` through ``targets``, every ``step`` but for
+    the chords to captured targets, or none; the index of each target's point). A state is a tip place, heading
+    and the next target; ``togo[k]`` is the geodesic distance to target k per flat cell (inf where blocked),
+    ``after[k]`` that of the tour on from it; ``turn`` the largest turn (rad) of one step. Capturing a target (see
+    :func:`turning_route`; ``capture`` mm) moves the state onto it, heading as the capturing arc arrives; the chord
+    to it keeps the clearance but within the clearance of the target, where it keeps its distance from it. A child
+    state is pushed only when it costs less than any other push of that state."""
     steps, actions = STEPS_PER_EXPANSION, 2 * BEND_DIRECTIONS + 1
     nbins = 6 * HEADING_BINS * HEADING_BINS
     ncells = shape[0] * shape[1] * shape[2]
@@ -197,6 +204,7 @@ def _tour(sdf, shape, origin, spacing, togo, after, targets, start, heading, ste
     while slots < 4 * (budget + 1):
         slots *= 2
     seen = np.zeros(slots, dtype=np.int64)  # an open-addressing set of closed states' keys (plus one; 0: empty)
+    pushed, least, n_pushed = np.zeros(slots, dtype=np.int64), np.empty(slots), 0  # each pushed state's least cost
     cap = 4096
     pos, head = np.empty((cap, 3)), np.empty((cap, 3))
     g, run, parent = np.empty(cap), np.empty(cap), np.empty(cap, dtype=np.int64)
@@ -207,6 +215,7 @@ def _tour(sdf, shape, origin, spacing, togo, after, targets, start, heading, ste
     trail, ends, chord, h = np.empty((steps, 3)), np.empty((steps, 3)), np.empty(3), np.empty(3)
     work = np.empty((4, 3))
     radius = step / turn
+    cos_turn = math.cos(turn)
     while len(heap) > 0 and expansions < budget and found < 0:
         _, node = heapq.heappop(heap)
         k = goal[node]
@@ -233,7 +242,7 @@ def _tour(sdf, shape, origin, spacing, togo, after, targets, start, heading, ste
                     along += (p[b] - start[b]) * heading[b]
                 for b in range(3):
                     lateral += (p[b] - start[b] - along * heading[b]) ** 2
-                in_port = along <= feed and lateral <= (0.5 * clearance) ** 2
+                in_port = 0.0 <= along <= feed and lateral <= (0.5 * clearance) ** 2
                 if not in_port and _clearance(sdf, shape, origin, spacing, p) < clearance:
                     ok = False
                     break
@@ -241,23 +250,30 @@ def _tour(sdf, shape, origin, spacing, togo, after, targets, start, heading, ste
                 for b in range(3):
                     d += (targets[k, b] - p[b]) ** 2
                     dot += (targets[k, b] - p[b]) * ends[s, b]
-                if d <= (CAPTURE_STEPS * step) ** 2 and dot > 0.0 \
-                        and 2.0 * CAPTURE_RADIUS * radius * math.sqrt(max(d - dot * dot, 0.0)) <= d:
+                if capture > 0.0:
+                    caught = d <= capture * capture and dot > 0.0 and \
+                        2.0 * CAPTURE_RADIUS * radius * math.sqrt(max(d - dot * dot, 0.0)) <= d
+                else:
+                    caught = d <= (SNAP_STEPS * step) ** 2 and (d < 1e-18 or dot >= cos_turn * math.sqrt(d))
+                if caught:
                     reached = s
                     d = math.sqrt(d)
                     break
             if not ok:
                 continue
             if reached >= 0:
+                q = targets[k]
+                if not _chord_clear(sdf, shape, origin, spacing, trail[reached], q, d, step, clearance):
+                    continue
                 length = run[node] + step * (reached + 1) + d
                 cost = g[node] + step * (reached + 1) + d
                 to = k + 1
-                q = targets[k]
                 for b in range(3):  # the arc tangent to the heading through the target arrives mirrored
                     chord[b] = (q[b] - trail[reached, b]) / max(d, 1e-9)
                 c = chord[0] * ends[reached, 0] + chord[1] * ends[reached, 1] + chord[2] * ends[reached, 2]
                 for b in range(3):
                     h[b] = 2.0 * c * chord[b] - ends[reached, b]
+                rest = after[k]
             else:
                 length = run[node] + step * steps
                 bend = 0.0 if action == 0 else (1.0 if action <= BEND_DIRECTIONS else 0.5)
@@ -265,12 +281,22 @@ def _tour(sdf, shape, origin, spacing, togo, after, targets, start, heading, ste
                 to = k
                 q = trail[steps - 1]
                 h[:] = ends[steps - 1]
-            rest = 0.0 if to == n_targets else togo[to, _cell(shape, origin, spacing, q)] + after[to]
+                rest = togo[to, _cell(shape, origin, spacing, q)] + after[to]
             if not rest < np.inf or length + rest > max_length:
                 continue
-            if to < n_targets and _has(seen, (to * ncells + _cell(shape, origin, spacing, q)) * nbins
-                                       + _heading_bin(h, HEADING_BINS)):
-                continue
+            if to < n_targets:
+                child = (to * ncells + _cell(shape, origin, spacing, q)) * nbins + _heading_bin(h, HEADING_BINS)
+                if _has(seen, child):
+                    continue
+                at = _slot(pushed, child)
+                if pushed[at] == child + 1 and least[at] <= cost:
+                    continue
+                if pushed[at] == 0:
+                    n_pushed += 1
+                    if 2 * n_pushed > pushed.shape[0]:
+                        pushed, least = _rehashed(pushed, least)
+                        at = _slot(pushed, child)
+                pushed[at], least[at] = child + 1, cost
             pos[count], head[count], g[count], run[count], parent[count] = q, h, cost, length, node
             move[count], tail[count], goal[count] = action, reached, to
             if to == n_targets:
@@ -327,6 +353,32 @@ def _add(table, key):
         return False
     table[i] = key + 1
     return True
+
+
+@kernel
+def _chord_clear(sdf, shape, origin, spacing, p, q, d, step, clearance):
+    """Whether the chord from ``p`` to target ``q`` (``d`` mm long), sampled every half ``step``, keeps
+    ``clearance`` from the obstacles, or within it of ``q`` its distance from ``q``."""
+    n = int(math.ceil(2.0 * d / step))
+    x = np.empty(3)
+    for j in range(1, n):
+        t = j / n
+        for b in range(3):
+            x[b] = p[b] + t * (q[b] - p[b])
+        if _clearance(sdf, shape, origin, spacing, x) < min(clearance, (1.0 - t) * d):
+            return False
+    return True
+
+
+@kernel
+def _rehashed(table, values):
+    """The open-addressing map ``table`` -> ``values`` in twice the slots."""
+    keys, vals = np.zeros(2 * table.shape[0], dtype=np.int64), np.empty(2 * table.shape[0])
+    for i in range(table.shape[0]):
+        if table[i] != 0:
+            at = _slot(keys, table[i] - 1)
+            keys[at], vals[at] = table[i], values[i]
+    return keys, vals
 
 
 @kernel
