@@ -3,6 +3,7 @@ policy refused for any other arm with both named."""
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import re
@@ -155,6 +156,20 @@ def test_train_rl_for_an_arm_file_then_plan_and_check_with_it_alone(capsys, tmp_
                                 "--planner", "sac", "--policy", str(out / "last.npz"))
         assert code == 2 and stdout == "" and err.count("\n") == 1
         assert "trained for arm-16x120 (16 sections" in err and f"planning with {load_robot(other).name} (" in err
+
+
+def test_commands_size_a_generated_scene_to_the_robot_given():
+    """``plan`` and ``show`` read --scene/--seed/--robot alike: the family's scene sized to the arm --robot names
+    (its own sizing rule, :func:`arm_sizing`), and the arm; without --robot the family's scene and arm as they are."""
+    from snakeplan.commands.inputs import scene_and_robot
+
+    given = argparse.Namespace(scene="confined", seed=1, scene_file=None, robot=str(ARMS / "arm-16x120.json"))
+    scene, robot = scene_and_robot(given)
+    assert robot.name == "arm-16x120"
+    assert scene.to_dict() == sized_scene("confined", 1, arm_sizing("confined", arm("arm-16x120"))).to_dict()
+    assert scene.to_dict() != make_scene("confined", 1).to_dict()
+    scene, robot = scene_and_robot(argparse.Namespace(scene="confined", seed=1, scene_file=None, robot=None))
+    assert robot.name == "sjtu-snake-iii" and scene.to_dict() == make_scene("confined", 1).to_dict()
 
 
 # --- the arm-conditioned generalist ------------------------------------------------------------------------------

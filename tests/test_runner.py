@@ -408,3 +408,39 @@ def test_a_benchmark_piped_into_head_logs_every_run_and_does_not_claim_success(t
     proc = subprocess.run(["bash", "-c", cmd], capture_output=True, text=True, timeout=600)
     assert proc.returncode == 141 and proc.stdout.startswith("run: 1/6 ")
     assert len(read_rows(out)) == 6
+
+
+def test_a_sweep_plans_a_scene_file_whose_mesh_lies_beside_it_and_keys_it_by_content(tmp_path):
+    """A scene file naming its mesh relative to itself: the runner's worker reads it from the file's folder and
+    plans; the run's key is the same when the folder moves (nothing absolute in it) and changes when the mesh
+    does."""
+    import hashlib
+    import shutil
+
+    import trimesh
+
+    from snakeplan.scenes.meshing import pipe_run, to_mesh
+
+    elbow = to_mesh([pipe_run([[0, 0, 0], [500, 0, 0], [500, 500, 0]], 100.0, 15.0, 250.0, 48)])
+    job = tmp_path / "job"
+    (job / "parts").mkdir(parents=True)
+    trimesh.Trimesh(elbow.vertices / 1000.0, elbow.faces).export(job / "parts" / "elbow.stl")
+    doc = {"schema": "snakeplan.scene/1", "name": "elbow", "units": "mm",
+           "bounds": {"min": [-150, -150, -150], "max": [650, 650, 150]},
+           "entrance": {"position": [0, 0, 0], "direction": [1, 0, 0]}, "targets": [[500, 450, 0]],
+           "obstacles": [{"type": "mesh", "file": "parts/elbow.stl", "units": "m"}]}
+    (job / "elbow.json").write_text(json.dumps(doc))
+
+    def sweep(folder):
+        return Sweep("elbow", (str(folder / "elbow.json"),), (0,), (("as-rrt", {}),), 20.0)
+
+    rows = run_sweep(sweep(job), tmp_path / "out", Backend("serial"), progress=False).rows
+    assert len(rows) == 1 and rows[0]["success"], rows[0]["why"]
+    assert rows[0]["files_sha256"] == {"parts/elbow.stl": hashlib.sha256((job / "parts" / "elbow.stl").read_bytes())
+                                       .hexdigest()}
+    shutil.move(job, tmp_path / "moved")
+    assert sweep(tmp_path / "moved").runs()[0].key == rows[0]["key"]
+    bent = trimesh.load(tmp_path / "moved" / "parts" / "elbow.stl")
+    bent.vertices *= 1.01
+    bent.export(tmp_path / "moved" / "parts" / "elbow.stl")
+    assert sweep(tmp_path / "moved").runs()[0].key != rows[0]["key"]

@@ -16,7 +16,7 @@ import json
 from dataclasses import replace
 from pathlib import Path
 
-from snakeplan.bench.report import summarise
+from snakeplan.bench.report import options_label, summarise
 from snakeplan.files import atomic_write
 
 #: The held-out arms of the arm-conditioned generalist: never drawn in its training (the distribution draws
@@ -53,6 +53,10 @@ def train_arm(arm: str, out: Path, steps: int, seed: int = 0) -> dict:
             "best_success": max((h["success"] for h in result.history), default=0.0)}
 
 
+#: The generalist's planner options in the sweeps.
+GENERALIST_OPTIONS = {"policy": "generalist-arms"}
+
+
 def run(out: Path, arms: tuple[str, ...] = HELD_OUT, seeds: int = 100, scenes: tuple[str, ...] = SCENES,
         train_steps: int = 0, time_limit: float = 10.0, backend=None) -> dict:
     """Train (``train_steps`` > 0) and plan every arm (see the module) into ``out``; the summary, also written to
@@ -65,7 +69,7 @@ def run(out: Path, arms: tuple[str, ...] = HELD_OUT, seeds: int = 100, scenes: t
     summary: dict = {"seeds": seeds, "scenes": list(scenes), "train_steps": train_steps, "arms": {}}
     for arm in arms:
         name = Path(arm).stem
-        entries = [("sac", {"policy": "generalist-arms"})]
+        entries = [("sac", GENERALIST_OPTIONS)]
         trained = None
         if train_steps > 0:
             trained = train_arm(arm, out / f"train-{name}", train_steps)
@@ -74,7 +78,7 @@ def run(out: Path, arms: tuple[str, ...] = HELD_OUT, seeds: int = 100, scenes: t
                                robot=arm_source(arm), knowledge="sensed"), out / f"plans-{name}", backend).rows
         table: dict = {}
         for e in summarise(rows):
-            label = "generalist" if e["options"] == "policy=generalist-arms" else "per-arm"
+            label = "generalist" if e["options"] == options_label(GENERALIST_OPTIONS) else "per-arm"
             table.setdefault(e["scene"], {})[label] = _figures(e)
         summary["arms"][name] = {
             "training": None if trained is None else {k: trained[k] for k in ("wall_s_to_trained", "best_success")},

@@ -27,7 +27,7 @@ import numpy as np
 
 from snakeplan import ftl
 from snakeplan.bench.kernels import median_seconds
-from snakeplan.bench.runner import loadavg
+from snakeplan.bench.runner import Sweep, loadavg, row_path, run_sweep
 from snakeplan.files import atomic_write
 from snakeplan.geometry.polyline import arclength_grid, cumulative_length
 from snakeplan.scenes.scan import ScanSettings
@@ -55,19 +55,20 @@ def families(out: Path, seeds: int = 20, families_: tuple[str, ...] | None = Non
              time_limit: float = 10.0) -> dict:
     """Run the scanned families (and ``mesh``'s scans) not yet in ``out`` (see the module); the summary, also
     written to ``out/summary.json``."""
-    from snakeplan.bench.runner import Sweep, run_sweep
     from snakeplan.parallel import Backend
     from snakeplan.scenes.registry import SCANNED
 
     backend = backend or Backend()
+    out.mkdir(parents=True, exist_ok=True)
     sources = tuple(families_ or SCANNED)
     entries = tuple((p, {}) for p in planners)
     runs = (Sweep("cloud", tuple(f"{f}-scan" for f in sources), tuple(range(seeds)), entries, time_limit,
                   include=_include).runs()
             + Sweep("cloud-baseline", sources, tuple(range(seeds)), entries, time_limit, include=_include).runs())
-    exact = None if mesh is None else _mesh_scans(out, mesh, seeds)
+    exact = None
     if mesh is not None:
-        runs += _mesh_sweeps(out, mesh, seeds, planners, time_limit)
+        exact, scans = _mesh_scans(out, mesh, seeds)
+        runs += _mesh_sweeps(scans, out / "exact.json", planners, time_limit)
     rows = run_sweep(Sweep("cloud", (), (), ()), out, backend, runs=runs).rows
     table = _summary([r for r in rows if r["config"] == "cloud"], lambda r: r["scene"].removesuffix("-scan"),
                      lambda r: r["made_from"]["success"])
@@ -130,8 +131,8 @@ KITCHEN = {"entrance": [0.0, -1900.0, 700.0], "direction": [0.0, 1.0, 0.0], "tar
 def _mesh_scans(out: Path, mesh: Path, seeds: int):
     """``mesh`` (metres; placed as gymnasium-robotics' kitchen base cabinets on a floor, :data:`KITCHEN`) as the
     scene ``out/exact.json`` (naming the mesh by its absolute path: it lies outside ``out``), and scanned once per
-    seed into ``out/scans`` (scene files naming their clouds beside them, so ``out`` can move and resume); the
-    exact scene."""
+    seed into ``out/scans`` (scene files naming their clouds beside them, so ``out`` can move and resume): the
+    exact scene and the scan's scene file of each seed."""
     from snakeplan.scenes.importing import import_scene
     from snakeplan.scenes.scan import scan_scene
 
@@ -143,8 +144,10 @@ def _mesh_scans(out: Path, mesh: Path, seeds: int):
     atomic_write(out / "exact.json", json.dumps(doc))
     scans = out / "scans"
     scans.mkdir(exist_ok=True)
+    files = []
     for seed in range(seeds):
         scene_file = scans / f"{mesh.stem}-{seed}.json"
+        files.append(scene_file)
         if not scene_file.exists():
             cloud = scan_scene(exact, seed=seed).obstacles[0]
             np.save(scans / f"{mesh.stem}-{seed}.npy", cloud.points)
@@ -153,25 +156,22 @@ def _mesh_scans(out: Path, mesh: Path, seeds: int):
             doc["obstacles"] = [{"type": "points", "file": f"{mesh.stem}-{seed}.npy", "units": "mm",
                                  "radius_mm": cloud.radius}]
             atomic_write(scene_file, json.dumps(doc))
-    return exact
+    return exact, files
 
 
-def _mesh_sweeps(out: Path, mesh: Path, seeds: int, planners: tuple[str, ...], time_limit: float) -> list:
-    """The runs of :func:`_mesh_scans`' scans (``cloud-mesh``) and of its exact scene (``cloud-mesh-baseline``)."""
-    from snakeplan.bench.runner import Sweep
-
+def _mesh_sweeps(scans: list[Path], exact_file: Path, planners: tuple[str, ...], time_limit: float) -> list:
+    """The runs of :func:`_mesh_scans`' scan of each seed (``cloud-mesh``) and of its exact scene
+    (``cloud-mesh-baseline``)."""
     entries = tuple((p, {}) for p in planners)
     runs = []
-    for seed in range(seeds):
-        runs += Sweep("cloud-mesh", (str(out / "scans" / f"{mesh.stem}-{seed}.json"),), (seed,), entries,
-                      time_limit).runs()
-    return runs + Sweep("cloud-mesh-baseline", (str(out / "exact.json"),), tuple(range(seeds)), entries,
+    for seed, scene_file in enumerate(scans):
+        runs += Sweep("cloud-mesh", (str(scene_file),), (seed,), entries, time_limit).runs()
+    return runs + Sweep("cloud-mesh-baseline", (str(exact_file),), tuple(range(len(scans))), entries,
                         time_limit).runs()
 
 
 def _mesh_table(out: Path, mesh: Path, rows: list[dict], exact) -> dict:
     """The mesh's entry of the summary: each plan in a scan judged in the ``exact`` scene too."""
-    from snakeplan.bench.runner import row_path
     from snakeplan.evaluation import evaluate
     from snakeplan.robots import get_robot
 

@@ -39,7 +39,8 @@ def wilson(successes: int, n: int, z: float = Z95) -> tuple[float, float]:
     return max(0.0, centre - half), min(1.0, centre + half)
 
 
-def _options_label(options: dict) -> str:
+def options_label(options: dict) -> str:
+    """A run's options as the report's entries name them ("k=v,..." in key order)."""
     return ",".join(f"{k}={v}" for k, v in sorted(options.items()))
 
 
@@ -49,7 +50,7 @@ def summarise(rows: list[dict]) -> list[dict]:
 
     groups: dict[tuple, list[dict]] = {}
     for r in rows:
-        groups.setdefault((r.get("config", ""), r["scene"], r["planner"], _options_label(r.get("options") or {})),
+        groups.setdefault((r.get("config", ""), r["scene"], r["planner"], options_label(r.get("options") or {})),
                           []).append(r)
     out = []
     for (config, scene, planner, options), group in groups.items():

@@ -42,6 +42,7 @@ from unittest import mock
 
 import numpy as np
 
+from snakeplan.bench.runner import loadavg
 from snakeplan.files import atomic_write
 from snakeplan.interrupt import Interrupted, interruptible
 
@@ -60,8 +61,8 @@ OPTIMIZED_SCENES = ("fuel-tank", "oil-tank")
 
 
 def load() -> float:
-    """The 1-minute load average."""
-    return float(os.getloadavg()[0])
+    """The 1-minute load average (:func:`snakeplan.bench.runner.loadavg`)."""
+    return float(loadavg()[0])
 
 
 @contextlib.contextmanager

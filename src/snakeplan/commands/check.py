@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from snakeplan.commands.common import EXIT_INFEASIBLE, EXIT_OK, UsageError, print_json
-from snakeplan.commands.inputs import PlanFile, given_robot, load_plan_file, plan_scene, robot_for
+from snakeplan.commands.inputs import PlanFile, given_robot, load_plan_file, plan_scene, scene_robot
 from snakeplan.commands.options import DEFAULT_SCENE, ROBOT_HELP, plan_scene_args, view_args
 from snakeplan.commands.ros import check_ros, check_ros_robot, ros_args, write_ros
 from snakeplan.commands.views import check_picture, check_views, write_episode_views, write_plot, write_views
@@ -31,8 +31,9 @@ def cmd_check(args: argparse.Namespace) -> int:
     check_views(args)
     check_ros(args)
     plan = load_plan_file(args.path_file)
-    scene = plan_scene(args, plan.scene, (DEFAULT_SCENE, 0), plan.arm or given_robot(args))
-    robot, source = plan_robot(args, scene, plan)
+    given = given_robot(args)
+    scene = plan_scene(args, plan.scene, (DEFAULT_SCENE, 0), plan.arm or given)
+    robot, source = plan_robot(args, scene, plan, given)
     check_ros_robot(args, robot)
     problem, report = judge_plan(scene, robot, plan)
     if plan.mission is not None:
@@ -55,16 +56,17 @@ def cmd_check(args: argparse.Namespace) -> int:
     return EXIT_OK if report.success and not written else EXIT_INFEASIBLE
 
 
-def plan_robot(args: argparse.Namespace, scene, plan: PlanFile):
-    """(the arm to judge ``plan`` with: the plan's own, else --robot, else the scene's; where it came from). A
-    --robot other than the plan's own arm is refused."""
+def plan_robot(args: argparse.Namespace, scene, plan: PlanFile, given):
+    """(the arm to judge ``plan`` with: the plan's own, else ``given`` (the arm --robot names, or None), else the
+    scene's; where it came from). A --robot other than the plan's own arm is refused."""
     arm = plan.arm
-    given = robot_for(args, scene) if args.robot is not None or arm is None else None
     if arm is not None and given is not None and given.to_dict() != arm.to_dict():
         raise UsageError(f"--robot: {args.robot} is not the arm the plan was made with ({arm.name}); a plan is judged "
                          f"with its own arm: leave --robot out")
     source = "--robot" if args.robot else "the plan's" if arm is not None else "the scene's"
-    return (given if arm is None else arm), source
+    if arm is not None:
+        return arm, source
+    return (given if given is not None else scene_robot(scene)), source
 
 
 def judge_plan(scene, robot, plan: PlanFile):

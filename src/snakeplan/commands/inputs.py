@@ -62,11 +62,19 @@ def scene_dir(filename: str) -> Path:
     return Path(".") if filename == "-" else Path(filename).parent
 
 
-def robot_for(args: argparse.Namespace, scene):
-    """The robot named by --robot (a preset or a robot file), else the one the scene's spec says it is sized for."""
+def scene_robot(scene):
+    """The robot the scene's spec says it is sized for."""
     from snakeplan.scenes import spec_for
 
-    return load_robot(args.robot or spec_for(scene).robot)
+    return load_robot(spec_for(scene).robot)
+
+
+def scene_and_robot(args: argparse.Namespace):
+    """(scene, robot): --scene-file's scene, else --scene and --seed sized to --robot; the arm --robot names, else
+    the scene's own (:func:`scene_robot`)."""
+    given = given_robot(args)
+    scene = load_scene(args, given)
+    return scene, given if given is not None else scene_robot(scene)
 
 
 def load_robot(spec: str | dict, field: str = "--robot"):

@@ -22,7 +22,7 @@ from snakeplan.commands.common import (
     where,
     why_line,
 )
-from snakeplan.commands.inputs import given_robot, load_planner, load_scene, robot_for
+from snakeplan.commands.inputs import load_planner, scene_and_robot
 from snakeplan.commands.options import ROBOT_HELP, TRAJECTORY_HELP, scene_args, view_args
 from snakeplan.commands.ros import check_ros, check_ros_robot, recordings, ros_args, serving, write_ros
 from snakeplan.commands.trajectory import check_trajectories, write_trajectories
@@ -77,9 +77,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
     check_views(args)
     check_trajectories(args.trajectory, "--trajectory")
     check_ros(args)
-    given = given_robot(args)
-    scene = load_scene(args, given)
-    robot = given or robot_for(args, scene)
+    scene, robot = scene_and_robot(args)
     check_ros_robot(args, robot)
     spec = spec_for(scene)
     task = as_task(args.task or spec.task)

@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from snakeplan.commands.common import EXIT_OK, UsageError
-from snakeplan.commands.inputs import load_path_file, load_scene, robot_for
+from snakeplan.commands.inputs import load_path_file, scene_and_robot
 from snakeplan.commands.options import ROBOT_HELP, scene_args, view_args
 from snakeplan.commands.views import check_picture, check_views, write_plot, write_views
 
@@ -27,8 +27,7 @@ def cmd_show(args: argparse.Namespace) -> int:
     if args.path is None and (args.animate or args.html):
         raise UsageError(f"{'--animate' if args.animate else '--html'}: needs --path (a crawl to show)")
     check_views(args)
-    scene = load_scene(args)
-    robot = robot_for(args, scene)
+    scene, robot = scene_and_robot(args)
     path = load_path_file(args.path) if args.path else None
     report = None
     if path is not None:

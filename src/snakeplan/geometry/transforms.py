@@ -5,7 +5,14 @@ All functions accept batched angles/vectors (leading axes broadcast) and return 
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+
+from snakeplan.jit import kernel
+
+#: A heading closer than this (|cos|) to world z takes world x as :func:`frame_into`'s reference.
+VERTICAL_COS = 0.9
 
 
 def rot_x(angle) -> np.ndarray:
@@ -54,6 +61,23 @@ def normalize(v, eps: float = 1e-12) -> np.ndarray:
     if np.any(n < eps):
         raise ValueError("cannot normalise a zero-length vector")
     return v / n
+
+
+@kernel
+def frame_into(d, out):
+    """Rows (heading, side, up) of the frame of unit heading ``d`` into ``out (3, 3)``, compiled: side = ref x d,
+    ref = world z (world x for a heading within ``VERTICAL_COS`` of vertical), up = d x side, so that up leans to
+    world z."""
+    x, y, z = d[0], d[1], d[2]
+    if abs(z) >= VERTICAL_COS:
+        sx, sy, sz = 0.0, -z, y
+    else:
+        sx, sy, sz = -y, x, 0.0
+    n = math.sqrt(sx * sx + sy * sy + sz * sz)
+    sx, sy, sz = sx / n, sy / n, sz / n
+    out[0, 0], out[0, 1], out[0, 2] = x, y, z
+    out[1, 0], out[1, 1], out[1, 2] = sx, sy, sz
+    out[2, 0], out[2, 1], out[2, 2] = y * sz - z * sy, z * sx - x * sz, x * sy - y * sx
 
 
 def any_perpendicular(d) -> np.ndarray:

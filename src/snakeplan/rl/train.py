@@ -229,10 +229,11 @@ def judge_policy(policy: NumpyPolicy, scene_name: str, seeds, robot: str | Chain
             "runs": runs}
 
 
-def make_env(scene: str, config: TrainConfig):
-    """A factory of training environments for ``scene`` with ``config``'s arm, crawl and observation settings."""
+def make_env(scene: str, config: TrainConfig, arm: Chain | None = None):
+    """A factory of training environments for ``scene`` with ``config``'s crawl and observation settings and
+    ``arm`` (default: ``config``'s, :func:`arm_for`)."""
     seeds = (TRAIN_SEED, TRAIN_SEED + config.train_scenes)
-    arm = arm_for(scene, config)
+    arm = arm_for(scene, config) if arm is None else arm
     return lambda: SnakeEnv(scene, observation=config.observation, robot=arm, seeds=seeds,
                             turn_radius_mm=config.turn_radius_mm, capture_steps=config.capture_steps,
                             lookahead=config.lookahead, knowledge=config.knowledge, residual=config.residual,
@@ -517,7 +518,7 @@ def train(scene: str, algorithm: str, steps: int, seed: int, out_dir: str | Path
 
 def _train(run: _Run, stop: StopRequest, generation: Generation | None) -> TrainResult:
     if generation is None:
-        env = DummyVecEnv([make_env(run.scene, run.config)] * run.config.n_envs)
+        env = DummyVecEnv([make_env(run.scene, run.config, run.arm)] * run.config.n_envs)
         env.seed(run.seed)
         run.model, run.graph = build_model(run.scene, run.algorithm, run.config, run.seed, env, run.steps)
     else:

@@ -14,6 +14,7 @@ from enum import StrEnum
 import numpy as np
 
 from snakeplan.geometry.distance import workspace
+from snakeplan.geometry.transforms import frame_into
 from snakeplan.jit import kernel
 from snakeplan.planners.sac.observation import (
     GOAL_SCALE_MM,
@@ -22,7 +23,6 @@ from snakeplan.planners.sac.observation import (
     OBSERVATIONS,
     RAY_EPS_MM,
     RAY_RANGE_MM,
-    _frame_into,
     _goal_features,
     _guide_into,
     _local_features,
@@ -266,7 +266,7 @@ def _roll(mode, lookahead, residual, step_mm, max_turn, capture_mm, tank_scale, 
     adim = noise.shape[1]
     n_rays, n_targets = rays.shape[0], targets.shape[0]
     heading, frame = direction.copy(), np.empty((3, 3))
-    _frame_into(heading, frame)
+    frame_into(heading, frame)
     dirs, ranges = np.empty((n_rays, 3)), np.empty(n_rays)
     if mode == _PAPER:
         n_obs = 3
@@ -303,7 +303,7 @@ def _roll(mode, lookahead, residual, step_mm, max_turn, capture_mm, tank_scale, 
         path[count] = new
         count += 1
         heading[:] = turned
-        _frame_into(heading, frame)
+        frame_into(heading, frame)
         prev[:] = applied
         for a in range(3):
             if not lo[a] <= new[a] <= hi[a]:

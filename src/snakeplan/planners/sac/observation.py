@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from snakeplan.geometry.transforms import frame_into
 from snakeplan.jit import kernel
 from snakeplan.robots.arm_range import arm_parameters
 from snakeplan.scenes import Scene
@@ -31,8 +32,6 @@ GOAL_SCALE_MM = 1000.0
 #: Route feature lengths are divided by this (mm) and clipped to ``FEATURE_CLIP``.
 FEATURE_SCALE_MM = 500.0
 FEATURE_CLIP = 4.0
-#: A heading closer than this (|cos|) to world z takes world x as the frame's reference.
-VERTICAL_COS = 0.9
 #: Observation designs.
 OBSERVATIONS = ("local", "paper", "guide")
 #: ``guide`` design: the route guide's points this far (mm of its arc length) ahead of the tip's place on it, never
@@ -44,21 +43,6 @@ GUIDE_TANGENT_MM = 20.0
 GUIDE_DIM = 11
 
 
-@kernel
-def _frame_into(d, out):
-    """Rows (heading, side, up) of the tip frame of unit heading ``d`` into ``out (3, 3)``."""
-    x, y, z = d[0], d[1], d[2]
-    if abs(z) >= VERTICAL_COS:
-        sx, sy, sz = 0.0, -z, y
-    else:
-        sx, sy, sz = -y, x, 0.0
-    n = math.sqrt(sx * sx + sy * sy + sz * sz)
-    sx, sy, sz = sx / n, sy / n, sz / n
-    out[0, 0], out[0, 1], out[0, 2] = x, y, z
-    out[1, 0], out[1, 1], out[1, 2] = sx, sy, sz
-    out[2, 0], out[2, 1], out[2, 2] = y * sz - z * sy, z * sx - x * sz, x * sy - y * sx
-
-
 def heading_frame(d: np.ndarray) -> np.ndarray:
     """Rows (heading, side, up) of the tip frame for unit headings ``d (..., 3)``; up leans to world z.
 
@@ -67,7 +51,7 @@ def heading_frame(d: np.ndarray) -> np.ndarray:
     flat = np.ascontiguousarray(d, dtype=float).reshape(-1, 3)
     out = np.empty((flat.shape[0], 3, 3))
     for i in range(flat.shape[0]):
-        _frame_into(flat[i], out[i])
+        frame_into(flat[i], out[i])
     return out.reshape(*np.shape(d)[:-1], 3, 3)
 
 

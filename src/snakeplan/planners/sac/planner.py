@@ -182,7 +182,8 @@ class SacPlanner(Planner):
         policy, _ = self._policy(problem.scene, problem.robot)
         path, _ = rollout(policy, problem.scene, problem.robot, max_steps=2, world=problem.world)
         if policy.mode == "guide" and self.turning:
-            warm_up_turning(policy.step_mm, policy.crawler(problem.robot).capture_mm)
+            crawl = policy.crawler(problem.robot)
+            warm_up_turning(crawl.step_mm, crawl.capture_mm)
         if len(path) > 2:
             smoothed = polyline.smooth(path, self.smoothing[0], pins=path[-1:]) if self.smoothing else path
             path_smoothness(smoothed, float(np.mean(problem.robot.lengths)), problem.robot.k_ul)
@@ -222,7 +223,8 @@ class SacPlanner(Planner):
         guide, known, margin, routed, widest = None, -1, GUIDE_MARGIN_MM, GUIDE_MARGIN_MM, GUIDE_MARGIN_MAX_MM
         space, radius = None, float(np.max(problem.robot.radii))
         turning: dict[tuple, RouteGuide | None] = {}
-        crawl = policy.crawler(problem.robot)  # the policy's own turning radius and goal capture
+        crawl = policy.crawler(problem.robot)  # the policy's own step, turning radius and goal capture
+        turning_radius = min(turning_crawl_radius(problem.robot), crawl.step_mm / crawl.max_turn)
         ends: Counter[str] = Counter()
         for attempt in range(self.attempts):
             noise = self.noise_levels[(attempt - 1) % RETRY_LEVELS] if attempt else 0.0
@@ -247,8 +249,7 @@ class SacPlanner(Planner):
                     turning[key] = turning_guide(space, problem.scene, problem.robot, routed, crawl.step_mm,
                                                  crawl.capture_mm, deadline - time.perf_counter())
                 if turning[key] is not None:
-                    follow = turning[key]
-                    radius_mm = min(turning_crawl_radius(problem.robot), crawl.step_mm / crawl.max_turn)
+                    follow, radius_mm = turning[key], turning_radius
                     noise = 0.0 if fresh else noise
             path, outcome = rollout(policy, problem.scene, problem.robot, deadline, noise=noise, rng=rng,
                                     world=problem.world, guide=follow, turn_radius_mm=radius_mm)

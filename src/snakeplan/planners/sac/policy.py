@@ -403,7 +403,7 @@ def check_policy_fits(policy: NumpyPolicy, scene: Scene, robot: Chain) -> None:
     refusal = arm_refusal(policy, robot)
     if refusal is not None:
         raise _bad(refusal)
-    step = float(policy.meta.get("step_mm", STEP_MM))
+    step = policy.step_mm
     if step > robot.total_length:
         raise _bad(f"meta.step_mm: a {step:g} mm step is longer than {robot.name} ({robot.total_length:g} mm)")
     if robot.total_length / step > MAX_ROLLOUT_STEPS:

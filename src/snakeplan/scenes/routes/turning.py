@@ -23,6 +23,7 @@ import math
 import numpy as np
 
 from snakeplan.geometry.polyline import densify
+from snakeplan.geometry.transforms import frame_into
 from snakeplan.jit import kernel
 from snakeplan.scenes.routes.geodesic import DEFAULT_FEED_MM, geodesic_from_sdf
 from snakeplan.scenes.routes.guide import GUIDE_STEP_MM, FreeSpace, RouteGuide
@@ -143,37 +144,20 @@ def _heading_bin(h, bins):
 
 
 @kernel
-def _perpendicular(h, out):
-    """A unit vector perpendicular to unit ``h`` into ``out``: the axis least along ``h``, less its part along it."""
-    a = 0
-    for b in range(1, 3):
-        if abs(h[b]) < abs(h[a]):
-            a = b
-    n = 0.0
-    for b in range(3):
-        out[b] = (1.0 if b == a else 0.0) - h[a] * h[b]
-        n += out[b] * out[b]
-    n = math.sqrt(n)
-    for b in range(3):
-        out[b] /= n
-
-
-@kernel
 def _arc(position, heading, action, turn, step, steps, trail, ends, work):
     """The ``steps`` points of expansion ``action`` from ``position`` heading ``heading`` into ``trail``: action 0
     straight on, 1..D bending at ``turn`` per step towards direction k of ``BEND_DIRECTIONS`` about the heading,
-    D+1..2D at half that; the heading after each step into ``ends`` (``work``: (4, 3) scratch)."""
-    perp, w, u, h = work[0], work[1], work[2], work[3]
-    _perpendicular(heading, perp)
-    for b in range(3):
-        w[b] = heading[(b + 1) % 3] * perp[(b + 2) % 3] - heading[(b + 2) % 3] * perp[(b + 1) % 3]
+    D+1..2D at half that (directions from the heading's side, :func:`~snakeplan.geometry.transforms.frame_into`);
+    the heading after each step into ``ends`` (``work``: (5, 3) scratch)."""
+    frame, u, h = work[:3], work[3], work[4]
+    frame_into(heading, frame)
     rate, angle = 0.0, 0.0
     if action > 0:
         rate = turn if action <= BEND_DIRECTIONS else 0.5 * turn
         angle = 2.0 * math.pi * ((action - 1) % BEND_DIRECTIONS) / BEND_DIRECTIONS
     c, si = math.cos(rate), math.sin(rate)
     for b in range(3):
-        u[b] = math.cos(angle) * perp[b] + math.sin(angle) * w[b]
+        u[b] = math.cos(angle) * frame[1, b] + math.sin(angle) * frame[2, b]
         h[b] = heading[b]
     for s in range(steps):
         for b in range(3):
@@ -213,7 +197,7 @@ def _tour(sdf, shape, origin, spacing, togo, after, targets, start, heading, ste
     count, found, expansions = 1, -1, 0
     heap = [(HEURISTIC_WEIGHT * (togo[0, _cell(shape, origin, spacing, start)] + after[0]), 0)]
     trail, ends, chord, h = np.empty((steps, 3)), np.empty((steps, 3)), np.empty(3), np.empty(3)
-    work = np.empty((4, 3))
+    work = np.empty((5, 3))
     radius = step / turn
     cos_turn = math.cos(turn)
     while len(heap) > 0 and expansions < budget and found < 0:
