@@ -8,9 +8,9 @@ within the budget; the path goes to the judge.
 
 A ``guide`` policy (the generalists) follows the taut route guide first. Its every other retry follows a turning
 route instead (:func:`~.guide.turning_guide`): one an arm turning on nearly its full bend limits can follow, where
-the taut guide's corners are sharper than the arm turns and its roll-outs swing past them (measured on 100
-confined seeds sized to the arm, sensed, the arm-conditioned generalist: the 10 x 220 mm arm 72 -> 86 %, the
-16 x 120 mm 90 -> 94 %, SJTU-Snake III 82 -> 93 %). The first roll-out on each new turning route is noise-free.
+the taut guide's corners are sharper than the arm turns and its roll-outs swing past them (measured on confined
+seeds 0-99 sized to the arm, sensed, the arm-conditioned generalist: the 10 x 220 mm arm 72 -> 82 %, the
+16 x 120 mm 89 -> 93 %; README). The first roll-out on each new turning route is noise-free.
 
 The planner registry's built-in entries name these classes through the package (``snakeplan.planners.sac:SacPlanner``)
 and register them when first asked for; ``@register_planner`` here would clash with those entries, which name the
