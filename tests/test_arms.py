@@ -66,21 +66,51 @@ def test_the_familys_own_arm_gets_its_scenes_unchanged(family):
     assert sized_scene(family, 4).to_dict() == make_scene(family, 4).to_dict()
 
 
-@pytest.mark.parametrize("name", ["arm-16x120", "arm-10x220"])
-def test_a_scene_sized_to_an_arm_keeps_its_targets_in_that_arms_reach_and_clear_of_its_body(name):
+@pytest.mark.parametrize("name, section_mm, bend_deg", [("arm-16x120", 120.0, 40.0), ("arm-10x220", 220.0, 55.0)])
+def test_a_scene_sized_to_an_arm_keeps_its_targets_in_that_arms_reach_and_clear_of_its_body(name, section_mm,
+                                                                                             bend_deg):
     """The generator's own reach rule, with the arm's length and its radius in the inflation: every target lies
     in free space at least the sized clearance from every obstacle, and the geodesic tour the scene records is
-    within 0.85 of the arm's length (the families' reach fraction)."""
+    within 0.85 of the arm's length (the families' reach fraction). No target lies in the turning circles at the
+    entrance of this arm's own radius, the circle a section's chord spans bending its whole limit,
+    L / (2 sin(limit / 2)): in the plane through the feed axis, x^2 + (rho - R)^2 >= R^2."""
     a = arm(name)
     params = dict(arm_sizing("confined", a))
     assert params["arm_length_mm"] == pytest.approx(float(np.sum(a.lengths)))
     assert params["inflate_mm"] == pytest.approx(30.0 + float(np.max(a.radii)) - 27.5)
+    radius = section_mm / (2.0 * math.sin(math.radians(bend_deg) / 2.0))
+    assert params["turn_radius_mm"] == pytest.approx(radius, abs=0.05)
     for seed in range(3):
         scene = sized_scene("confined", seed, tuple(params.items()))
         assert scene.metadata["sizing"] == params
         clearance = scene.signed_distance(scene.targets)
         assert np.all(clearance >= params["target_clearance_mm"] - 1e-6)
         assert scene.metadata["tour_mm"] <= 0.85 * params["arm_length_mm"] + 1e-6
+        rel = scene.targets - scene.entrance.position
+        x = rel @ scene.entrance.direction
+        rho = np.linalg.norm(rel - np.outer(x, scene.entrance.direction), axis=1)
+        assert np.all(x ** 2 + (rho - radius) ** 2 >= radius ** 2 - 1e-6)
+
+
+def test_the_stiff_arms_confined_scene_keeps_a_target_out_of_the_turning_circles_the_default_radius_admits():
+    """Confined seed 7 for the 10 x 220 mm arm: drawn with the SJTU-Snake III's 207.3 mm, its first target lies
+    118 mm in and 440 mm off the feed axis, inside this arm's 238.2 mm circle ((440 - 238.2)^2 + 118^2 < 238.2^2);
+    sized to the arm, none does. The fuel tank takes the radius too, the oil tank (no turning rule) does not."""
+    a = arm("arm-10x220")
+    params = arm_sizing("confined", a)
+    assert dict(params)["turn_radius_mm"] == pytest.approx(238.2)
+    assert dict(arm_sizing("fuel-tank", a))["turn_radius_mm"] == pytest.approx(238.2)
+    assert "turn_radius_mm" not in dict(arm_sizing("oil-tank", a))
+
+    def inside(scene, radius=238.2):
+        rel = scene.targets - scene.entrance.position
+        x = rel @ scene.entrance.direction
+        rho = np.linalg.norm(rel - np.outer(x, scene.entrance.direction), axis=1)
+        return x ** 2 + (rho - radius) ** 2 < radius ** 2
+
+    default = sized_scene("confined", 7, tuple((k, v) for k, v in params if k != "turn_radius_mm"))
+    assert inside(default).tolist() == [True, False]
+    assert not np.any(inside(sized_scene("confined", 7, params)))
 
 
 def test_a_family_without_arm_parameters_is_the_same_for_every_arm():

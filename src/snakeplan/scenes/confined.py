@@ -10,11 +10,11 @@ cylinders) rests on the floors away from the openings and the entrance.
 
 The entrance is a 60 mm port in any of the six outer walls, side walls, floor or ceiling (the arm may be fed
 vertically), fed along the inward normal, with no baffle near the first stretch of the feed axis (the feed and a
-turn). One to three targets are drawn in order: each clear of everything by
-``TARGET_CLEARANCE_MM``, outside the circles a tip leaving the entrance along the feed axis cannot reach when it
-turns no tighter than the arm allows, and onward from the one before (its geodesic distance from the entrance
-grows by at least ``MIN_TARGET_STEP_MM``, and the geodesic leg from the one before is at most ``MAX_DETOUR`` times
-that growth); the whole tour, entrance to last target along geodesics, is within the reach limit.
+turn). One to three targets are drawn in order: each clear of everything by ``TARGET_CLEARANCE_MM``, outside the
+circles a tip leaving the entrance along the feed axis cannot reach when it turns no tighter than the arm allows
+(``turn_radius_mm``), and onward from the one before (its geodesic distance from the entrance grows by at least
+``MIN_TARGET_STEP_MM``, and the geodesic leg from the one before is at most ``MAX_DETOUR`` times that growth); the
+whole tour, entrance to last target along geodesics, is within the reach limit.
 
 Obstacles are listed as: the six outer walls (x-, x+, y-, y+, floor, ceiling), the inner walls (plates and the
 boxes of rectangular cuts), the baffles, then the clutter. The clutter is ``discovered``; the rest is prior.
@@ -239,10 +239,10 @@ def _entrance(rng: np.random.Generator, edges, shape) -> tuple[str, Entrance]:
     raise RuntimeError("confined: no room face is wide enough for the entrance port")
 
 
-def _feed_clear(entrance: Entrance, baffles: list[Obstacle], inflate_mm: float) -> bool:
-    """Whether the first ``DEFAULT_FEED_MM + TURN_RADIUS_MM`` of the feed axis keep ``inflate_mm`` from the baffles
+def _feed_clear(entrance: Entrance, baffles: list[Obstacle], inflate_mm: float, turn_radius_mm: float) -> bool:
+    """Whether the first ``DEFAULT_FEED_MM + turn_radius_mm`` of the feed axis keep ``inflate_mm`` from the baffles
     (an arm fed in along it can turn no sooner)."""
-    s = np.linspace(0.0, DEFAULT_FEED_MM + TURN_RADIUS_MM, 32)
+    s = np.linspace(0.0, DEFAULT_FEED_MM + turn_radius_mm, 32)
     axis = entrance.position + s[:, None] * entrance.direction
     return bool(np.min(ObstacleSet(baffles).signed_distance(axis)) >= inflate_mm)
 
@@ -290,10 +290,11 @@ def _clutter(rng: np.random.Generator, edges, shape, baffles: list[Obstacle], ke
 def confined(seed: int, *, arm_length_mm: float = ARM_LENGTH_MM, reach_fraction: float = DEFAULT_REACH_FRACTION,
              inflate_mm: float = DEFAULT_INFLATE_MM, cell_mm: float = REACH_CELL_MM,
              min_targets: int = TARGET_COUNT[0], max_targets: int = TARGET_COUNT[1],
-             target_clearance_mm: float = TARGET_CLEARANCE_MM) -> Scene:
+             target_clearance_mm: float = TARGET_CLEARANCE_MM, turn_radius_mm: float = TURN_RADIUS_MM) -> Scene:
     """A confined space for ``seed``: rooms, ducts, bays, openings, clutter, an entrance on any side, 1-3 targets."""
     arm_length_mm, reach_fraction, inflate_mm, cell_mm = tank_parameters(arm_length_mm, reach_fraction, inflate_mm,
                                                                          cell_mm)
+    turn_radius_mm = check_range("turn_radius_mm", turn_radius_mm, 1.0, arm_length_mm)
     min_targets = int(check_range("min_targets", min_targets, 1, 5, integer=True))
     max_targets = int(check_range("max_targets", max_targets, min_targets, 5, integer=True))
     target_clearance_mm = check_range("target_clearance_mm", target_clearance_mm, inflate_mm, 120.0)
@@ -311,7 +312,7 @@ def confined(seed: int, *, arm_length_mm: float = ARM_LENGTH_MM, reach_fraction:
         keep = np.array([entrance.position] + [o["center"] for o in holes]).reshape(-1, 3)
         keep_radius = np.array([ENTRANCE_KEEPOUT_MM] + [max(o["half_size_mm"]) + OPENING_KEEPOUT_MM for o in holes])
         baffle_plates = inner[len(inner) - len(baffles):]
-        if baffle_plates and not _feed_clear(entrance, baffle_plates, inflate_mm):
+        if baffle_plates and not _feed_clear(entrance, baffle_plates, inflate_mm, turn_radius_mm):
             continue
         clutter = _clutter(rng, edges, shape, baffle_plates, keep, keep_radius,
                            int(rng.integers(CLUTTER_COUNT[0], CLUTTER_COUNT[1] + 1)))
@@ -328,7 +329,7 @@ def confined(seed: int, *, arm_length_mm: float = ARM_LENGTH_MM, reach_fraction:
                                         (TARGET_CANDIDATES, 3)), DECIMALS)
             geo = field.distance_at(cand)
             ok = (every.signed_distance(cand) >= target_clearance_mm) & outside_turning_region(entrance, cand,
-                                                                                               TURN_RADIUS_MM)
+                                                                                               turn_radius_mm)
             if previous is None:
                 ok &= (geo >= MIN_FIRST_GEODESIC_MM) & (geo <= limit)
                 leg = geo
@@ -366,7 +367,8 @@ def confined(seed: int, *, arm_length_mm: float = ARM_LENGTH_MM, reach_fraction:
             "attempts": attempt,
             "parameters": {"reach_fraction": reach_fraction, "inflate_mm": inflate_mm, "cell_mm": cell_mm,
                            "min_targets": min_targets, "max_targets": max_targets,
-                           "target_clearance_mm": target_clearance_mm, "wall_thickness_mm": WALL_THICKNESS_MM},
+                           "target_clearance_mm": target_clearance_mm, "turn_radius_mm": turn_radius_mm,
+                           "wall_thickness_mm": WALL_THICKNESS_MM},
         }
         return Scene("confined", seed, bounds_min, bounds_max, entrance, np.array(targets), obstacles, meta,
                      discovered=tuple(range(len(fixed), len(obstacles))))

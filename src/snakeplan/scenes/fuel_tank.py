@@ -12,7 +12,8 @@ obstacles resting on the floor, and one debris target one or two oval holes away
 clearance and geodesic reach checked by :mod:`snakeplan.scenes.routes.geodesic`: its geodesic distance from the
 entrance lies between ``MIN_TARGET_GEODESIC_MM`` and the reach limit, so paths are as long as the paper's (Table 2:
 1.5-1.8 m), and it lies outside the region a tip that starts along the feed axis cannot reach when it turns no
-tighter than the arm's bend limits allow (``TURN_RADIUS_MM``; see :func:`outside_turning_region`).
+tighter than the arm's bend limits allow (``turn_radius_mm``, the SJTU-Snake III's ``TURN_RADIUS_MM`` by default; see
+:func:`outside_turning_region`).
 
 Obstacles are listed as: the six outer walls (x-, x+, y-, y+, floor, ceiling), the seven partitions, the frame
 boxes, then the clutter (the last ``metadata["clutter"]`` obstacles). The frame and the clutter are ``discovered``
@@ -313,10 +314,11 @@ def _fits(item: Obstacle, blockers: _Blockers, entrance: Entrance) -> bool:
 def fuel_tank(seed: int, *, arm_length_mm: float = ARM_LENGTH_MM, reach_fraction: float = DEFAULT_REACH_FRACTION,
               inflate_mm: float = DEFAULT_INFLATE_MM, cell_mm: float = REACH_CELL_MM,
               min_clutter: int = CLUTTER_COUNT[0], max_clutter: int = CLUTTER_COUNT[1],
-              target_clearance_mm: float = TARGET_CLEARANCE_MM) -> Scene:
+              target_clearance_mm: float = TARGET_CLEARANCE_MM, turn_radius_mm: float = TURN_RADIUS_MM) -> Scene:
     """The fuel tank for ``seed``: fixed chambers and holes, random entrance, clutter and debris target."""
     arm_length_mm, reach_fraction, inflate_mm, cell_mm = tank_parameters(arm_length_mm, reach_fraction, inflate_mm,
                                                                          cell_mm)
+    turn_radius_mm = check_range("turn_radius_mm", turn_radius_mm, 1.0, arm_length_mm)
     min_clutter = int(check_range("min_clutter", min_clutter, 0, 12, integer=True))
     max_clutter = int(check_range("max_clutter", max_clutter, min_clutter, 12, integer=True))
     target_clearance_mm = check_range("target_clearance_mm", target_clearance_mm, inflate_mm, 120.0)
@@ -356,7 +358,8 @@ def fuel_tank(seed: int, *, arm_length_mm: float = ARM_LENGTH_MM, reach_fraction
                                         (TARGET_CANDIDATES, 3)), DECIMALS)
             geo = field.distance_at(cand)
             ok = np.flatnonzero((every.signed_distance(cand) >= target_clearance_mm) & (geo <= limit)
-                                & (geo >= MIN_TARGET_GEODESIC_MM) & outside_turning_region(entrance, cand))
+                                & (geo >= MIN_TARGET_GEODESIC_MM) & outside_turning_region(entrance, cand,
+                                                                                              turn_radius_mm))
             if len(ok):
                 target = cand[ok[0]]
                 meta = {
@@ -377,7 +380,7 @@ def fuel_tank(seed: int, *, arm_length_mm: float = ARM_LENGTH_MM, reach_fraction
                     "attempts": attempt,
                     "parameters": {"reach_fraction": reach_fraction, "inflate_mm": inflate_mm, "cell_mm": cell_mm,
                                    "min_clutter": min_clutter, "max_clutter": max_clutter,
-                                   "target_clearance_mm": target_clearance_mm,
+                                   "target_clearance_mm": target_clearance_mm, "turn_radius_mm": turn_radius_mm,
                                    "wall_thickness_mm": WALL_THICKNESS_MM},
                 }
                 return Scene("fuel-tank", seed, bounds_min, bounds_max, entrance, target[None], obstacles, meta,
