@@ -95,9 +95,10 @@ def test_a_target_beside_the_entrance_needs_a_room_as_deep_as_the_turning_radius
 
 def test_a_route_through_two_targets_turns_no_tighter_than_its_radius():
     """Every corner of the route between crawl steps turns by at most its shorter side over R (an arc of radius R
-    turns a step s by s / R), away from the targets, where the crawl's capture and snap take over; the targets
-    come in order, at the route's target arcs; the route keeps the clearance from a wall (exact: the field is
-    linear there); a tour longer than allowed is none."""
+    turns a step s by s / R), but at the targets and where a chord to one starts: there the crawl's capture takes
+    over, on the arc tangent to the heading through the target, which is no tighter than R; the targets come in
+    order, at the route's target arcs; the route keeps the clearance from a wall (exact: the field is linear
+    there); a tour longer than allowed is none."""
     space, wall = _room(1000.0)
     targets = np.array([[600.0, 600.0, 200.0], [250.0, 200.0, 450.0]])
     route = turning_route(space, ENTRANCE, targets, RADIUS_MM, CLEAR_MM, STEP_MM, 3000.0, CAPTURE_MM)
@@ -105,12 +106,15 @@ def test_a_route_through_two_targets_turns_no_tighter_than_its_radius():
     np.testing.assert_allclose(route.at(route.target_arc), targets, atol=1e-9)
     assert np.all(np.diff(route.target_arc) > 0)
     corners = _vertices(route.points)
-    near_target = np.min(np.linalg.norm(corners[1:-1, None] - targets[None], axis=2), axis=1) < 1e-6
+    is_target = np.min(np.linalg.norm(corners[:, None] - targets[None], axis=2), axis=1) < 1e-6
+    at_target, chord = is_target[1:-1], is_target[2:]
     before = np.linalg.norm(corners[1:-1] - corners[:-2], axis=1)
     after = np.linalg.norm(corners[2:] - corners[1:-1], axis=1)
     u, v = (corners[1:-1] - corners[:-2]) / before[:, None], (corners[2:] - corners[1:-1]) / after[:, None]
     turn = np.arccos(np.clip(np.einsum("ij,ij->i", u, v), -1.0, 1.0))
-    assert len(turn) > 10 and np.all((turn <= np.minimum(before, after) / RADIUS_MM + 1e-9) | near_target)
+    assert len(turn) > 10 and np.all((turn <= np.minimum(before, after) / RADIUS_MM + 1e-9) | at_target | chord)
+    for h, c in zip(u[chord], (corners[2:] - corners[1:-1])[chord]):  # the capturing arc's radius |c|^2 / 2 |side|
+        assert c @ c / (2 * np.linalg.norm(c - (c @ h) * h)) >= RADIUS_MM
     assert np.min(wall.signed_distance(route.points)) >= CLEAR_MM - 1e-6
     short = route.arc[-1] * 0.8
     assert turning_route(space, ENTRANCE, targets, RADIUS_MM, CLEAR_MM, STEP_MM, short, CAPTURE_MM) is None
