@@ -170,3 +170,35 @@ def test_the_stiff_arm_reaches_a_confined_target_along_a_turning_route_it_missed
     assert turned.success and turned.plan.status is Status.FOUND and turned.plan.details["route"] == "turning"
     assert turned.plan.details["attempts"] == 2
     assert len(getattr(_tour, "signatures", ())) == compiled  # the plan called the search as the warm-up did
+
+
+def test_a_residual_policy_pursuing_a_turning_route_alone_keeps_to_it():
+    """The arm generalist's pursuit-only copy acts 0 on any observation (tanh of a zeroed head), so its crawl is
+    the pursuit of the guide: on the turning route of confined seed 149 for the 10 x 220 mm arm (sensed) it
+    reaches the target within 20 mm of the route throughout, where the residual crawl (trained on taut guides)
+    strays farther; a policy without a pursuit has no such copy."""
+    from snakeplan.planners.sac.guide import guide_space
+    from snakeplan.planners.sac.observation import observation_dim
+    from snakeplan.planners.sac.planner import _generalist, rollout
+    from snakeplan.planners.sac.policy import NumpyPolicy
+    from snakeplan.world import SensedView
+
+    policy = _generalist("generalist-arms")
+    alone = policy.pursuit_only()
+    rng = np.random.default_rng(0)
+    obs = {"observation": rng.normal(size=(5, observation_dim("guide", True, True))),
+           "achieved_goal": rng.normal(size=(5, 3)), "desired_goal": rng.normal(size=(5, 3))}
+    assert np.all(alone.act(obs) == 0.0) and np.all(np.abs(policy.act(obs)) > 0.0)
+    arm = load_robot("src/snakeplan/robots/data/arms/arm-10x220.json")
+    scene = sized_scene("confined", 149, arm_sizing("confined", arm))
+    space = guide_space(scene, SensedView.of(scene), float(np.max(arm.radii)))
+    route = turning_guide(space, scene, arm, 25.0, STEP_MM, CAPTURE_MM)
+    assert route is not None
+    strays = []
+    for driver in (alone, policy):
+        path, outcome = rollout(driver, scene, arm, world=SensedView.of(scene), guide=route, turn_radius_mm=238.2)
+        assert outcome == "reached"
+        strays.append(np.max(np.min(np.linalg.norm(path[:, None] - route.points[None], axis=2), axis=1)))
+    assert strays[0] <= 20.0 < strays[1]
+    with pytest.raises(ValueError, match="residual guide policy"):
+        NumpyPolicy(policy.layers, policy.mu, {**policy.meta, "residual": False}).pursuit_only()

@@ -9,8 +9,12 @@ within the budget; the path goes to the judge.
 A ``guide`` policy (the generalists) follows the taut route guide first. Its every other retry follows a turning
 route instead (:func:`~.guide.turning_guide`): one an arm turning on nearly its full bend limits can follow, where
 the taut guide's corners are sharper than the arm turns and its roll-outs swing past them (measured on confined
-seeds 0-99 sized to the arm, sensed, the arm-conditioned generalist: the 10 x 220 mm arm 72 -> 82 %, the
-16 x 120 mm 89 -> 93 %; README). The first roll-out on each new turning route is noise-free.
+seeds 0-99 sized to the arm, sensed, the arm-conditioned generalist: the 10 x 220 mm arm 72 -> 85 %, the
+16 x 120 mm 89 -> 91 %; README). The first roll-out on each new turning route is noise-free. A residual policy
+(the generalists) crawls a turning route by its pursuit alone (:meth:`~.policy.NumpyPolicy.pursuit_only`): the
+route is made of the crawl's own steps, while the residual, trained on taut guides, turns early for corners the
+route does not have (the 10 x 220 mm arm on eight confined seeds it failed: 17-93 mm mean distance from the route
+with the residual, 4-7 mm without).
 
 The planner registry's built-in entries name these classes through the package (``snakeplan.planners.sac:SacPlanner``)
 and register them when first asked for; ``@register_planner`` here would clash with those entries, which name the
@@ -142,8 +146,8 @@ class SacPlanner(Planner):
     (``problem.world``), so a retry re-plans within what has been sensed; a ``guide`` policy's route guide is
     made again from what has been sensed when a retry knows more than the last guide did, and with ``turning``
     (the default) its odd-numbered retries follow the turning route of what is known (see the module), crawling on
-    :func:`~.guide.turning_crawl_radius` or the policy's own radius, the tighter. A found plan's details name
-    the ``route`` it followed."""
+    :func:`~.guide.turning_crawl_radius` or the policy's own radius, the tighter (a residual policy by its pursuit
+    alone). A found plan's details name the ``route`` it followed."""
 
     name = "sac"
     needs_full_scene = False
@@ -225,6 +229,7 @@ class SacPlanner(Planner):
         turning: dict[tuple, RouteGuide | None] = {}
         crawl = policy.crawler(problem.robot)  # the policy's own step, turning radius and goal capture
         turning_radius = min(turning_crawl_radius(problem.robot), crawl.step_mm / crawl.max_turn)
+        pursuer = None  # on a turning route, a residual policy's crawl pursues it alone (made when first needed)
         ends: Counter[str] = Counter()
         for attempt in range(self.attempts):
             noise = self.noise_levels[(attempt - 1) % RETRY_LEVELS] if attempt else 0.0
@@ -241,7 +246,7 @@ class SacPlanner(Planner):
                     guide, routed = wider, margin
                 else:  # too wide for an opening: keep the last guide, and try no wider
                     margin = widest = routed
-            follow, radius_mm = guide, None
+            follow, radius_mm, driver = guide, None, policy
             if attempt % 2 and policy.mode == "guide" and self.turning:
                 key = (known, routed)
                 fresh = key not in turning
@@ -249,9 +254,10 @@ class SacPlanner(Planner):
                     turning[key] = turning_guide(space, problem.scene, problem.robot, routed, crawl.step_mm,
                                                  crawl.capture_mm, deadline - time.perf_counter())
                 if turning[key] is not None:
-                    follow, radius_mm = turning[key], turning_radius
+                    pursuer = pursuer or (policy.pursuit_only() if crawl.residual else policy)
+                    follow, radius_mm, driver = turning[key], turning_radius, pursuer
                     noise = 0.0 if fresh else noise
-            path, outcome = rollout(policy, problem.scene, problem.robot, deadline, noise=noise, rng=rng,
+            path, outcome = rollout(driver, problem.scene, problem.robot, deadline, noise=noise, rng=rng,
                                     world=problem.world, guide=follow, turn_radius_mm=radius_mm)
             details.update(outcome=outcome, attempts=attempt + 1, steps=len(path) - 1)
             if outcome != Outcome.REACHED:

@@ -322,6 +322,14 @@ class NumpyPolicy:
         """Whether the policy observes the arm it plans for (trained over a distribution of arms)."""
         return bool(self.meta.get("arm_conditioned", False))
 
+    def pursuit_only(self) -> NumpyPolicy:
+        """This residual guide policy with its mean head zeroed: its crawl follows the pursuit of the guide alone
+        (plus any action noise). ValueError for a policy whose crawl does not pursue its guide."""
+        if not (self.mode == "guide" and self.meta.get("residual", False)):
+            raise ValueError("policy: only a residual guide policy's crawl pursues its guide")
+        w, b = self.mu
+        return NumpyPolicy(self.layers, (np.zeros_like(w), np.zeros_like(b)), self.meta, self.graph)
+
 
 def trained_robot(policy: NumpyPolicy) -> str | None:
     """The robot a policy was trained for: its meta's ``robot``, else (files from before it was recorded) the robot
