@@ -66,6 +66,15 @@ def test_the_familys_own_arm_gets_its_scenes_unchanged(family):
     assert sized_scene(family, 4).to_dict() == make_scene(family, 4).to_dict()
 
 
+def _in_turning_circles(scene, radius: float) -> np.ndarray:
+    """Per target, whether it lies in the turning circles of ``radius`` at the entrance: in the plane through the
+    feed axis, x^2 + (rho - R)^2 < R^2 (x along the axis, rho off it)."""
+    rel = scene.targets - scene.entrance.position
+    x = rel @ scene.entrance.direction
+    rho = np.linalg.norm(rel - np.outer(x, scene.entrance.direction), axis=1)
+    return x ** 2 + (rho - radius) ** 2 < radius ** 2 - 1e-6
+
+
 @pytest.mark.parametrize("name, section_mm, bend_deg", [("arm-16x120", 120.0, 40.0), ("arm-10x220", 220.0, 55.0)])
 def test_a_scene_sized_to_an_arm_keeps_its_targets_in_that_arms_reach_and_clear_of_its_body(name, section_mm,
                                                                                              bend_deg):
@@ -86,10 +95,7 @@ def test_a_scene_sized_to_an_arm_keeps_its_targets_in_that_arms_reach_and_clear_
         clearance = scene.signed_distance(scene.targets)
         assert np.all(clearance >= params["target_clearance_mm"] - 1e-6)
         assert scene.metadata["tour_mm"] <= 0.85 * params["arm_length_mm"] + 1e-6
-        rel = scene.targets - scene.entrance.position
-        x = rel @ scene.entrance.direction
-        rho = np.linalg.norm(rel - np.outer(x, scene.entrance.direction), axis=1)
-        assert np.all(x ** 2 + (rho - radius) ** 2 >= radius ** 2 - 1e-6)
+        assert not np.any(_in_turning_circles(scene, radius))
 
 
 def test_the_stiff_arms_confined_scene_keeps_a_target_out_of_the_turning_circles_the_default_radius_admits():
@@ -102,15 +108,36 @@ def test_the_stiff_arms_confined_scene_keeps_a_target_out_of_the_turning_circles
     assert dict(arm_sizing("fuel-tank", a))["turn_radius_mm"] == pytest.approx(238.2)
     assert "turn_radius_mm" not in dict(arm_sizing("oil-tank", a))
 
-    def inside(scene, radius=238.2):
-        rel = scene.targets - scene.entrance.position
-        x = rel @ scene.entrance.direction
-        rho = np.linalg.norm(rel - np.outer(x, scene.entrance.direction), axis=1)
-        return x ** 2 + (rho - radius) ** 2 < radius ** 2
-
     default = sized_scene("confined", 7, tuple((k, v) for k, v in params if k != "turn_radius_mm"))
-    assert inside(default).tolist() == [True, False]
-    assert not np.any(inside(sized_scene("confined", 7, params)))
+    assert _in_turning_circles(default, 238.2).tolist() == [True, False]
+    assert not np.any(_in_turning_circles(sized_scene("confined", 7, params), 238.2))
+
+
+def test_an_arm_of_the_familys_length_and_thickness_but_stiffer_is_sized_by_its_turning_radius():
+    """The families' default radius is the SJTU-Snake III's own smallest (177.5 mm chords bending 50.7 deg); an arm
+    of its sections bending 40 deg, the same length and thickness, turns no tighter than 177.5 / (2 sin 20 deg),
+    so fuel-tank and confined are sized for it (its length and inflation as the family's own), oil-tank is not."""
+    from snakeplan.robots import Chain, Section
+    from snakeplan.scenes.fuel_tank import TURN_RADIUS_MM as FAMILY_RADIUS_MM
+
+    own = get_robot("sjtu-snake-iii")
+    assert turn_radius_for(own, 1.0) == pytest.approx(FAMILY_RADIUS_MM)
+    stiffer = Chain([Section(float(l), float(r), math.radians(40.0)) for l, r in zip(own.lengths, own.radii)],
+                    name="stiffer")
+    for family in ("fuel-tank", "confined"):
+        params = dict(arm_sizing(family, stiffer))
+        assert params["turn_radius_mm"] == pytest.approx(177.5 / (2 * math.sin(math.radians(20.0))), abs=0.05)
+        assert params["arm_length_mm"] == pytest.approx(float(np.sum(own.lengths)))
+    assert arm_sizing("oil-tank", stiffer) == ()
+
+
+@pytest.mark.parametrize("family, seed", [("fuel-tank", 0), ("confined", 2)])
+def test_a_generator_keeps_its_targets_out_of_the_turning_circles_of_the_radius_it_is_given(family, seed):
+    """Seed 0 of the fuel tank and seed 2 of confined draw a target inside 600 mm circles at their entrance; given
+    that radius, the generators draw none there, and record it."""
+    assert np.any(_in_turning_circles(make_scene(family, seed), 600.0))
+    wide = make_scene(family, seed, turn_radius_mm=600.0)
+    assert not np.any(_in_turning_circles(wide, 600.0)) and wide.metadata["parameters"]["turn_radius_mm"] == 600.0
 
 
 def test_a_family_without_arm_parameters_is_the_same_for_every_arm():

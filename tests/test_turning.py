@@ -177,7 +177,7 @@ def test_a_residual_policy_pursuing_a_turning_route_alone_keeps_to_it():
     the pursuit of the guide: on the turning route of confined seed 149 for the 10 x 220 mm arm (sensed) it
     reaches the target within 20 mm of the route throughout, where the residual crawl (trained on taut guides)
     strays farther; a policy without a pursuit has no such copy."""
-    from snakeplan.planners.sac.guide import guide_space
+    from snakeplan.planners.sac.guide import guide_space, turning_crawl_radius
     from snakeplan.planners.sac.observation import observation_dim
     from snakeplan.planners.sac.planner import _generalist, rollout
     from snakeplan.planners.sac.policy import NumpyPolicy
@@ -192,13 +192,53 @@ def test_a_residual_policy_pursuing_a_turning_route_alone_keeps_to_it():
     arm = load_robot("src/snakeplan/robots/data/arms/arm-10x220.json")
     scene = sized_scene("confined", 149, arm_sizing("confined", arm))
     space = guide_space(scene, SensedView.of(scene), float(np.max(arm.radii)))
-    route = turning_guide(space, scene, arm, 25.0, STEP_MM, CAPTURE_MM)
+    crawl = policy.crawler(arm)
+    route = turning_guide(space, scene, arm, 25.0, crawl.step_mm, crawl.capture_mm)
     assert route is not None
+    radius = min(turning_crawl_radius(arm), crawl.step_mm / crawl.max_turn)  # as a plan crawls a turning route
     strays = []
     for driver in (alone, policy):
-        path, outcome = rollout(driver, scene, arm, world=SensedView.of(scene), guide=route, turn_radius_mm=238.2)
+        path, outcome = rollout(driver, scene, arm, world=SensedView.of(scene), guide=route, turn_radius_mm=radius)
         assert outcome == "reached"
         strays.append(np.max(np.min(np.linalg.norm(path[:, None] - route.points[None], axis=2), axis=1)))
     assert strays[0] <= 20.0 < strays[1]
     with pytest.raises(ValueError, match="residual guide policy"):
         NumpyPolicy(policy.layers, policy.mu, {**policy.meta, "residual": False}).pursuit_only()
+
+
+def test_a_plan_crawls_its_turning_route_with_the_pursuit_only_copy_made_once(monkeypatch):
+    """In the stiff arm's plan of confined seed 5 (its second roll-out follows the turning route, above), the
+    taut-guide roll-out is driven by the generalist itself and the turning one by its pursuit-only copy, made once
+    in the plan; a policy whose crawl has no pursuit is never asked for one."""
+    from snakeplan.planners.sac import planner as module
+    from snakeplan.planners.sac.policy import NumpyPolicy
+
+    calls, made = [], []
+    real_rollout, real_copy = module.rollout, NumpyPolicy.pursuit_only
+
+    def recording_rollout(policy, *args, **kwargs):
+        calls.append((policy, kwargs["turn_radius_mm"] is not None))
+        return real_rollout(policy, *args, **kwargs)
+
+    def recording_copy(policy):
+        made.append(policy)
+        return real_copy(policy)
+
+    monkeypatch.setattr(module, "rollout", recording_rollout)
+    monkeypatch.setattr(NumpyPolicy, "pursuit_only", recording_copy)
+    arm = load_robot("src/snakeplan/robots/data/arms/arm-10x220.json")
+    scene = sized_scene("confined", 5, arm_sizing("confined", arm))
+    generalist = module._generalist("generalist-arms")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        plan = SacPlanner(policy=generalist).plan(Problem(scene, arm, time_limit_s=10.0, knowledge="sensed"))
+    assert plan.details["route"] == "turning" and [turning for _, turning in calls] == [False, True]
+    assert calls[0][0] is generalist and made == [generalist]
+    assert np.all(calls[1][0].mu[0] == 0.0) and np.all(calls[1][0].mu[1] == 0.0)
+    assert all(np.array_equal(a[0], b[0]) for a, b in zip(calls[1][0].layers, generalist.layers))
+    calls.clear()
+    plain = NumpyPolicy(generalist.layers, generalist.mu, {**generalist.meta, "residual": False})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        SacPlanner(policy=plain, attempts=2).plan(Problem(scene, arm, time_limit_s=10.0, knowledge="sensed"))
+    assert made == [generalist] and all(policy is plain for policy, _ in calls)

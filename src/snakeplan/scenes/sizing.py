@@ -9,12 +9,14 @@ margin). Sized to an arm, a family's scene keeps its rooms and draws its targets
 - ``inflate_mm``: the family's inflation plus the difference of the arm's thickest radius from that of the
   family's arm (SJTU-Snake III, 27.5 mm, in 30 mm for the tanks: the same 2.5 mm margin for every arm);
 - ``target_clearance_mm``: the family's, or the inflation where that is larger (a target lies in free space);
-- ``turn_radius_mm``, where the generator takes it (fuel-tank, confined): the arm's smallest turning radius, on which
-  its longest section's chord bends its whole limit (:func:`~snakeplan.robots.arm_range.turn_radius_for`), so no
-  target lies in the turning circles at the entrance that this arm, rather than the family's, cannot reach.
+- ``turn_radius_mm``, where the generator takes it (fuel-tank, confined): the arm's smallest turning radius, the
+  least on which every section's chord bends at most its limit (:func:`~snakeplan.robots.arm_range.turn_radius_for`
+  at the whole limit), so no target lies in the turning circles at the entrance that this arm, rather than the
+  family's, cannot reach.
 
-The family's own arm, or any of its length, thickness and turning radius, gets the family's scenes unchanged. A
-family whose generator takes no ``arm_length_mm`` (meshes, scans, the station) is the same for every arm.
+The family's own arm, or any of its length, thickness and turning radius (the generator's defaults), gets the
+family's scenes unchanged (the same geometry and targets; the scene's metadata lists the parameters). A family whose
+generator takes no ``arm_length_mm`` (meshes, scans, the station) is the same for every arm.
 """
 
 from __future__ import annotations
@@ -48,7 +50,7 @@ def arm_sizing(family: str, robot: Chain | None) -> tuple[tuple[str, float], ...
     length, radius = float(np.sum(robot.lengths)), float(np.max(robot.radii))
     turning = (((TURNING, turn_radius_for(robot, 1.0)),) if TURNING in params else ())
     if np.isclose(length, float(np.sum(own.lengths))) and np.isclose(radius, float(np.max(own.radii))) \
-            and all(np.isclose(value, turn_radius_for(own, 1.0)) for _, value in turning):
+            and all(np.isclose(value, float(params[TURNING].default)) for _, value in turning):
         return ()
     inflate = float(params["inflate_mm"].default) + radius - float(np.max(own.radii))
     clearance = max(float(params["target_clearance_mm"].default), inflate)

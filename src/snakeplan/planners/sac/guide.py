@@ -32,8 +32,8 @@ GUIDE_MARGIN_MAX_MM = 70.0
 #: pursuit, a little off the route, still turns as the route does.
 TURNING_BEND_FRACTION = 1.0
 TURNING_ROUTE_WIDER = 1.05
-#: Expansions of the turning route's search a second, at least (measured: about 100,000 on the 2-core machine),
-#: so that a search given the rest of a plan's budget ends within it.
+#: Expansions of the turning route's search a second, at least (measured: 120,000-140,000 on the 2-core machine,
+#: 25 arcs an expansion), so that a search given the rest of a plan's budget ends within it.
 TURNING_EXPANSIONS_PER_S = 50_000
 
 

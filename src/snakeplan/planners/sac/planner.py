@@ -9,8 +9,8 @@ within the budget; the path goes to the judge.
 A ``guide`` policy (the generalists) follows the taut route guide first. Its every other retry follows a turning
 route instead (:func:`~.guide.turning_guide`): one an arm turning on nearly its full bend limits can follow, where
 the taut guide's corners are sharper than the arm turns and its roll-outs swing past them (measured on confined
-seeds 0-99 sized to the arm, sensed, the arm-conditioned generalist: the 10 x 220 mm arm 72 -> 85 %, the
-16 x 120 mm 89 -> 91 %; README). The first roll-out on each new turning route is noise-free. A residual policy
+seeds 0-99 sized to the arm, sensed, the arm-conditioned generalist: the 10 x 220 mm arm 72 -> 86 %, the
+16 x 120 mm 89 -> 95 %; README). The first roll-out on each new turning route is noise-free. A residual policy
 (the generalists) crawls a turning route by its pursuit alone (:meth:`~.policy.NumpyPolicy.pursuit_only`): the
 route is made of the crawl's own steps, while the residual, trained on taut guides, turns early for corners the
 route does not have (the 10 x 220 mm arm on eight confined seeds it failed: 17-93 mm mean distance from the route
