@@ -285,7 +285,7 @@ class SacPlanner(Planner):
         if turning:
             found = sum(route is not None for route in turning.values())
             why += (f" ({found} of {len(turning)} turning routes found)" if found
-                    else "; no turning route the arm can follow was found within the search's budget")
+                    else "; the search found no turning route the arm can follow (in its budget)")
         best = best if best is not None else path
         if best is None or len(best) < 2:
             return Solution(stopped, None, details, why)
