@@ -444,3 +444,28 @@ def test_a_sweep_plans_a_scene_file_whose_mesh_lies_beside_it_and_keys_it_by_con
     bent.vertices *= 1.01
     bent.export(tmp_path / "moved" / "parts" / "elbow.stl")
     assert sweep(tmp_path / "moved").runs()[0].key != rows[0]["key"]
+
+
+def test_a_run_is_keyed_by_its_policy_files_content_so_a_retrained_policy_is_planned_again(tmp_path):
+    """``--option policy=DIR/policy.npz`` rerun after training rewrote the file in place: the old rows were
+    skipped as planned (the key held the path alone). The key holds the file's SHA-256, the row records it, and a
+    shipped generalist named by ``policy=`` counts by its file's content too."""
+    import hashlib
+    import shutil
+
+    from snakeplan.planners.sac.policy import ARM_GENERALIST, GENERALIST, generalist_path, policy_path
+
+    policy = tmp_path / "policy.npz"
+    shutil.copy(policy_path("fuel-tank", "sac-her"), policy)
+    sweep = Sweep("retrained", ("fuel-tank",), (1,), (("sac", {"policy": str(policy)}),), 10.0)
+    first = run_sweep(sweep, tmp_path / "out", Backend("serial"), progress=False).rows
+    assert first[0]["option_files_sha256"] == {"policy": hashlib.sha256(policy.read_bytes()).hexdigest()}
+    assert run_sweep(sweep, tmp_path / "out", Backend("serial"), progress=False).rows == first
+    shutil.copy(generalist_path(GENERALIST), policy)
+    rows = run_sweep(sweep, tmp_path / "out", Backend("serial"), progress=False).rows
+    assert rows[0]["key"] != first[0]["key"] and len(read_rows(tmp_path / "out")) == 2
+    assert rows[0]["details"]["policy"] == "confined+fuel-tank+oil-tank-sac"
+    assert rows[0]["option_files_sha256"] == {"policy": hashlib.sha256(policy.read_bytes()).hexdigest()}
+    named = Sweep("named", ("fuel-tank",), (1,), (("sac", {"policy": "generalist-arms"}),)).runs()[0]
+    digest = hashlib.sha256(generalist_path(ARM_GENERALIST).read_bytes()).hexdigest()
+    assert named.identity()["option_files_sha256"] == {"policy": digest}

@@ -81,7 +81,8 @@ class Run:
     """One run: a scene (a registered family and seed, or a scene file) planned by ``planner`` with ``options``
     from ``seed``. ``scene_file`` runs carry the file's text (``scene_json``), its folder (``scene_dir``, where the
     mesh and cloud files it names are read from) so that any worker can plan them, and the SHA-256 of each file
-    it names (``files_sha256``: (name as written, digest) pairs, taken once when the sweep listed its runs)."""
+    it names (``files_sha256``: (name as written, digest) pairs, taken once when the sweep listed its runs); so do
+    the files its options name (``option_files_sha256``: (option, digest) pairs, :func:`_option_files`)."""
 
     scene: str
     seed: int
@@ -98,6 +99,7 @@ class Run:
     sensor: str = "exact"
     scene_dir: str = ""
     files_sha256: tuple[tuple[str, str], ...] = ()
+    option_files_sha256: tuple[tuple[str, str], ...] = ()
 
     def identity(self) -> dict:
         """What makes this run this run (the key's preimage; a scene file, the files it names and a robot file
@@ -111,6 +113,8 @@ class Run:
             ident["scene_sha256"] = hashlib.sha256(self.scene_json.encode()).hexdigest()
             if self.files_sha256:
                 ident["files_sha256"] = dict(self.files_sha256)
+        if self.option_files_sha256:
+            ident["option_files_sha256"] = dict(self.option_files_sha256)
         if self.robot_json:
             ident["robot_sha256"] = hashlib.sha256(self.robot_json.encode()).hexdigest()
         return ident
@@ -146,6 +150,27 @@ def _named_files(scene_json: str, folder: str) -> tuple[tuple[str, str], ...]:
     for name in dict.fromkeys(names):
         with open(Path(folder) / name, "rb") as fh:
             out.append((name, hashlib.file_digest(fh, "sha256").hexdigest()))
+    return tuple(out)
+
+
+def _option_files(options: dict) -> tuple[tuple[str, str], ...]:
+    """(option, SHA-256) of each option that names a file: ``policy`` (a file, or a shipped generalist by name:
+    :func:`snakeplan.planners.sac.policy.policy_file`) and any other whose value is a file's path. A run is keyed by
+    their content, so a policy retrained in place (``--out DIR``, ``policy=DIR/policy.npz``) is planned again,
+    not skipped as planned."""
+    out = []
+    for name, value in sorted(options.items()):
+        if not isinstance(value, str):
+            continue
+        if name == "policy":
+            from snakeplan.planners.sac.policy import policy_file
+
+            path = policy_file(value)
+        else:
+            path = Path(value) if Path(value).is_file() else None
+        if path is not None:
+            with open(path, "rb") as fh:
+                out.append((name, hashlib.file_digest(fh, "sha256").hexdigest()))
     return tuple(out)
 
 
@@ -216,6 +241,7 @@ class Sweep:
                 fitted.add(planner)
                 if self.include is not None and not self.include(family, planner, options):
                     continue
+                option_files = _option_files(options)
                 for knowledge in dict.fromkeys(self.knowledge_of(planner)):
                     for seed in self.seeds:
                         out.append(Run(family, seed, planner, robot, self.time_limit_s,
@@ -223,7 +249,7 @@ class Sweep:
                                        self.stateful is not None and self.stateful(planner, options),
                                        self.name, task, robot_json,
                                        self.sensor if knowledge == "sensed" else "exact", source.folder,
-                                       source.files))
+                                       source.files, option_files))
         idle = [p for p, _ in self.planners if p not in fitted]
         if idle:
             raise ValueError(f"planners: {', '.join(idle)} can do none of these scenes' tasks "
@@ -376,6 +402,8 @@ def _row(run: Run, status: str, why: str, success: bool, reason: str | None, com
         row["scene_sha256"] = run.identity()["scene_sha256"]
     if run.files_sha256:
         row["files_sha256"] = dict(run.files_sha256)
+    if run.option_files_sha256:
+        row["option_files_sha256"] = dict(run.option_files_sha256)
     return jsonable(row)
 
 

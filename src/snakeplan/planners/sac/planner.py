@@ -47,12 +47,13 @@ from snakeplan.planners.sac.kernels import ROLL_OUTCOMES, Outcome, _roll
 from snakeplan.planners.sac.observation import action_dim, route_tables
 from snakeplan.planners.sac.policy import (
     ARM_GENERALIST,
-    GENERALIST,
+    GENERALISTS,
     NumpyPolicy,
     arm_refusal,
     check_policy_fits,
     generalist_path,
     load_policy,
+    policy_file,
     shipped_policy,
 )
 from snakeplan.robots import Chain
@@ -117,13 +118,9 @@ def rollout(policy: NumpyPolicy, scene: Scene, robot: Chain, deadline: float = m
     return path[:count].copy(), ROLL_OUTCOMES[outcome]
 
 
-#: The shipped generalists by the names ``policy=`` takes.
-GENERALISTS = {"generalist": GENERALIST, "generalist-arms": ARM_GENERALIST}
-
-
 def _generalist(name: str) -> NumpyPolicy:
     """The shipped generalist called ``name`` (:data:`GENERALISTS`); ValueError when it is not installed."""
-    path = generalist_path(GENERALISTS[name])
+    path = policy_file(name)
     if path is None:
         raise ValueError(f"policy: the {name} policy is not installed ({GENERALISTS[name][1].removeprefix('rl/')})")
     return load_policy(path)
