@@ -383,6 +383,40 @@ def test_bench_rl_arms_tables_the_generalist_on_each_arm_from_the_runners_rows(c
     assert "| arm-24x90 | confined | generalist |" in (out / "arms.md").read_text()
 
 
+def test_bench_rl_arms_plans_each_familys_per_arm_policy_in_that_family_alone(capsys, tmp_path, monkeypatch):
+    """With --train-steps, a policy is trained for the arm in each family (here stood in by copies of a shipped
+    policy, each with its own validation history) and planned in its own family only; the table gives each its
+    time to 0.9 validation, or its best where it never got there."""
+    import shutil
+
+    from snakeplan.bench import arms as bench_arms
+    from snakeplan.bench.runner import read_rows
+
+    trained = {"confined": (None, 0.8), "fuel-tank": (12.3, 0.97)}
+
+    def fake_train(arm, family, out, steps, seed=0):
+        out.mkdir(parents=True)
+        policy = out / "policy.npz"
+        shutil.copy(generalist_path(ARM_GENERALIST), policy)
+        reached, best = trained[family]
+        return {"policy": str(policy), "history": [], "wall_s_to_trained": reached, "best_success": best}
+
+    monkeypatch.setattr(bench_arms, "train_arm", fake_train)
+    out = tmp_path / "arms"
+    code, stdout, _ = run(capsys, "bench", "rl", "--arms", "arm-24x90", "--seeds", "1", "--train-steps", "100",
+                          "--out", str(out), "--json", "--workers", "1")
+    summary = json.loads(stdout)["arms"]["arm-24x90"]
+    assert code == 0 and summary["training"] == {f: {"wall_s_to_trained": r, "best_success": b}
+                                                 for f, (r, b) in trained.items()}
+    rows = read_rows(out / "plans-arm-24x90")
+    per_arm = {(r["scene"], r["options"]["policy"]) for r in rows if r["options"]["policy"] != "generalist-arms"}
+    assert per_arm == {(f, str(out / f"train-arm-24x90-{f}" / "policy.npz")) for f in trained}
+    assert len(rows) == 4 and set(summary["scenes"]) == set(trained)
+    table = (out / "arms.md").read_text()
+    assert "| arm-24x90 | confined | per-arm |" in table and "| never (best 0.80) |" in table
+    assert re.search(r"\| arm-24x90 \| fuel-tank \| per-arm \| .* \| 12 \|", table)
+
+
 def test_the_console_says_once_that_an_arm_plans_with_the_arm_generalist(capsys):
     code, stdout, err = run(capsys, "plan", "--scene", "confined", "--seed", "1", "--robot",
                             str(ARMS / "arm-16x120.json"), "--planner", "sac", "--knowledge", "sensed")

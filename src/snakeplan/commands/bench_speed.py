@@ -73,7 +73,7 @@ def add_parsers(bsub) -> None:
                         description="Environment steps, SAC-HER training steps and actor calls per second, each "
                                     "against a baseline in the same process; medians over repeats. With --arms: the "
                                     "arm-conditioned generalist on arms it never saw, beside policies trained for "
-                                    "each arm alone (--train-steps), judged on sensed plans in families sized to "
+                                    "each arm alone in each family (--train-steps), judged on sensed plans in families sized to "
                                     "each arm.")
     p.add_argument("--repeats", type=int, default=5, help="timed repeats (default 5)")
     p.add_argument("--seed", type=seed, default=0, help="seed for scenes and actions (default 0)")
@@ -83,7 +83,8 @@ def add_parsers(bsub) -> None:
     p.add_argument("--seeds", type=int, default=100, help="--arms: seeds per family (default 100)")
     p.add_argument("--scenes", default="confined,fuel-tank", help="--arms: families (default confined,fuel-tank)")
     p.add_argument("--train-steps", type=int, default=0,
-                   help="--arms: train a policy for each arm alone for this many environment steps (default 0: none)")
+                   help="--arms: train a policy for each arm alone in each family for this many environment steps "
+                        "(default 0: none)")
     p.add_argument("--time-limit", type=finite, default=10.0, help="--arms: budget per plan in seconds (default 10)")
     p.add_argument("--out", default="bench-arms", help="--arms: output folder (default bench-arms)")
     backend_args(p)
