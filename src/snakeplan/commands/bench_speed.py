@@ -73,8 +73,8 @@ def add_parsers(bsub) -> None:
                         description="Environment steps, SAC-HER training steps and actor calls per second, each "
                                     "against a baseline in the same process; medians over repeats. With --arms: the "
                                     "arm-conditioned generalist on arms it never saw, beside policies trained for "
-                                    "each arm alone in each family (--train-steps), judged on sensed plans in families sized to "
-                                    "each arm.")
+                                    "each arm alone in each family (--train-steps), judged on sensed plans in "
+                                    "families sized to each arm.")
     p.add_argument("--repeats", type=int, default=5, help="timed repeats (default 5)")
     p.add_argument("--seed", type=seed, default=0, help="seed for scenes and actions (default 0)")
     p.add_argument("--json", action="store_true", help="print the figures as JSON")
