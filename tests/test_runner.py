@@ -466,6 +466,10 @@ def test_a_run_is_keyed_by_its_policy_files_content_so_a_retrained_policy_is_pla
     assert rows[0]["key"] != first[0]["key"] and len(read_rows(tmp_path / "out")) == 2
     assert rows[0]["details"]["policy"] == "confined+fuel-tank+oil-tank-sac"
     assert rows[0]["option_files_sha256"] == {"policy": hashlib.sha256(policy.read_bytes()).hexdigest()}
+    report = write_report(tmp_path / "out")  # the folder's report counts the run once, as planned now
+    assert [e["runs"] for e in report["entries"]] == [1] and report["heading"].endswith(
+        "1 runs (1 older rows of runs planned again with changed files left out)")
+    assert report["entries"][0]["successes"] == int(rows[0]["success"])
     named = Sweep("named", ("fuel-tank",), (1,), (("sac", {"policy": "generalist-arms"}),)).runs()[0]
     digest = hashlib.sha256(generalist_path(ARM_GENERALIST).read_bytes()).hexdigest()
     assert named.identity()["option_files_sha256"] == {"policy": digest}

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from snakeplan.bench.runner import RUNS_FILE, read_rows
+from snakeplan.bench.runner import RUNS_FILE, current_rows, read_rows
 from snakeplan.files import atomic_write
 
 #: Normal quantile of a two-sided 95 % interval.
@@ -146,12 +146,13 @@ def write_report(folder: str | Path, html: str | Path | None = None) -> dict:
     if not (folder / RUNS_FILE).is_file():
         raise ValueError(f"DIR: {folder} holds no {RUNS_FILE} (a results folder of 'snakeplan bench ...')")
     render = _html_renderer() if html is not None else None
-    rows = read_rows(folder)
+    rows, superseded = current_rows(read_rows(folder))
     if not rows:
         raise ValueError(f"DIR: {folder / RUNS_FILE} holds no complete row yet")
     entries = summarise(rows)
     sections, figures = paper_outputs(rows, folder)
-    heading = f"Results in {folder.name}: {len(rows)} runs"
+    heading = f"Results in {folder.name}: {len(rows)} runs" + (
+        f" ({superseded} older rows of runs planned again with changed files left out)" if superseded else "")
     text = "\n".join([markdown(entries, heading), "", *sections,
                       *[f"![{f.stem}]({f.name})" for f in figures]]) + "\n"
     written = [atomic_write(folder / "report.md", text), atomic_write(folder / "report.csv", csv_text(entries))]

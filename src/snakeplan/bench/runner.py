@@ -102,9 +102,10 @@ class Run:
     option_files_sha256: tuple[tuple[str, str], ...] = ()
 
     def identity(self) -> dict:
-        """What makes this run this run (the key's preimage; a scene file, the files it names and a robot file
-        count by content, so a folder whose scene files name their files relative to themselves keys the same
-        wherever it is moved; a sensed run's sensor when it is not the exact one)."""
+        """What makes this run this run (the key's preimage; a scene file, the files it names, a robot file and
+        the files its options name count by content, so a folder whose scene files name their files relative to
+        themselves keys the same wherever it is moved, and a policy retrained in place is planned again; a sensed
+        run's sensor when it is not the exact one)."""
         ident = {"scene": self.scene, "seed": self.seed, "robot": self.robot, "planner": self.planner,
                  "options": dict(self.options), "time_limit_s": self.time_limit_s, "knowledge": self.knowledge}
         if self.sensor != "exact":
@@ -154,24 +155,20 @@ def _named_files(scene_json: str, folder: str) -> tuple[tuple[str, str], ...]:
 
 
 def _option_files(options: dict) -> tuple[tuple[str, str], ...]:
-    """(option, SHA-256) of each option that names a file: ``policy`` (a file, or a shipped generalist by name:
-    :func:`snakeplan.planners.sac.policy.policy_file`) and any other whose value is a file's path. A run is keyed by
-    their content, so a policy retrained in place (``--out DIR``, ``policy=DIR/policy.npz``) is planned again,
-    not skipped as planned."""
-    out = []
-    for name, value in sorted(options.items()):
-        if not isinstance(value, str):
-            continue
-        if name == "policy":
-            from snakeplan.planners.sac.policy import policy_file
+    """(option, SHA-256) of the policy file a ``policy`` option names (a file, or a shipped generalist by name:
+    :func:`snakeplan.planners.sac.policy.policy_file`). A run is keyed by its content, so a policy retrained in
+    place (``--out DIR``, ``policy=DIR/policy.npz``) is planned again, not skipped as planned. A run that names no
+    policy is keyed without the one its planner would load by default."""
+    value = options.get("policy")
+    if not isinstance(value, str):
+        return ()
+    from snakeplan.planners.sac.policy import policy_file
 
-            path = policy_file(value)
-        else:
-            path = Path(value) if Path(value).is_file() else None
-        if path is not None:
-            with open(path, "rb") as fh:
-                out.append((name, hashlib.file_digest(fh, "sha256").hexdigest()))
-    return tuple(out)
+    path = policy_file(value)
+    if path is None:
+        return ()
+    with open(path, "rb") as fh:
+        return (("policy", hashlib.file_digest(fh, "sha256").hexdigest()),)
 
 
 @functools.lru_cache(maxsize=16)
@@ -209,7 +206,8 @@ class Sweep:
     policy only where that policy ships). ``stateful(planner, options)`` says which planners keep one instance over their runs in a scene, in
     seed order (a planner that learns from run to run). ``knowledge``: one mode ("full", "sensed") or several,
     each run once per mode; where a mode is "sensed", a planner that needs the whole scene runs with full
-    knowledge instead (paper 000's setting: the sampling planners know the tank), once."""
+    knowledge instead (paper 000's setting: the sampling planners know the tank), once. Listing the runs reads
+    the scene files' named files and the policy files the options name (:func:`_option_files`) to key them."""
 
     name: str
     scenes: tuple[str, ...]
@@ -466,6 +464,23 @@ def read_rows(folder: str | Path) -> list[dict]:
     """The complete rows of ``folder/runs.jsonl`` (a torn or unreadable last line is left out)."""
     rows, _ = _scan(Path(folder) / RUNS_FILE)
     return rows
+
+
+#: A row's fields that name its run apart from the content of the files it names (a policy file, a robot file).
+SLOT_FIELDS = ("config", "task", "scene", "scene_sha256", "files_sha256", "sensor", "seed", "robot", "planner",
+               "options", "time_limit_s", "knowledge")
+
+
+def current_rows(rows: list[dict]) -> tuple[list[dict], int]:
+    """``rows`` without those a later row supersedes: the same run (:data:`SLOT_FIELDS`) planned again because a
+    file it names changed (a policy retrained in place, a robot file edited), which keys it anew; and how many
+    were left out. A folder's report counts each run once, as it is now."""
+    def slot(row: dict) -> str:
+        return json.dumps({k: row.get(k) for k in SLOT_FIELDS}, sort_keys=True)
+
+    last = {slot(r): i for i, r in enumerate(rows)}
+    kept = [r for i, r in enumerate(rows) if last[slot(r)] == i]
+    return kept, len(rows) - len(kept)
 
 
 def _scan(path: Path) -> tuple[list[dict], int]:
