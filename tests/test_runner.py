@@ -449,7 +449,8 @@ def test_a_sweep_plans_a_scene_file_whose_mesh_lies_beside_it_and_keys_it_by_con
 def test_a_run_is_keyed_by_its_policy_files_content_so_a_retrained_policy_is_planned_again(tmp_path):
     """``--option policy=DIR/policy.npz`` rerun after training rewrote the file in place: the old rows were
     skipped as planned (the key held the path alone). The key holds the file's SHA-256, the row records it, and a
-    shipped generalist named by ``policy=`` counts by its file's content too."""
+    shipped generalist named by ``policy=``, or the policy a planner loads when none is named, counts by its
+    file's content too."""
     import hashlib
     import shutil
 
@@ -459,17 +460,28 @@ def test_a_run_is_keyed_by_its_policy_files_content_so_a_retrained_policy_is_pla
     shutil.copy(policy_path("fuel-tank", "sac-her"), policy)
     sweep = Sweep("retrained", ("fuel-tank",), (1,), (("sac", {"policy": str(policy)}),), 10.0)
     first = run_sweep(sweep, tmp_path / "out", Backend("serial"), progress=False).rows
-    assert first[0]["option_files_sha256"] == {"policy": hashlib.sha256(policy.read_bytes()).hexdigest()}
+    assert first[0]["policy_sha256"] == hashlib.sha256(policy.read_bytes()).hexdigest()
     assert run_sweep(sweep, tmp_path / "out", Backend("serial"), progress=False).rows == first
     shutil.copy(generalist_path(GENERALIST), policy)
     rows = run_sweep(sweep, tmp_path / "out", Backend("serial"), progress=False).rows
     assert rows[0]["key"] != first[0]["key"] and len(read_rows(tmp_path / "out")) == 2
     assert rows[0]["details"]["policy"] == "confined+fuel-tank+oil-tank-sac"
-    assert rows[0]["option_files_sha256"] == {"policy": hashlib.sha256(policy.read_bytes()).hexdigest()}
+    assert rows[0]["policy_sha256"] == hashlib.sha256(policy.read_bytes()).hexdigest()
     report = write_report(tmp_path / "out")  # the folder's report counts the run once, as planned now
     assert [e["runs"] for e in report["entries"]] == [1] and report["heading"].endswith(
         "1 runs (1 older rows of runs planned again with changed files left out)")
     assert report["entries"][0]["successes"] == int(rows[0]["success"])
-    named = Sweep("named", ("fuel-tank",), (1,), (("sac", {"policy": "generalist-arms"}),)).runs()[0]
-    digest = hashlib.sha256(generalist_path(ARM_GENERALIST).read_bytes()).hexdigest()
-    assert named.identity()["option_files_sha256"] == {"policy": digest}
+
+    def digest(path):
+        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+    def keyed(planner, options, robot=""):
+        return Sweep("k", ("fuel-tank",), (1,), ((planner, options),), robot=robot).runs()[0].identity()
+
+    assert keyed("sac", {"policy": "generalist-arms"})["policy_sha256"] == digest(generalist_path(ARM_GENERALIST))
+    # a run naming no policy is keyed by the one its planner loads: the family's, or the arm generalist for an
+    # arm that one was not trained for; a planner that reads none has none
+    assert keyed("sac-her", {})["policy_sha256"] == digest(policy_path("fuel-tank", "sac-her"))
+    arm = str(Path(snakeplan.__file__).parent / "robots" / "data" / "arms" / "arm-16x120.json")
+    assert keyed("sac-her", {}, arm)["policy_sha256"] == digest(generalist_path(ARM_GENERALIST))
+    assert "policy_sha256" not in keyed("as-rrt", {})

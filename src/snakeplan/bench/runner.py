@@ -82,7 +82,9 @@ class Run:
     from ``seed``. ``scene_file`` runs carry the file's text (``scene_json``), its folder (``scene_dir``, where the
     mesh and cloud files it names are read from) so that any worker can plan them, and the SHA-256 of each file
     it names (``files_sha256``: (name as written, digest) pairs, taken once when the sweep listed its runs); so do
-    the files its options name (``option_files_sha256``: (option, digest) pairs, :func:`_option_files`)."""
+    the trained policy its planner reads (``policy_sha256``: the digest of :meth:`Planner.policy_file
+    <snakeplan.planners.base.Planner.policy_file>`, named by ``policy=`` or the planner's default; empty for a
+    planner that reads none)."""
 
     scene: str
     seed: int
@@ -99,11 +101,11 @@ class Run:
     sensor: str = "exact"
     scene_dir: str = ""
     files_sha256: tuple[tuple[str, str], ...] = ()
-    option_files_sha256: tuple[tuple[str, str], ...] = ()
+    policy_sha256: str = ""
 
     def identity(self) -> dict:
         """What makes this run this run (the key's preimage; a scene file, the files it names, a robot file and
-        the files its options name count by content, so a folder whose scene files name their files relative to
+        the policy file its planner reads count by content, so a folder whose scene files name their files relative to
         themselves keys the same wherever it is moved, and a policy retrained in place is planned again; a sensed
         run's sensor when it is not the exact one)."""
         ident = {"scene": self.scene, "seed": self.seed, "robot": self.robot, "planner": self.planner,
@@ -114,8 +116,8 @@ class Run:
             ident["scene_sha256"] = hashlib.sha256(self.scene_json.encode()).hexdigest()
             if self.files_sha256:
                 ident["files_sha256"] = dict(self.files_sha256)
-        if self.option_files_sha256:
-            ident["option_files_sha256"] = dict(self.option_files_sha256)
+        if self.policy_sha256:
+            ident["policy_sha256"] = self.policy_sha256
         if self.robot_json:
             ident["robot_sha256"] = hashlib.sha256(self.robot_json.encode()).hexdigest()
         return ident
@@ -154,21 +156,20 @@ def _named_files(scene_json: str, folder: str) -> tuple[tuple[str, str], ...]:
     return tuple(out)
 
 
-def _option_files(options: dict) -> tuple[tuple[str, str], ...]:
-    """(option, SHA-256) of the policy file a ``policy`` option names (a file, or a shipped generalist by name:
-    :func:`snakeplan.planners.sac.policy.policy_file`). A run is keyed by its content, so a policy retrained in
-    place (``--out DIR``, ``policy=DIR/policy.npz``) is planned again, not skipped as planned. A run that names no
-    policy is keyed without the one its planner would load by default."""
-    value = options.get("policy")
-    if not isinstance(value, str):
-        return ()
-    from snakeplan.planners.sac.policy import policy_file
+def _policy_digest(planner: str, options: dict, spec, robot) -> str:
+    """The SHA-256 of the trained policy ``planner`` made with ``options`` reads to plan ``robot`` in ``spec``'s
+    family (:meth:`~snakeplan.planners.base.Planner.policy_file`: the file ``policy=`` names, else its default),
+    "" for a planner that reads none. A run is keyed by it, so a policy retrained in place (``--out DIR``,
+    ``policy=DIR/policy.npz``) is planned again, not skipped as planned."""
+    from snakeplan.planners.registry import PLANNERS, get_planner
 
-    path = policy_file(value)
-    if path is None:
-        return ()
+    if not PLANNERS.get(planner).takes_policy:
+        return ""
+    path = get_planner(planner, **options).policy_file(spec, robot)
+    if path is None or not path.is_file():
+        return ""
     with open(path, "rb") as fh:
-        return (("policy", hashlib.file_digest(fh, "sha256").hexdigest()),)
+        return hashlib.file_digest(fh, "sha256").hexdigest()
 
 
 @functools.lru_cache(maxsize=16)
@@ -207,7 +208,8 @@ class Sweep:
     seed order (a planner that learns from run to run). ``knowledge``: one mode ("full", "sensed") or several,
     each run once per mode; where a mode is "sensed", a planner that needs the whole scene runs with full
     knowledge instead (paper 000's setting: the sampling planners know the tank), once. Listing the runs reads
-    the scene files' named files and the policy files the options name (:func:`_option_files`) to key them."""
+    the scene files' named files and the policy file each run's planner reads (:func:`_policy_digest`) to key
+    them."""
 
     name: str
     scenes: tuple[str, ...]
@@ -239,7 +241,7 @@ class Sweep:
                 fitted.add(planner)
                 if self.include is not None and not self.include(family, planner, options):
                     continue
-                option_files = _option_files(options)
+                policy = _policy_digest(planner, options, source.spec, _arm(robot, robot_json))
                 for knowledge in dict.fromkeys(self.knowledge_of(planner)):
                     for seed in self.seeds:
                         out.append(Run(family, seed, planner, robot, self.time_limit_s,
@@ -247,7 +249,7 @@ class Sweep:
                                        self.stateful is not None and self.stateful(planner, options),
                                        self.name, task, robot_json,
                                        self.sensor if knowledge == "sensed" else "exact", source.folder,
-                                       source.files, option_files))
+                                       source.files, policy))
         idle = [p for p, _ in self.planners if p not in fitted]
         if idle:
             raise ValueError(f"planners: {', '.join(idle)} can do none of these scenes' tasks "
@@ -400,8 +402,8 @@ def _row(run: Run, status: str, why: str, success: bool, reason: str | None, com
         row["scene_sha256"] = run.identity()["scene_sha256"]
     if run.files_sha256:
         row["files_sha256"] = dict(run.files_sha256)
-    if run.option_files_sha256:
-        row["option_files_sha256"] = dict(run.option_files_sha256)
+    if run.policy_sha256:
+        row["policy_sha256"] = run.policy_sha256
     return jsonable(row)
 
 

@@ -24,6 +24,7 @@ from abc import ABC, abstractmethod
 from collections.abc import Hashable
 from dataclasses import dataclass, field, replace
 from enum import StrEnum
+from pathlib import Path
 from typing import ClassVar, NamedTuple
 
 import numpy as np
@@ -33,7 +34,7 @@ from snakeplan.optimize import optimize_path
 from snakeplan.optimize import warm_up as warm_optimizer
 from snakeplan.planners.input_states import invalid_start, invalid_target
 from snakeplan.robots import Chain
-from snakeplan.scenes import Scene, Task, as_task, spec_for
+from snakeplan.scenes import Scene, SceneSpec, Task, as_task, spec_for
 from snakeplan.threads import single_threaded
 from snakeplan.world import (
     DEFAULT_SENSOR_RANGE_MM,
@@ -360,6 +361,12 @@ class Planner(ABC):
         ValidityChecker(problem.world, problem.robot, PLANNING).warm_up()
         if self.optimize_level != "none" and problem.task is Task.REACH:
             warm_optimizer(problem.world, problem.robot)
+
+    def policy_file(self, spec: SceneSpec, robot: Chain) -> Path | None:
+        """The file of the trained policy this planner reads to plan ``robot`` in ``spec``'s family, or None (the
+        default: none, or none it can name before planning). The benchmark runner keys each run by its content,
+        so a policy retrained in place, or another shipped with a new snakeplan, is planned again on a rerun."""
+        return None
 
     @abstractmethod
     def _solve(self, problem: Problem, rng: np.random.Generator, deadline: float) -> Solution | tuple:

@@ -57,7 +57,7 @@ from snakeplan.planners.sac.policy import (
     shipped_policy,
 )
 from snakeplan.robots import Chain
-from snakeplan.scenes import Scene, spec_for
+from snakeplan.scenes import Scene, SceneSpec, spec_for
 from snakeplan.scenes.routes.grid import FieldDeadline
 from snakeplan.scenes.routes.guide import RouteGuide, route_through
 from snakeplan.world import PLANNING, FullView, KnowledgeView, ValidityChecker
@@ -159,22 +159,36 @@ class SacPlanner(Planner):
         self.smoothing = tuple(float(s) for s in smoothing)
         self.noise_levels = np.linspace(retry_noise[0], retry_noise[1], RETRY_LEVELS)
 
+    def _choice(self, spec: SceneSpec, robot: Chain) -> tuple[Path | None, bool]:
+        """The file of the policy to plan ``robot`` with in ``spec``'s family: the one given (a file,
+        ``"generalist"``, ``"generalist-arms"``), else the one that ships for the family (:func:`shipped_policy`),
+        else, when that one was trained for another arm, the arm-conditioned generalist's; and whether it is the
+        latter standing in. None when none is given and none ships."""
+        if self.policy in GENERALISTS:
+            return policy_file(self.policy), False
+        path = Path(self.policy) if self.policy else shipped_policy(spec, self.name)
+        if self.policy or path is None or arm_refusal(load_policy(path), robot) is None \
+                or generalist_path(ARM_GENERALIST) is None:
+            return path, False
+        return generalist_path(ARM_GENERALIST), True
+
+    def policy_file(self, spec: SceneSpec, robot: Chain) -> Path | None:
+        """The file this planner reads its policy from to plan ``robot`` in ``spec``'s family (None for a policy
+        given as an object, or when none ships)."""
+        return None if isinstance(self.policy, NumpyPolicy) else self._choice(spec, robot)[0]
+
     def _policy(self, scene: Scene, robot: Chain) -> tuple[NumpyPolicy, bool]:
-        """The policy to plan ``robot`` in ``scene`` with: the one given (a file, ``"generalist"``,
-        ``"generalist-arms"``), else the one that ships for the scene (:func:`shipped_policy`), else, when that one
-        was trained for another arm, the arm-conditioned generalist; and whether it is the latter standing in."""
+        """The policy to plan ``robot`` in ``scene`` with (:meth:`_choice`) and whether it is the arm-conditioned
+        generalist standing in for a policy trained for another arm."""
         if isinstance(self.policy, NumpyPolicy):
             return self.policy, False
         if self.policy in GENERALISTS:
             return _generalist(self.policy), False
-        path = Path(self.policy) if self.policy else shipped_policy(spec_for(scene), self.name)
+        path, standing_in = self._choice(spec_for(scene), robot)
         if path is None:
             raise ValueError(f"policy: no {self.name} policy ships for scene family {scene.name}; train one "
                              f"('snakeplan train rl') and pass its policy.npz")
-        policy = load_policy(path)
-        if self.policy or arm_refusal(policy, robot) is None or generalist_path(ARM_GENERALIST) is None:
-            return policy, False
-        return _generalist("generalist-arms"), True
+        return load_policy(path), standing_in
 
     def warm_up(self, problem: Problem) -> None:
         """The validity checker's kernels, the policy, one roll-out step (rays, actor), a smoothing and a crawl

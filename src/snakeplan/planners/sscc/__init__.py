@@ -24,6 +24,7 @@ conventions"), not on the tasks a planner saw before; ``snakeplan bench sscc`` r
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -40,6 +41,7 @@ from snakeplan.planners.sscc.swinging import (
     swinging_search,
 )
 from snakeplan.robots import ROBOTS, Chain, robot_names
+from snakeplan.scenes import SceneSpec
 
 SEARCHES = ("agent", "random", "gradient")
 #: Whether the agent keeps learning from every task by default (paper 001 does; see the module docstring).
@@ -76,6 +78,14 @@ class SSCCPlanner(Planner):
         self._pending: tuple[SwingAgent, list] | None = None
         if self.learning and search == "agent":
             require_training("sscc learning")  # and loaded here, before any timed planning
+
+    def policy_file(self, spec: SceneSpec, robot: Chain) -> Path | None:
+        """The agent file this planner swings ``robot`` with: the one given, else the shipped one where it ships;
+        None for a search without an agent."""
+        if self.search != "agent":
+            return None
+        path = Path(self.agent_path) if self.agent_path is not None else shipped_agent_path(robot.name)
+        return path if path.is_file() else None
 
     def agent(self, robot: str) -> SwingAgent | None:
         """The agent this planner swings ``robot`` with, or None: a learning agent is loaded once and kept (it
