@@ -165,7 +165,10 @@ def _policy_digest(planner: str, options: dict, spec, robot) -> str:
 
     if not PLANNERS.get(planner).takes_policy:
         return ""
-    path = get_planner(planner, **options).policy_file(spec, robot)
+    try:
+        path = get_planner(planner, **options).policy_file(spec, robot)
+    except ValueError:  # a policy that does not load: the run's worker says so, as for any planning error
+        return ""
     if path is None or not path.is_file():
         return ""
     with open(path, "rb") as fh:
@@ -468,15 +471,17 @@ def read_rows(folder: str | Path) -> list[dict]:
     return rows
 
 
-#: A row's fields that name its run apart from the content of the files it names (a policy file, a robot file).
-SLOT_FIELDS = ("config", "task", "scene", "scene_sha256", "files_sha256", "sensor", "seed", "robot", "planner",
-               "options", "time_limit_s", "knowledge")
+#: A row's fields that name its run apart from the content of the files it names (scene, mesh, robot and policy
+#: files).
+SLOT_FIELDS = ("config", "task", "scene", "sensor", "seed", "robot", "planner", "options", "time_limit_s",
+               "knowledge")
 
 
 def current_rows(rows: list[dict]) -> tuple[list[dict], int]:
     """``rows`` without those a later row supersedes: the same run (:data:`SLOT_FIELDS`) planned again because a
-    file it names changed (a policy retrained in place, a robot file edited), which keys it anew; and how many
-    were left out. A folder's report counts each run once, as it is now."""
+    file it names changed (a policy retrained in place, a scene, mesh or robot file edited), which keys it anew;
+    and how many were left out. A folder's report counts each run once, as it is now (two files of one scene or
+    arm name in one folder count as one, as the report's entries already merge them)."""
     def slot(row: dict) -> str:
         return json.dumps({k: row.get(k) for k in SLOT_FIELDS}, sort_keys=True)
 

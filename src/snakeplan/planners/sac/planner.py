@@ -174,7 +174,7 @@ class SacPlanner(Planner):
 
     def policy_file(self, spec: SceneSpec, robot: Chain) -> Path | None:
         """The file this planner reads its policy from to plan ``robot`` in ``spec``'s family (None for a policy
-        given as an object, or when none ships)."""
+        given as an object, or when none ships, named generalists included)."""
         return None if isinstance(self.policy, NumpyPolicy) else self._choice(spec, robot)[0]
 
     def _policy(self, scene: Scene, robot: Chain) -> tuple[NumpyPolicy, bool]:
