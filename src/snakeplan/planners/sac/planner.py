@@ -53,7 +53,6 @@ from snakeplan.planners.sac.policy import (
     check_policy_fits,
     generalist_path,
     load_policy,
-    policy_file,
     shipped_policy,
 )
 from snakeplan.robots import Chain
@@ -120,7 +119,7 @@ def rollout(policy: NumpyPolicy, scene: Scene, robot: Chain, deadline: float = m
 
 def _generalist(name: str) -> NumpyPolicy:
     """The shipped generalist called ``name`` (:data:`GENERALISTS`); ValueError when it is not installed."""
-    path = policy_file(name)
+    path = generalist_path(GENERALISTS[name])
     if path is None:
         raise ValueError(f"policy: the {name} policy is not installed ({GENERALISTS[name][1].removeprefix('rl/')})")
     return load_policy(path)
@@ -165,7 +164,7 @@ class SacPlanner(Planner):
         else, when that one was trained for another arm, the arm-conditioned generalist's; and whether it is the
         latter standing in. None when none is given and none ships."""
         if self.policy in GENERALISTS:
-            return policy_file(self.policy), False
+            return generalist_path(GENERALISTS[self.policy]), False
         path = Path(self.policy) if self.policy else shipped_policy(spec, self.name)
         if self.policy or path is None or arm_refusal(load_policy(path), robot) is None \
                 or generalist_path(ARM_GENERALIST) is None:

@@ -449,15 +449,6 @@ def generalist_path(which: tuple[str, str] = GENERALIST) -> Path | None:
 GENERALISTS = {"generalist": GENERALIST, "generalist-arms": ARM_GENERALIST}
 
 
-def policy_file(value: str) -> Path | None:
-    """The file a ``policy=`` value names: a shipped generalist's (by its name in :data:`GENERALISTS`) or the path
-    itself; None when no such file is there."""
-    if value in GENERALISTS:
-        return generalist_path(GENERALISTS[value])
-    path = Path(value)
-    return path if path.is_file() else None
-
-
 def shipped_policy(spec: SceneSpec, planner: str) -> Path | None:
     """The policy ``planner`` plans with by default in ``spec``'s family: the family's own, else the generalist
     (for :data:`GENERALIST_PLANNERS`, when it is installed), else None."""
